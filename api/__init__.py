@@ -1,0 +1,1 @@
+"""argand.api: the FastAPI job service (the render farm's front door)."""

@@ -1,0 +1,159 @@
+// bind_roots.cpp: find_roots / find_roots_batch bindings.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <complex>
+#include <stdexcept>
+#include <string>
+
+#include "argand/roots.h"
+
+namespace py = pybind11;
+using argand::Method;
+using argand::RootsResult;
+using argand::Status;
+
+namespace {
+
+Method parse_method(const std::string& name) {
+    if (name == "auto") return Method::Auto;
+    if (name == "paper") return Method::Paper;
+    if (name == "smith") return Method::Smith;
+    if (name == "unverified") return Method::Unverified;
+    throw py::value_error("unknown method '" + name + "': expected one of auto, paper, smith, unverified");
+}
+
+void raise_status(Status s, py::ssize_t row) {
+    std::string where = row >= 0 ? " (row " + std::to_string(row) + ")" : "";
+    switch (s) {
+        case Status::Ok: return;
+        case Status::NonFinite: throw py::value_error("coefficients must be finite numbers; got NaN or infinity" + where);
+        case Status::ZeroPolynomial: throw py::value_error("the zero polynomial has every point as a root" + where);
+        case Status::TooLarge:
+            throw py::value_error("degree above the supported maximum of " + std::to_string(argand::kMaxDegree) + where);
+    }
+}
+
+using F64 = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// One polynomial: returns (center, radius, count, verified, real, n_infinite,
+// wants_exact, escalation) with arrays of length n_discs.
+py::tuple find_roots_py(F64 coeffs, const std::string& method, py::object initial) {
+    if (coeffs.ndim() != 1) throw py::value_error("coeffs must be a 1-D sequence of numbers, lowest degree first");
+    const Method m = parse_method(method);
+    const py::ssize_t n_coeffs = coeffs.shape(0);
+    if (n_coeffs < 1) throw py::value_error("coeffs must not be empty");
+    std::vector<double> ire, iim;
+    if (!initial.is_none()) {
+        auto arr = py::array_t<std::complex<double>, py::array::c_style | py::array::forcecast>::ensure(initial);
+        if (!arr || arr.ndim() != 1 || arr.shape(0) < n_coeffs - 1)
+            throw py::value_error("initial must be a 1-D complex array with one entry per root (degree)");
+        for (py::ssize_t i = 0; i < arr.shape(0); ++i) {
+            ire.push_back(arr.at(i).real());
+            iim.push_back(arr.at(i).imag());
+        }
+    }
+    RootsResult res;
+    Status s;
+    {
+        py::gil_scoped_release release;
+        s = argand::find_roots(coeffs.data(), static_cast<int>(n_coeffs), m, res,
+                               ire.empty() ? nullptr : ire.data(), iim.empty() ? nullptr : iim.data());
+    }
+    raise_status(s, -1);
+    const py::ssize_t k = res.n_discs;
+    py::array_t<std::complex<double>> center(k);
+    py::array_t<double> radius(k);
+    py::array_t<std::int64_t> count(k);
+    py::array_t<bool> verified(k), real(k);
+    for (py::ssize_t i = 0; i < k; ++i) {
+        const auto& d = res.discs[i];
+        center.mutable_at(i) = {d.re, d.im};
+        radius.mutable_at(i) = d.radius;
+        count.mutable_at(i) = d.count;
+        verified.mutable_at(i) = d.verified;
+        real.mutable_at(i) = d.real;
+    }
+    return py::make_tuple(center, radius, count, verified, real, res.n_infinite, res.wants_exact, res.escalation);
+}
+
+// A batch: matrix (N, n+1) -> arrays (N, n), unused entries with count 0.
+py::dict find_roots_batch_py(F64 matrix, const std::string& method) {
+    if (matrix.ndim() != 2) throw py::value_error("matrix must be 2-D: one polynomial per row, lowest degree first");
+    const Method m = parse_method(method);
+    const py::ssize_t rows = matrix.shape(0), cols = matrix.shape(1);
+    if (cols < 1) throw py::value_error("matrix rows must not be empty");
+    if (cols - 1 > argand::kMaxDegree)
+        throw py::value_error("degree above the supported maximum of " + std::to_string(argand::kMaxDegree));
+    const py::ssize_t n = cols - 1;
+    py::array_t<std::complex<double>> center({rows, n});
+    py::array_t<double> radius({rows, n});
+    py::array_t<std::int64_t> count({rows, n});
+    py::array_t<bool> verified({rows, n}), real({rows, n}), wants_exact(rows);
+    py::array_t<std::int32_t> n_infinite(rows), escalation(rows);
+    auto C = center.mutable_unchecked<2>();
+    auto Rd = radius.mutable_unchecked<2>();
+    auto K = count.mutable_unchecked<2>();
+    auto V = verified.mutable_unchecked<2>();
+    auto Re = real.mutable_unchecked<2>();
+    auto W = wants_exact.mutable_unchecked<1>();
+    auto NI = n_infinite.mutable_unchecked<1>();
+    auto E = escalation.mutable_unchecked<1>();
+    const double* data = matrix.data();
+    py::ssize_t bad_row = -1;
+    Status bad = Status::Ok;
+    {
+        py::gil_scoped_release release;
+        RootsResult res;
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        for (py::ssize_t r = 0; r < rows; ++r) {
+            const Status s = argand::find_roots(data + r * cols, static_cast<int>(cols), m, res);
+            if (s != Status::Ok) {
+                bad = s;
+                bad_row = r;
+                break;
+            }
+            for (py::ssize_t i = 0; i < n; ++i) {
+                if (i < res.n_discs) {
+                    const auto& d = res.discs[i];
+                    C(r, i) = {d.re, d.im};
+                    Rd(r, i) = d.radius;
+                    K(r, i) = d.count;
+                    V(r, i) = d.verified;
+                    Re(r, i) = d.real;
+                } else {
+                    C(r, i) = {nan, nan};
+                    Rd(r, i) = nan;
+                    K(r, i) = 0;
+                    V(r, i) = false;
+                    Re(r, i) = false;
+                }
+            }
+            W(r) = res.wants_exact;
+            NI(r) = res.n_infinite;
+            E(r) = res.escalation;
+        }
+    }
+    raise_status(bad, bad_row);
+    py::dict out;
+    out["center"] = center;
+    out["radius"] = radius;
+    out["count"] = count;
+    out["verified"] = verified;
+    out["real"] = real;
+    out["wants_exact"] = wants_exact;
+    out["n_infinite"] = n_infinite;
+    out["escalation"] = escalation;
+    return out;
+}
+
+}  // namespace
+
+void init_roots(py::module_& m) {
+    m.attr("MAX_DEGREE") = argand::kMaxDegree;
+    m.def("find_roots", &find_roots_py, py::arg("coeffs"), py::arg("method") = "auto",
+          py::arg("initial") = py::none(),
+          "Raw root finder for one polynomial (see argand.core.find_roots).");
+    m.def("find_roots_batch", &find_roots_batch_py, py::arg("matrix"), py::arg("method") = "auto",
+          "Raw batch root finder, GIL released (see argand.core.find_roots_batch).");
+}

@@ -1,0 +1,166 @@
+// roots.cpp: the safe entry point find_roots (input checks, exact zero roots,
+// roots at infinity, exact power-of-two scaling, dispatch, mapping back).
+#include "argand/roots.h"
+
+#include <cmath>
+
+#include "solver.h"
+
+namespace argand {
+namespace {
+
+/// True iff ldexp(v, e) is exact (no overflow, no loss in the subnormal range).
+inline bool exact_ldexp(double v, int e, double& out) {
+    out = std::ldexp(v, e);
+    return std::isfinite(out) && std::ldexp(out, -e) == v;
+}
+
+/// Chooses t = 2^e u and an overall factor 2^f so that the scaled polynomial
+/// has roots of modulus ~1 and coefficients of modulus <= ~1, and writes its
+/// coefficients. Only exact scalings are accepted (the scaled polynomial must
+/// have exactly the roots of the original divided by 2^e); otherwise falls
+/// back to e = 0, then to no scaling at all.
+int scale_polynomial(const double* c, int n, double* s) {
+    const int lo_exp = std::ilogb(c[0]);
+    const int hi_exp = std::ilogb(c[n]);
+    const int e_guess = static_cast<int>(std::lround(static_cast<double>(lo_exp - hi_exp) / n));
+    for (int attempt = 0; attempt < 2; ++attempt) {
+        const int e = attempt == 0 ? e_guess : 0;
+        // Largest exponent after the root scaling, to normalise by.
+        int top = -100000;
+        for (int k = 0; k <= n; ++k)
+            if (c[k] != 0.0) top = std::max(top, std::ilogb(c[k]) + e * k);
+        const int f = -top;
+        bool ok = true;
+        for (int k = 0; k <= n && ok; ++k) {
+            if (c[k] == 0.0) { s[k] = 0.0; continue; }
+            ok = exact_ldexp(c[k], e * k + f, s[k]);
+        }
+        if (ok) return e;
+    }
+    for (int k = 0; k <= n; ++k) s[k] = c[k];
+    return 0;
+}
+
+/// Maps a disc from scaled coordinates (u) back to t = 2^e u, keeping the
+/// enclosure: centres are exact unless they underflow, and any loss is added
+/// to the radius; radii are rounded up.
+void unscale_disc(RootDisc& d, int e) {
+    if (e == 0) return;
+    double re, im;
+    double slack = 0.0;
+    if (!exact_ldexp(d.re, e, re)) { re = std::ldexp(d.re, e); slack = add_up(slack, kDenormMin); }
+    if (!exact_ldexp(d.im, e, im)) { im = std::ldexp(d.im, e); slack = add_up(slack, kDenormMin); }
+    double r = std::ldexp(d.radius, e);
+    if (std::ldexp(r, -e) < d.radius) r = next_up(r);
+    d.re = re;
+    d.im = im;
+    d.radius = add_up(r, slack);
+    if (!std::isfinite(d.re) || !std::isfinite(d.im)) {
+        d.verified = false;
+        d.real = false;
+    }
+    if (d.verified && !std::isfinite(d.radius)) {
+        d.verified = false;
+        d.real = false;
+    }
+}
+
+}  // namespace
+
+Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult& out,
+                  const double* initial_re, const double* initial_im) {
+    out.n_discs = 0;
+    out.n_infinite = 0;
+    out.wants_exact = false;
+    out.escalation = 0;
+    if (n_coeffs < 1) return Status::ZeroPolynomial;
+    if (n_coeffs - 1 > kMaxDegree) return Status::TooLarge;
+    for (int k = 0; k < n_coeffs; ++k)
+        if (!std::isfinite(coeffs[k])) return Status::NonFinite;
+
+    // Roots at infinity: exactly zero leading coefficients.
+    int top = n_coeffs - 1;
+    while (top >= 0 && coeffs[top] == 0.0) --top;
+    if (top < 0) return Status::ZeroPolynomial;
+    out.n_infinite = (n_coeffs - 1) - top;
+
+    // Exact roots at zero: exactly zero constant terms.
+    int low = 0;
+    while (coeffs[low] == 0.0) ++low;
+    const int n = top - low;
+
+    detail::KernelResult kr;
+    int e = 0;
+    if (n >= 1) {
+        double scaled[kMaxDegree + 1];
+        e = scale_polynomial(coeffs + low, n, scaled);
+        Complex<double> seed[kMaxDegree];
+        const bool use_seed = initial_re != nullptr && initial_im != nullptr;
+        if (use_seed) {
+            for (int i = 0; i < n; ++i) {
+                seed[i] = Complex<double>(std::ldexp(initial_re[i], -e), std::ldexp(initial_im[i], -e));
+                if (!is_finite(seed[i])) seed[i] = Complex<double>(0.5 + 0.1 * i, 0.3 + 0.05 * i);
+            }
+        }
+        if (method == Method::Paper) {
+            detail::solve_paper(scaled, n, kr);
+        } else {
+            detail::solve_smith(scaled, n, method, use_seed ? seed : nullptr, kr);
+        }
+        for (int i = 0; i < kr.n_discs; ++i) unscale_disc(kr.discs[i], e);
+    }
+    out.escalation = kr.escalation;
+    out.wants_exact = kr.wants_exact;
+
+    if (low == 0) {
+        out.n_discs = kr.n_discs;
+        for (int i = 0; i < kr.n_discs; ++i) out.discs[i] = kr.discs[i];
+        return Status::Ok;
+    }
+
+    // Combine with the exact zero disc D(0, 0) of multiplicity `low`.
+    RootDisc zero;
+    zero.re = zero.im = zero.radius = 0.0;
+    zero.count = low;
+    zero.verified = true;
+    zero.real = true;
+    bool all_verified = true;
+    for (int i = 0; i < kr.n_discs; ++i) all_verified = all_verified && kr.discs[i].verified;
+    if (all_verified) {
+        // Every disc (and the point 0) is a member of a covering family.
+        detail::MemberDisc members[kMaxDegree + 1];
+        for (int i = 0; i < kr.n_discs; ++i)
+            members[i] = {kr.discs[i].re, kr.discs[i].im, kr.discs[i].radius, kr.discs[i].count};
+        members[kr.n_discs] = {0.0, 0.0, 0.0, low};
+        out.n_discs = detail::enclose_and_merge(members, kr.n_discs + 1, true, out.discs);
+        // Keep the "real" proof of discs that were not merged (a merged disc
+        // is symmetric with an odd count, or keeps real = false).
+        return Status::Ok;
+    }
+    // Some discs unverified: a verified disc holds its roots of p / t^low;
+    // if it also contains 0 it holds the zeros too; if undecided, no proof.
+    bool zero_absorbed = false;
+    int k = 0;
+    for (int i = 0; i < kr.n_discs; ++i) {
+        RootDisc d = kr.discs[i];
+        if (d.verified) {
+            const double lo = detail::dist_down(d.re, d.im, 0.0, 0.0);
+            const double hi = detail::dist_up(d.re, d.im, 0.0, 0.0);
+            if (hi <= d.radius && !zero_absorbed) {
+                d.count += low;
+                d.real = d.im == 0.0 && (d.count % 2 == 1);
+                zero_absorbed = true;
+            } else if (!(lo > d.radius)) {
+                d.verified = false;
+                d.real = false;
+            }
+        }
+        out.discs[k++] = d;
+    }
+    if (!zero_absorbed) out.discs[k++] = zero;
+    out.n_discs = k;
+    return Status::Ok;
+}
+
+}  // namespace argand

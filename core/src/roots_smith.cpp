@@ -1,0 +1,185 @@
+// roots_smith.cpp: simultaneous approximation (Aberth-Ehrlich) followed by
+// Smith's inclusion discs; the "smith", "auto" and "unverified" methods.
+#include <cmath>
+
+#include "solver.h"
+
+namespace argand::detail {
+namespace {
+
+/// Distance from x (exact in T) to its double rounding, bounded above.
+inline double rounding_gap(Complex<double>) { return 0.0; }
+inline double rounding_gap(Complex<DoubleDouble> x) { return hypot_up(std::fabs(x.re.lo), std::fabs(x.im.lo)); }
+
+template <class T>
+inline void set_real(Complex<T>& x) { x.im = T(0.0); }
+
+template <class T>
+bool has_duplicate(const Complex<T>* x, int n) {
+    for (int i = 1; i < n; ++i)
+        for (int j = 0; j < i; ++j)
+            if (exact_equal(x[i].re, x[j].re) && exact_equal(x[i].im, x[j].im)) return true;
+    return false;
+}
+
+/// Smith discs for the approximations x (made distinct first), as members of
+/// a covering family in double coordinates. Approximations of real roots are
+/// snapped onto the real axis so that their discs are symmetric (p is real).
+/// Returns false if Smith's bound could not be evaluated (nothing claimed).
+template <class T>
+bool smith_members(const double* c, int n, Complex<T>* x, MemberDisc* members) {
+    separate_duplicates(x, n);
+    Complex<T> original[kMaxDegree];
+    for (int i = 0; i < n; ++i) original[i] = x[i];
+
+    // First pass: snap approximations that are real to working accuracy.
+    const double snap_tol = 64.0 * working_epsilon<T>();
+    for (int i = 0; i < n; ++i)
+        if (std::fabs(to_double(x[i].im)) <= snap_tol * mag_approx(x[i])) set_real(x[i]);
+    if (has_duplicate(x, n))
+        for (int i = 0; i < n; ++i) x[i] = original[i];
+
+    double r[kMaxDegree];
+    if (!smith_radii(c, n, x, r)) return false;
+
+    // Second pass: an approximation whose disc crosses the real axis by a
+    // wide margin is also moved onto it (its true root may be real).
+    Complex<T> first[kMaxDegree];
+    double first_r[kMaxDegree];
+    bool moved = false;
+    for (int i = 0; i < n; ++i) {
+        first[i] = x[i];
+        first_r[i] = r[i];
+        if (to_double(x[i].im) != 0.0 && std::fabs(to_double(x[i].im)) * (2.0 * n) <= r[i]) {
+            set_real(x[i]);
+            moved = true;
+        }
+    }
+    if (moved && (has_duplicate(x, n) || !smith_radii(c, n, x, r))) {
+        for (int i = 0; i < n; ++i) {
+            x[i] = first[i];
+            r[i] = first_r[i];
+        }
+    }
+
+    for (int i = 0; i < n; ++i) {
+        const Complex<double> center = to_double(x[i]);
+        members[i] = {center.re, center.im, add_up(r[i], rounding_gap(x[i])), 1};
+    }
+    return true;
+}
+
+/// Verified discs from approximations x, or 0 if Smith's bound failed.
+template <class T>
+int smith_discs(const double* c, int n, Complex<T>* x, RootDisc* out) {
+    MemberDisc members[kMaxDegree];
+    if (!smith_members(c, n, x, members)) return 0;
+    return enclose_and_merge(members, n, /*real_axis_centers=*/true, out);
+}
+
+/// The paper's step 2(b): put the approximations that fell into a cluster
+/// disc back on a circle around their centroid, so that the next sweeps can
+/// pull them apart.
+template <class T>
+void respread_clusters(Complex<T>* x, int n, const RootDisc* discs, int n_discs) {
+    for (int d = 0; d < n_discs; ++d) {
+        if (discs[d].count < 2) continue;
+        int idx[kMaxDegree];
+        int m = 0;
+        for (int i = 0; i < n; ++i) {
+            const Complex<double> xi = to_double(x[i]);
+            if (std::hypot(xi.re - discs[d].re, xi.im - discs[d].im) <= discs[d].radius) idx[m++] = i;
+        }
+        if (m < 2) continue;
+        Complex<T> centroid(T(0.0));
+        for (int k = 0; k < m; ++k) centroid = centroid + x[idx[k]];
+        centroid = mul_real(centroid, T(1.0 / m));
+        const double rho = 0.5 * discs[d].radius;
+        for (int k = 0; k < m; ++k) {
+            const double angle = 2.0 * kPi * k / m + 0.5;
+            x[idx[k]] = centroid + Complex<T>(T(rho * std::cos(angle)), T(rho * std::sin(angle)));
+        }
+    }
+}
+
+void write_unverified(const double* c, int n, const Complex<double>* x, KernelResult& out) {
+    for (int i = 0; i < n; ++i) {
+        Complex<double> p, dp;
+        eval_with_derivative(c, n, x[i], p, dp);
+        RootDisc& d = out.discs[i];
+        d.re = x[i].re;
+        d.im = x[i].im;
+        d.radius = n * mag_approx(p) / mag_approx(dp);  // an estimate, not a bound
+        if (!std::isfinite(d.radius)) d.radius = std::numeric_limits<double>::infinity();
+        d.count = 1;
+        d.verified = false;
+        d.real = false;
+    }
+    out.n_discs = n;
+}
+
+bool all_isolated(int n_discs, int n) { return n_discs == n && n > 0; }
+
+}  // namespace
+
+void solve_smith(const double* c, int n, Method method, const Complex<double>* seed, KernelResult& out) {
+    Complex<double> x[kMaxDegree];
+    if (seed) {
+        for (int i = 0; i < n; ++i) x[i] = seed[i];
+    } else {
+        initial_guesses(c, n, x);
+    }
+    aberth(c, n, x, 80);
+    out.escalation = 0;
+    if (method == Method::Unverified) {
+        write_unverified(c, n, x, out);
+        return;
+    }
+
+    // Double precision: Smith discs, then up to two re-spread rounds.
+    Complex<double> work[kMaxDegree];
+    for (int i = 0; i < n; ++i) work[i] = x[i];
+    int nd = smith_discs(c, n, work, out.discs);
+    for (int round = 0; round < 2 && !all_isolated(nd, n); ++round) {
+        if (nd > 0) respread_clusters(x, n, out.discs, nd);
+        aberth(c, n, x, 40);
+        for (int i = 0; i < n; ++i) work[i] = x[i];
+        RootDisc trial[kMaxDegree];
+        const int nt = smith_discs(c, n, work, trial);
+        if (nt > nd) {
+            nd = nt;
+            for (int i = 0; i < nt; ++i) out.discs[i] = trial[i];
+        }
+    }
+
+    // Double-double (section 2.6), only where double could not isolate.
+    if (method == Method::Auto && !all_isolated(nd, n)) {
+        out.escalation = 1;
+        Complex<DoubleDouble> xd[kMaxDegree];
+        for (int i = 0; i < n; ++i) xd[i] = Complex<DoubleDouble>(DoubleDouble(x[i].re), DoubleDouble(x[i].im));
+        if (nd > 0) respread_clusters(xd, n, out.discs, nd);
+        for (int round = 0; round < 2 && !all_isolated(nd, n); ++round) {
+            aberth(c, n, xd, 60);
+            Complex<DoubleDouble> wd[kMaxDegree];
+            for (int i = 0; i < n; ++i) wd[i] = xd[i];
+            RootDisc trial[kMaxDegree];
+            const int nt = smith_discs(c, n, wd, trial);
+            if (nt > nd) {
+                nd = nt;
+                for (int i = 0; i < nt; ++i) out.discs[i] = trial[i];
+            }
+            if (!all_isolated(nd, n) && nt > 0) respread_clusters(xd, n, trial, nt);
+        }
+        for (int i = 0; i < n; ++i) x[i] = to_double(xd[i]);
+    }
+
+    if (nd == 0) {
+        write_unverified(c, n, x, out);
+        out.wants_exact = true;
+        return;
+    }
+    out.n_discs = nd;
+    out.wants_exact = !all_isolated(nd, n);
+}
+
+}  // namespace argand::detail

@@ -1,0 +1,3 @@
+"""Argand: a render farm for algebraic surfaces in complex space."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,1 @@
+"""argand.worker: Celery workers that render tiles and assemble frames."""
