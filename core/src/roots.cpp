@@ -3,6 +3,9 @@
 #include "argand/roots.h"
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
 
 #include "solver.h"
 
@@ -15,26 +18,42 @@ inline bool exact_ldexp(double v, int e, double& out) {
     return std::isfinite(out) && std::ldexp(out, -e) == v;
 }
 
+/// Exponent of a finite nonzero double (floor(log2|v|)), without libm.
+inline int exponent_of(double v) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    const int biased = static_cast<int>((bits >> 52) & 0x7ff);
+    return biased == 0 ? std::ilogb(v) : biased - 1023;
+}
+
+/// v * 2^k when that is exact: the result is a normal double (a product by a
+/// power of two then only changes the exponent). Otherwise false.
+inline bool exact_scale(double v, int k, double& out) {
+    if (v == 0.0) { out = 0.0; return true; }
+    if (k < -1022 || k > 1023) return exact_ldexp(v, k, out);
+    out = v * pow2(k);
+    return std::fabs(out) >= 0x1p-1022 && std::fabs(out) <= std::numeric_limits<double>::max();
+}
+
 /// Chooses t = 2^e u and an overall factor 2^f so that the scaled polynomial
 /// has roots of modulus ~1 and coefficients of modulus <= ~1, and writes its
 /// coefficients. Only exact scalings are accepted (the scaled polynomial must
 /// have exactly the roots of the original divided by 2^e); otherwise falls
 /// back to e = 0, then to no scaling at all.
 int scale_polynomial(const double* c, int n, double* s) {
-    const int lo_exp = std::ilogb(c[0]);
-    const int hi_exp = std::ilogb(c[n]);
+    const int lo_exp = exponent_of(c[0]);
+    const int hi_exp = exponent_of(c[n]);
     const int e_guess = static_cast<int>(std::lround(static_cast<double>(lo_exp - hi_exp) / n));
     for (int attempt = 0; attempt < 2; ++attempt) {
         const int e = attempt == 0 ? e_guess : 0;
         // Largest exponent after the root scaling, to normalise by.
         int top = -100000;
         for (int k = 0; k <= n; ++k)
-            if (c[k] != 0.0) top = std::max(top, std::ilogb(c[k]) + e * k);
+            if (c[k] != 0.0) top = std::max(top, exponent_of(c[k]) + e * k);
         const int f = -top;
         bool ok = true;
         for (int k = 0; k <= n && ok; ++k) {
-            if (c[k] == 0.0) { s[k] = 0.0; continue; }
-            ok = exact_ldexp(c[k], e * k + f, s[k]);
+            ok = exact_scale(c[k], e * k + f, s[k]);
         }
         if (ok) return e;
     }
@@ -49,13 +68,16 @@ void unscale_disc(RootDisc& d, int e) {
     if (e == 0) return;
     double re, im;
     double slack = 0.0;
-    if (!exact_ldexp(d.re, e, re)) { re = std::ldexp(d.re, e); slack = add_up(slack, kDenormMin); }
-    if (!exact_ldexp(d.im, e, im)) { im = std::ldexp(d.im, e); slack = add_up(slack, kDenormMin); }
-    double r = std::ldexp(d.radius, e);
-    if (std::ldexp(r, -e) < d.radius) r = next_up(r);
+    if (!exact_scale(d.re, e, re)) { re = std::ldexp(d.re, e); slack = add_up(slack, kDenormMin); }
+    if (!exact_scale(d.im, e, im)) { im = std::ldexp(d.im, e); slack = add_up(slack, kDenormMin); }
+    double r;
+    if (!exact_scale(d.radius, e, r)) {
+        r = std::ldexp(d.radius, e);
+        if (std::ldexp(r, -e) < d.radius) r = next_up(r);
+    }
     d.re = re;
     d.im = im;
-    d.radius = add_up(r, slack);
+    d.radius = slack > 0.0 ? add_up(r, slack) : r;
     if (!std::isfinite(d.re) || !std::isfinite(d.im)) {
         d.verified = false;
         d.real = false;

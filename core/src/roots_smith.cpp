@@ -77,6 +77,50 @@ int smith_discs(const double* c, int n, Complex<T>* x, RootDisc* out) {
     return enclose_and_merge(members, n, /*real_axis_centers=*/true, out);
 }
 
+/// Fast path in double: when every pair of Smith discs is proven disjoint
+/// (with the pair distances Smith's bound already computed), each disc is its
+/// own component and holds exactly one root. Falls back to the general
+/// grouping otherwise.
+template <>
+int smith_discs<double>(const double* c, int n, Complex<double>* x, RootDisc* out) {
+    separate_duplicates(x, n);
+    // Snap approximations that are real to working accuracy (as
+    // smith_members does); if that made two coincide, take the general path.
+    const double snap_tol = 64.0 * working_epsilon<double>();
+    Complex<double> original[kMaxDegree];
+    for (int i = 0; i < n; ++i) {
+        original[i] = x[i];
+        if (x[i].im != 0.0 && std::fabs(x[i].im) <= snap_tol * mag_approx(x[i])) x[i].im = 0.0;
+    }
+    const bool snapped = has_duplicate(x, n);
+    if (snapped)
+        for (int i = 0; i < n; ++i) x[i] = original[i];
+    if (!snapped) {
+        double r[kMaxDegree];
+        double low[kMaxDegree * kMaxDegree];
+        if (smith_radii_fast(c, n, x, r, low) || smith_radii(c, n, x, r, low)) {
+            bool separated = true;
+            for (int i = 0; i < n && separated; ++i)
+                for (int j = i + 1; j < n && separated; ++j)
+                    separated = low[i * n + j] > add_up(r[i], r[j]);
+            if (separated) {
+                for (int i = 0; i < n; ++i) {
+                    out[i].re = x[i].re;
+                    out[i].im = x[i].im;
+                    out[i].radius = r[i];
+                    out[i].count = 1;
+                    out[i].verified = true;
+                    out[i].real = x[i].im == 0.0;
+                }
+                return n;
+            }
+        }
+    }
+    MemberDisc members[kMaxDegree];
+    if (!smith_members(c, n, x, members)) return 0;
+    return enclose_and_merge(members, n, /*real_axis_centers=*/true, out);
+}
+
 /// The paper's step 2(b): put the approximations that fell into a cluster
 /// disc back on a circle around their centroid, so that the next sweeps can
 /// pull them apart.
@@ -126,7 +170,7 @@ void solve_smith(const double* c, int n, Method method, const Complex<double>* s
     Complex<double> x[kMaxDegree];
     if (seed) {
         for (int i = 0; i < n; ++i) x[i] = seed[i];
-    } else {
+    } else if (!(n <= 4 && closed_form_guesses(c, n, x))) {
         initial_guesses(c, n, x);
     }
     aberth(c, n, x, 80);

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "argand/arith.h"
 #include "argand/roots.h"
@@ -68,17 +70,38 @@ inline bool eval_bound(const double* c, int n, Complex<T> x, Complex<T>& value, 
 // Approximation: initial guesses and the Aberth-Ehrlich iteration
 // ---------------------------------------------------------------------------
 
+/// log2(v) to within 0.09 for finite v > 0 (exponent plus a linear mantissa).
+inline double fast_log2(double v) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    const int biased = static_cast<int>((bits >> 52) & 0x7ff);
+    if (biased == 0 || biased == 0x7ff) return std::log2(v);  // subnormal (or not finite)
+    bits = (bits & 0x000fffffffffffffULL) | 0x3ff0000000000000ULL;  // mantissa in [1, 2)
+    double m;
+    std::memcpy(&m, &bits, sizeof m);
+    return (biased - 1023) + (m - 1.0);
+}
+
 /// Initial approximations from the Newton polygon (upper convex hull of
 /// (k, log|c_k|)), as in Bini's MPSolve: each hull edge of width m gives m
 /// points on a circle of the radius it predicts. Spread by angle so that no
 /// start is real and no two coincide.
 inline void initial_guesses(const double* c, int n, Complex<double>* x) {
+    // Unit roots e^{2 pi i / m}, m = 1..kMaxDegree, computed once.
+    struct Table {
+        Complex<double> step[kMaxDegree + 1];
+        Table() {
+            for (int m = 1; m <= kMaxDegree; ++m) step[m] = Complex<double>(std::cos(2 * kPi / m), std::sin(2 * kPi / m));
+        }
+    };
+    static const Table table;
+    static const Complex<double> twist(std::cos(0.4), std::sin(0.4));
     int hull[kMaxDegree + 1];
     double lg[kMaxDegree + 1];
     int h = 0;
     for (int k = 0; k <= n; ++k) {
         if (c[k] == 0.0) continue;
-        lg[k] = std::log(std::fabs(c[k]));
+        lg[k] = fast_log2(std::fabs(c[k]));
         while (h >= 2) {
             const int a = hull[h - 2], b = hull[h - 1];
             // Drop b if it lies on or below the segment from a to k.
@@ -88,14 +111,118 @@ inline void initial_guesses(const double* c, int n, Complex<double>* x) {
         hull[h++] = k;
     }
     int idx = 0;
+    Complex<double> offset = twist;  // e^{i(2 pi a / n + 0.4)}, advanced per edge
+    int advanced = 0;
     for (int s = 0; s + 1 < h; ++s) {
         const int a = hull[s], b = hull[s + 1], m = b - a;
-        const double r = std::exp((lg[a] - lg[b]) / m);
+        for (; advanced < a; ++advanced) offset = offset * table.step[n];
+        const double r = std::exp2((lg[a] - lg[b]) / m);
+        // Points r e^{i(2 pi j / m)} times the offset, by repeated rotation.
+        Complex<double> z = mul_real(offset, r);
         for (int j = 0; j < m; ++j) {
-            const double angle = 2.0 * kPi * j / m + 2.0 * kPi * a / n + 0.4;
-            x[idx++] = Complex<double>(r * std::cos(angle), r * std::sin(angle));
+            x[idx++] = z;
+            z = z * table.step[m];
         }
     }
+}
+
+/// Principal square root (approximation).
+inline Complex<double> complex_sqrt(Complex<double> z) {
+    const double m = std::sqrt(z.re * z.re + z.im * z.im);
+    const double re = std::sqrt(0.5 * (m + std::fabs(z.re)));
+    if (re == 0.0) return Complex<double>(0.0, 0.0);
+    const double other = z.im / (2.0 * re);
+    return z.re >= 0.0 ? Complex<double>(re, other) : Complex<double>(std::fabs(other), z.im >= 0.0 ? re : -re);
+}
+
+/// Roots of the real monic quadratic t^2 + b t + c (approximation).
+inline void real_quadratic_roots(double b, double c, Complex<double>* x) {
+    const double disc = b * b - 4.0 * c;
+    if (disc >= 0.0) {
+        const double q = -0.5 * (b + std::copysign(std::sqrt(disc), b));
+        x[0] = Complex<double>(q, 0.0);
+        x[1] = Complex<double>(q != 0.0 ? c / q : 0.0, 0.0);
+    } else {
+        const double im = 0.5 * std::sqrt(-disc);
+        x[0] = Complex<double>(-0.5 * b, im);
+        x[1] = Complex<double>(-0.5 * b, -im);
+    }
+}
+
+/// Approximate roots of a real cubic or quartic (and lower) in closed form,
+/// used only as starting points ("the surface's own degree"): a few ulps or
+/// a few digits, Aberth and Smith do the rest. Returns false if the formula
+/// broke down (NaN, a zero pivot); the caller then uses initial_guesses.
+inline bool closed_form_guesses(const double* c, int n, Complex<double>* x) {
+    if (n == 1) {
+        x[0] = Complex<double>(-c[0] / c[1], 0.0);
+    } else if (n == 2) {
+        real_quadratic_roots(c[1] / c[2], c[0] / c[2], x);
+    } else if (n == 3 || n == 4) {
+        // Monic depressed form y^n + p y^(n-2) + q y^(n-3) [+ r] with
+        // t = y - shift.
+        const double a3 = c[n - 1] / c[n], a2 = c[n - 2] / c[n], a1 = c[n - 3] / c[n];
+        if (n == 3) {
+            const double shift = a3 / 3.0;
+            const double p = a2 - a3 * a3 / 3.0;
+            const double q = 2.0 * a3 * a3 * a3 / 27.0 - a3 * a2 / 3.0 + a1;
+            // Cardano for a real root, then the quadratic cofactor.
+            const double disc = q * q / 4.0 + p * p * p / 27.0;
+            double y0;
+            if (disc >= 0.0) {
+                const double sq = std::sqrt(disc);
+                const double u = std::cbrt(q >= 0.0 ? -q / 2.0 - sq : -q / 2.0 + sq);
+                y0 = (u != 0.0) ? u - p / (3.0 * u) : 0.0;
+            } else {
+                const double m = 2.0 * std::sqrt(-p / 3.0);
+                const double theta = std::acos(std::fmax(-1.0, std::fmin(1.0, 3.0 * q / (p * m)))) / 3.0;
+                y0 = m * std::cos(theta);
+            }
+            x[0] = Complex<double>(y0 - shift, 0.0);
+            // y^3 + p y + q = (y - y0)(y^2 + y0 y + (p + y0^2)).
+            Complex<double> y12[2];
+            real_quadratic_roots(y0, p + y0 * y0, y12);
+            x[1] = y12[0] - Complex<double>(shift);
+            x[2] = y12[1] - Complex<double>(shift);
+        } else {
+            const double a0 = c[0] / c[4];
+            const double shift = a3 / 4.0;
+            const double s2 = shift * shift;
+            const double p = a2 - 6.0 * s2;
+            const double q = a1 - 2.0 * a2 * shift + 8.0 * s2 * shift;
+            const double r = a0 - a1 * shift + a2 * s2 - 3.0 * s2 * s2;
+            // Resolvent cubic z^3 + 2p z^2 + (p^2 - 4r) z - q^2: its largest
+            // real root z >= 0 splits the quartic into two quadratics.
+            const double rc[4] = {-q * q, p * p - 4.0 * r, 2.0 * p, 1.0};
+            Complex<double> z3[3];
+            closed_form_guesses(rc, 3, z3);
+            double z = z3[0].re;
+            for (int k = 1; k < 3; ++k)
+                if (std::fabs(z3[k].im) <= 1e-8 * (1.0 + std::fabs(z3[k].re)) && z3[k].re > z) z = z3[k].re;
+            Complex<double> y[4];
+            if (z > 1e-14 * (1.0 + std::fabs(p))) {
+                const double w = std::sqrt(z);
+                const double half = 0.5 * (p + z);
+                const double t = 0.5 * q / w;
+                real_quadratic_roots(w, half - t, y);
+                real_quadratic_roots(-w, half + t, y + 2);
+            } else {
+                // Biquadratic: y^4 + p y^2 + r.
+                Complex<double> w2[2];
+                real_quadratic_roots(p, r, w2);
+                y[0] = complex_sqrt(w2[0]);
+                y[1] = -y[0];
+                y[2] = complex_sqrt(w2[1]);
+                y[3] = -y[2];
+            }
+            for (int k = 0; k < 4; ++k) x[k] = y[k] - Complex<double>(shift);
+        }
+    } else {
+        return false;
+    }
+    for (int k = 0; k < n; ++k)
+        if (!is_finite(x[k])) return false;
+    return true;
 }
 
 /// Aberth-Ehrlich iteration in T, Gauss-Seidel style. Stops a root when its
@@ -104,6 +231,9 @@ inline void initial_guesses(const double* c, int n, Complex<double>* x) {
 template <class T>
 inline int aberth(const double* c, int n, Complex<T>* x, int max_iter, bool* converged_out = nullptr) {
     const double eps = working_epsilon<T>();
+    const double noise = 4.0 * (n + 1) * eps;
+    const double stop_rel = sizeof(T) == sizeof(double) ? 0x1p-20 : 0x1p-40;
+    const double stop_rel2 = stop_rel * stop_rel;
     bool done[kMaxDegree] = {};
     int remaining = n;
     int it = 0;
@@ -112,29 +242,29 @@ inline int aberth(const double* c, int n, Complex<T>* x, int max_iter, bool* con
             if (done[i]) continue;
             Complex<T> p, dp;
             eval_with_derivative(c, n, x[i], p, dp);
-            const double ax = mag_approx(x[i]);
-            if (mag_approx(p) <= 4.0 * (n + 1) * eps * abs_poly(c, n, ax)) {
-                done[i] = true;
+            const double ax2 = mag2_approx(x[i]);
+            const double floor = noise * abs_poly(c, n, std::sqrt(ax2));
+            if (mag2_approx(p) <= floor * floor) {
+                done[i] = true;  // |p| is at rounding noise: nothing to gain
                 --remaining;
                 continue;
             }
+            // Aberth correction w = p / (p' - p * sum_j 1/(x_i - x_j)).
             Complex<T> s(T(0.0));
-            for (int j = 0; j < n; ++j) {
-                if (j == i) continue;
-                Complex<T> d = x[i] - x[j];
-                T d2 = d.re * d.re + d.im * d.im;
-                s = s + Complex<T>(d.re / d2, -(d.im / d2));
-            }
-            Complex<T> ratio = p / dp;
-            Complex<T> w = ratio / (Complex<T>(T(1.0)) - ratio * s);
+            for (int j = 0; j < n; ++j)
+                if (j != i) s = s + reciprocal(x[i] - x[j]);
+            const Complex<T> w = p / (dp - p * s);
             if (!is_finite(w)) {
                 // Derivative or denominator vanished: nudge and retry.
-                const double nudge = (ax > 0 ? ax : 1.0) * 1e-7 * (1 + i);
+                const double a = std::sqrt(ax2);
+                const double nudge = (a > 0 ? a : 1.0) * 1e-7 * (1 + i);
                 x[i] = x[i] + Complex<T>(T(nudge), T(nudge * 0.7));
                 continue;
             }
             x[i] = x[i] - w;
-            if (mag_approx(w) <= 2.0 * eps * mag_approx(x[i])) {
+            // Near a simple root Aberth converges cubically: once a correction
+            // is below stop_rel, the next would be below the working precision.
+            if (mag2_approx(w) <= stop_rel2 * mag2_approx(x[i])) {
                 done[i] = true;
                 --remaining;
             }
@@ -179,10 +309,17 @@ inline bool separate_duplicates(Complex<T>* x, int n) {
 /// error bounds. On false nothing is claimed (non-finite intermediate or
 /// coincident approximations).
 template <class T>
-inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r) {
+inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r, double* pair_low = nullptr) {
     using E = ErrorModel<T>;
     // |exact difference| >= |computed difference| * (1 - add_rel) - abs_err.
     const double shrink = next_down(1.0 - 2.0 * E::add_rel);
+    double local[kMaxDegree * kMaxDegree];
+    double* low = pair_low ? pair_low : local;
+    for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j) {
+            const double d = mag_down(x[i] - x[j]);
+            low[i * n + j] = low[j * n + i] = std::fmax(0.0, add_down(mul_down(d, shrink), -E::abs_err));
+        }
     const double lead = std::fabs(c[n]);
     for (int i = 0; i < n; ++i) {
         Complex<T> v;
@@ -190,14 +327,74 @@ inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r) 
         if (!eval_bound(c, n, x[i], v, err)) return false;
         const double numerator = add_up(mag_up(v), err);
         double denominator = lead;
-        for (int j = 0; j < n; ++j) {
-            if (j == i) continue;
-            const double d = mag_down(x[i] - x[j]);
-            const double d_low = std::fmax(0.0, add_down(mul_down(d, shrink), -E::abs_err));
-            denominator = mul_down(denominator, d_low);
-        }
+        for (int j = 0; j < n; ++j)
+            if (j != i) denominator = mul_down(denominator, low[i * n + j]);
         if (!(denominator > 0.0)) return false;
         r[i] = mul_up(static_cast<double>(n), div_up(numerator, denominator));
+        if (!std::isfinite(r[i])) return false;
+    }
+    return true;
+}
+
+/// The same bound as smith_radii<double>, an order of magnitude cheaper: the
+/// error terms are computed in round-to-nearest and inflated once at the end
+/// instead of rounding every operation outward. Returns false (and the caller
+/// must use smith_radii) whenever a range guard that the argument below needs
+/// does not hold.
+///
+/// Why the final factors suffice. Every error quantity is built from exact
+/// nonnegative inputs by + and x in round-to-nearest. A sum of nonnegatives
+/// is exact or within a factor (1 +- u); a product too, unless it underflows,
+/// which costs at most eta = 2^-1075 absolutely. Along any path the Horner
+/// error term passes through at most K = 4n + 8 roundings, so
+/// exact <= computed / (1-u)^K + slack <= computed (1 + 2(K+2)u) + slack,
+/// where slack (the underflow losses carried through the later
+/// multiplications by |x| <= ax) is at most 8 n eta max(1, ax)^n. Moduli are
+/// bounded above by |re| + |im| (>= the modulus). A pair distance computed as
+/// sqrt(dr^2 + di^2) from the rounded difference is within (1+u)^3.5 of the
+/// exact distance when nothing underflows (guard: >= 2^-450); a product of n-1
+/// of them and the leading coefficient within (1+u)^(4.5n), covered by the
+/// factor 1 - 2(5n+2)u (guard: product >= 2^-900).
+inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, double* r, double* low) {
+    constexpr double u = kUnitRoundoff;
+    using E = ErrorModel<double>;
+    const double relative_up = 1.0 + 2.0 * (4.0 * n + 10.0) * u;
+    const double den_down = 1.0 - 2.0 * (5.0 * n + 2.0) * u;
+    const double pair_down = 1.0 - 8.0 * u;
+    // Underflow slack 8 n eta max(1, ax)^n with ax <= 2^8 (guarded below).
+    // (16 n 2^-1074 2^(8n) <= n 2^max(8n-1070, -1014), a normal power of two.)
+    const double slack = n * pow2(std::max(8 * n - 1070, -1014));
+    double dist[kMaxDegree * kMaxDegree];
+    for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j) {
+            const double dr = x[i].re - x[j].re, di = x[i].im - x[j].im;
+            const double d = std::sqrt(dr * dr + di * di);
+            if (!(d >= 0x1p-450) || !(d <= 0x1p450)) return false;
+            dist[i * n + j] = dist[j * n + i] = d;
+            low[i * n + j] = low[j * n + i] = d * pair_down;
+        }
+    const double lead = std::fabs(c[n]);
+    for (int i = 0; i < n; ++i) {
+        const double ax = std::fabs(x[i].re) + std::fabs(x[i].im);
+        if (!(ax <= 0x1p8)) return false;  // keeps the slack below tiny
+        // Horner with a running error bound (see eval_bound for the terms).
+        double yr = c[n], yi = 0.0, ay = lead, e = 0.0;
+        for (int k = n - 1; k >= 0; --k) {
+            const double pr = yr * x[i].re - yi * x[i].im;
+            const double pi = yr * x[i].im + yi * x[i].re;
+            yr = pr + c[k];
+            yi = pi;
+            const double a_next = std::fabs(yr) + std::fabs(yi);
+            e = ax * (e + E::mul_rel * ay) + (E::add_rel * a_next + 2.0 * E::abs_err);
+            ay = a_next;
+        }
+        const double numerator = next_up(next_up(ay) + next_up(e * relative_up) + slack);
+        double denominator = lead;
+        for (int j = 0; j < n; ++j)
+            if (j != i) denominator *= dist[i * n + j];
+        if (!(denominator >= 0x1p-900) || !std::isfinite(denominator) || !std::isfinite(numerator)) return false;
+        denominator *= den_down;
+        r[i] = next_up(n * next_up(numerator / denominator));
         if (!std::isfinite(r[i])) return false;
     }
     return true;

@@ -54,6 +54,14 @@ inline double sqrt_up(double a) { return next_up(std::sqrt(a)); }
 /// sqrt rounded down; a <= 0 gives 0.
 inline double sqrt_down(double a) { return a > 0.0 ? std::fmax(0.0, next_down(std::sqrt(a))) : 0.0; }
 
+/// 2^k for k in [-1022, 1023] (normal range), built from bits, exact.
+inline double pow2(int k) {
+    const std::uint64_t bits = static_cast<std::uint64_t>(k + 1023) << 52;
+    double v;
+    std::memcpy(&v, &bits, sizeof v);
+    return v;
+}
+
 /// Unit roundoff of binary64.
 constexpr double kUnitRoundoff = 0x1p-53;
 /// Smallest positive subnormal; every rounding error is at most half of this
@@ -79,9 +87,9 @@ inline double hypot_down(double x, double y) {
 // ---------------------------------------------------------------------------
 
 struct DoubleDouble {
-    double hi = 0.0;
-    double lo = 0.0;
-    DoubleDouble() = default;
+    double hi;
+    double lo;
+    DoubleDouble() = default;  // trivial, like double
     constexpr DoubleDouble(double h) : hi(h), lo(0.0) {}  // NOLINT: exact widening
     constexpr DoubleDouble(double h, double l) : hi(h), lo(l) {}
 };
@@ -168,9 +176,9 @@ inline double abs_down(DoubleDouble x) { return std::fmax(0.0, add_down(std::fab
 
 template <class T>
 struct Complex {
-    T re{};
-    T im{};
-    Complex() = default;
+    T re;
+    T im;
+    Complex() = default;  // trivial: arrays of Complex are not zeroed
     Complex(T r) : re(r), im(0.0) {}  // NOLINT
     Complex(T r, T i) : re(r), im(i) {}
 };
@@ -185,11 +193,15 @@ template <class T> inline Complex<T> mul_real(Complex<T> a, T b) { return {a.re 
 template <class T> inline Complex<T> add_real(Complex<T> a, T b) { return {a.re + b, a.im}; }
 /// Division for approximations only (no error bound is claimed).
 template <class T> inline Complex<T> operator/(Complex<T> a, Complex<T> b) {
-    // Smith's scaling-free formula is fine here: the iterates are scaled to
-    // modulus ~1 before the solver runs.
-    T d = b.re * b.re + b.im * b.im;
-    Complex<T> n = {a.re * b.re + a.im * b.im, a.im * b.re - a.re * b.im};
-    return {n.re / d, n.im / d};
+    // The textbook formula is fine here: the iterates are scaled to modulus
+    // ~1 before the solvers run. One division, two multiplications.
+    const T inv = T(1.0) / (b.re * b.re + b.im * b.im);
+    return {(a.re * b.re + a.im * b.im) * inv, (a.im * b.re - a.re * b.im) * inv};
+}
+/// 1 / b (approximation only).
+template <class T> inline Complex<T> reciprocal(Complex<T> b) {
+    const T inv = T(1.0) / (b.re * b.re + b.im * b.im);
+    return {b.re * inv, -(b.im * inv)};
 }
 template <class T> inline Complex<T> conj(Complex<T> a) { return {a.re, -a.im}; }
 
@@ -200,10 +212,13 @@ template <class T> inline bool is_finite(Complex<T> z) { return is_finite(z.re) 
 template <class T> inline double mag_up(Complex<T> z) { return hypot_up(abs_up(z.re), abs_up(z.im)); }
 /// Lower bound of |z|, >= 0.
 template <class T> inline double mag_down(Complex<T> z) { return hypot_down(abs_down(z.re), abs_down(z.im)); }
-/// Fast approximate modulus (no bound claimed).
-template <class T> inline double mag_approx(Complex<T> z) {
-    return std::hypot(to_double(z.re), to_double(z.im));
+/// Fast approximate modulus and its square (no bound claimed; may overflow
+/// for moduli above 1e154, which the solvers never see after scaling).
+template <class T> inline double mag2_approx(Complex<T> z) {
+    const double r = to_double(z.re), i = to_double(z.im);
+    return r * r + i * i;
 }
+template <class T> inline double mag_approx(Complex<T> z) { return std::sqrt(mag2_approx(z)); }
 
 // ---------------------------------------------------------------------------
 // Error model: bounds on the rounding error of one complex operation in T,

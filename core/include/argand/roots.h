@@ -32,13 +32,15 @@ enum class Method : int {
 /// If not verified: center is the best approximation available, radius an
 /// estimate of its error that is NOT proven, count the number of roots the
 /// entry stands for (not proven).
+/// (A trivial aggregate: arrays of it are not zeroed; find_roots writes
+/// every field of every entry it reports.)
 struct RootDisc {
-    double re = 0.0;
-    double im = 0.0;
-    double radius = 0.0;
-    std::int32_t count = 0;
-    bool verified = false;
-    bool real = false;
+    double re;
+    double im;
+    double radius;
+    std::int32_t count;
+    bool verified;
+    bool real;
 };
 
 /// Result of one polynomial.
