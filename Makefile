@@ -35,10 +35,11 @@ run: setup
 	$(VENV)/bin/argand roots -- -1 0 1 --method paper
 	$(VENV)/bin/argand roots 1 -4 6 -4 1
 
+# C++ unit tests of the arithmetic, with the CMake that setup installed.
 test-cpp: $(STAMP)
-	cmake -S . -B build/cpp -DCMAKE_BUILD_TYPE=Release >/dev/null
-	cmake --build build/cpp -j2 >/dev/null
-	ctest --test-dir build/cpp --output-on-failure
+	$(VENV)/bin/cmake -S . -B build/cpp -DCMAKE_BUILD_TYPE=Release >/dev/null
+	$(VENV)/bin/cmake --build build/cpp -j2 >/dev/null
+	$(VENV)/bin/ctest --test-dir build/cpp --output-on-failure
 
 test-py: setup
 	$(VENV)/bin/pytest
