@@ -83,14 +83,14 @@ int smith_discs(const double* c, int n, Complex<T>* x, RootDisc* out) {
 /// grouping otherwise.
 template <>
 int smith_discs<double>(const double* c, int n, Complex<double>* x, RootDisc* out) {
-    separate_duplicates(x, n);
+    if (has_duplicate(x, n)) separate_duplicates(x, n);
     // Snap approximations that are real to working accuracy (as
     // smith_members does); if that made two coincide, take the general path.
     const double snap_tol = 64.0 * working_epsilon<double>();
     Complex<double> original[kMaxDegree];
     for (int i = 0; i < n; ++i) {
         original[i] = x[i];
-        if (x[i].im != 0.0 && std::fabs(x[i].im) <= snap_tol * mag_approx(x[i])) x[i].im = 0.0;
+        if (x[i].im != 0.0 && std::fabs(x[i].im) <= snap_tol * std::fabs(x[i].re)) x[i].im = 0.0;
     }
     const bool snapped = has_duplicate(x, n);
     if (snapped)

@@ -160,22 +160,24 @@ inline bool closed_form_guesses(const double* c, int n, Complex<double>* x) {
         real_quadratic_roots(c[1] / c[2], c[0] / c[2], x);
     } else if (n == 3 || n == 4) {
         // Monic depressed form y^n + p y^(n-2) + q y^(n-3) [+ r] with
-        // t = y - shift.
-        const double a3 = c[n - 1] / c[n], a2 = c[n - 2] / c[n], a1 = c[n - 3] / c[n];
+        // t = y - shift. (Approximations: constants multiply, not divide.)
+        constexpr double third = 1.0 / 3.0, twenty_seventh = 1.0 / 27.0;
+        const double inv_lead = 1.0 / c[n];
+        const double a3 = c[n - 1] * inv_lead, a2 = c[n - 2] * inv_lead, a1 = c[n - 3] * inv_lead;
         if (n == 3) {
-            const double shift = a3 / 3.0;
-            const double p = a2 - a3 * a3 / 3.0;
-            const double q = 2.0 * a3 * a3 * a3 / 27.0 - a3 * a2 / 3.0 + a1;
+            const double shift = a3 * third;
+            const double p = a2 - a3 * shift;
+            const double q = 2.0 * twenty_seventh * a3 * a3 * a3 - a3 * a2 * third + a1;
             // Cardano for a real root, then the quadratic cofactor.
-            const double disc = q * q / 4.0 + p * p * p / 27.0;
+            const double disc = 0.25 * q * q + twenty_seventh * p * p * p;
             double y0;
             if (disc >= 0.0) {
                 const double sq = std::sqrt(disc);
-                const double u = std::cbrt(q >= 0.0 ? -q / 2.0 - sq : -q / 2.0 + sq);
-                y0 = (u != 0.0) ? u - p / (3.0 * u) : 0.0;
+                const double u = std::cbrt(q >= 0.0 ? -0.5 * q - sq : -0.5 * q + sq);
+                y0 = (u != 0.0) ? u - p * third / u : 0.0;
             } else {
-                const double m = 2.0 * std::sqrt(-p / 3.0);
-                const double theta = std::acos(std::fmax(-1.0, std::fmin(1.0, 3.0 * q / (p * m)))) / 3.0;
+                const double m = 2.0 * std::sqrt(-p * third);
+                const double theta = std::acos(std::fmax(-1.0, std::fmin(1.0, 3.0 * q / (p * m)))) * third;
                 y0 = m * std::cos(theta);
             }
             x[0] = Complex<double>(y0 - shift, 0.0);
@@ -185,8 +187,8 @@ inline bool closed_form_guesses(const double* c, int n, Complex<double>* x) {
             x[1] = y12[0] - Complex<double>(shift);
             x[2] = y12[1] - Complex<double>(shift);
         } else {
-            const double a0 = c[0] / c[4];
-            const double shift = a3 / 4.0;
+            const double a0 = c[0] * inv_lead;
+            const double shift = 0.25 * a3;
             const double s2 = shift * shift;
             const double p = a2 - 6.0 * s2;
             const double q = a1 - 2.0 * a2 * shift + 8.0 * s2 * shift;
@@ -203,7 +205,7 @@ inline bool closed_form_guesses(const double* c, int n, Complex<double>* x) {
             if (z > 1e-14 * (1.0 + std::fabs(p))) {
                 const double w = std::sqrt(z);
                 const double half = 0.5 * (p + z);
-                const double t = 0.5 * q / w;
+                const double t = 0.5 * q / w;  // (one division)
                 real_quadratic_roots(w, half - t, y);
                 real_quadratic_roots(-w, half + t, y + 2);
             } else {
