@@ -376,21 +376,30 @@ inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, d
             low[i * n + j] = low[j * n + i] = d * pair_down;
         }
     const double lead = std::fabs(c[n]);
+    // Horner with a running error bound (see eval_bound for the terms), all
+    // n evaluations advanced together so their dependency chains overlap.
+    double ax[kMaxDegree], yr[kMaxDegree], yi[kMaxDegree], ay[kMaxDegree], e[kMaxDegree];
     for (int i = 0; i < n; ++i) {
-        const double ax = std::fabs(x[i].re) + std::fabs(x[i].im);
-        if (!(ax <= 0x1p8)) return false;  // keeps the slack below tiny
-        // Horner with a running error bound (see eval_bound for the terms).
-        double yr = c[n], yi = 0.0, ay = lead, e = 0.0;
-        for (int k = n - 1; k >= 0; --k) {
-            const double pr = yr * x[i].re - yi * x[i].im;
-            const double pi = yr * x[i].im + yi * x[i].re;
-            yr = pr + c[k];
-            yi = pi;
-            const double a_next = std::fabs(yr) + std::fabs(yi);
-            e = ax * (e + E::mul_rel * ay) + (E::add_rel * a_next + 2.0 * E::abs_err);
-            ay = a_next;
+        ax[i] = std::fabs(x[i].re) + std::fabs(x[i].im);
+        if (!(ax[i] <= 0x1p8)) return false;  // keeps the slack below tiny
+        yr[i] = c[n];
+        yi[i] = 0.0;
+        ay[i] = lead;
+        e[i] = 0.0;
+    }
+    for (int k = n - 1; k >= 0; --k) {
+        for (int i = 0; i < n; ++i) {
+            const double pr = yr[i] * x[i].re - yi[i] * x[i].im;
+            const double pi = yr[i] * x[i].im + yi[i] * x[i].re;
+            yr[i] = pr + c[k];
+            yi[i] = pi;
+            const double a_next = std::fabs(yr[i]) + std::fabs(yi[i]);
+            e[i] = ax[i] * (e[i] + E::mul_rel * ay[i]) + (E::add_rel * a_next + 2.0 * E::abs_err);
+            ay[i] = a_next;
         }
-        const double numerator = next_up(next_up(ay) + next_up(e * relative_up) + slack);
+    }
+    for (int i = 0; i < n; ++i) {
+        const double numerator = next_up(next_up(ay[i]) + next_up(e[i] * relative_up) + slack);
         double denominator = lead;
         for (int j = 0; j < n; ++j)
             if (j != i) denominator *= dist[i * n + j];
