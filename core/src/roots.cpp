@@ -135,9 +135,11 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
     out.escalation = kr.escalation;
     out.wants_exact = kr.wants_exact;
 
-    if (low == 0) {
+    if (low == 0 || method == Method::Unverified) {
+        // (The unverified method claims nothing, not even exact zeros.)
         out.n_discs = kr.n_discs;
         for (int i = 0; i < kr.n_discs; ++i) out.discs[i] = kr.discs[i];
+        if (low > 0) out.discs[out.n_discs++] = RootDisc{0.0, 0.0, 0.0, low, false, false};
         return Status::Ok;
     }
 
