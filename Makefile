@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PIP) install -q --upgrade pip
 	$(PIP) install -q "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja
-	$(PIP) install -q numpy "python-flint>=0.6" "typer>=0.12" "rich>=13" "pytest>=8" "mpmath>=1.3" "matplotlib>=3.8"
+	$(PIP) install -q numpy "python-flint>=0.6" "typer>=0.12" "rich>=13" "pydantic>=2.5" "pyyaml>=6" "OpenImageIO>=2.5" "pytest>=8" "mpmath>=1.3" "matplotlib>=3.8"
 	touch $@
 
 # The package itself (C++ core + Python), rebuilt when a source changes.

@@ -1,0 +1,246 @@
+"""The `argand` command line."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+app = typer.Typer(
+    help="Argand: verified complex roots and renders of algebraic surfaces in complex space.",
+    no_args_is_help=True,
+    add_completion=False,
+)
+bench_app = typer.Typer(help="Benchmarks against the alternatives; JSON and charts under docs/bench/.", no_args_is_help=True)
+app.add_typer(bench_app, name="bench")
+
+console = Console()
+err = Console(stderr=True)
+
+
+def fail(message: str, code: int = 2) -> None:
+    err.print(f"[bold red]error:[/] {message}")
+    raise typer.Exit(code)
+
+
+# ---------------------------------------------------------------------------
+# argand roots
+# ---------------------------------------------------------------------------
+
+
+@app.command(context_settings={"ignore_unknown_options": True, "allow_interspersed_args": True})
+def roots(
+    coefficients: List[str] = typer.Argument(..., help="p_0 p_1 ... p_n, lowest degree first (negative numbers are fine)."),
+    method: str = typer.Option("auto", "--method", "-m", help="auto | smith | paper | unverified"),
+) -> None:
+    """All complex roots of p(t) = p_0 + p_1 t + ... + p_n t^n, with proven enclosures."""
+    from argand.core import METHODS, find_roots
+
+    if method not in METHODS:
+        fail(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
+    values = []
+    for i, text in enumerate(coefficients):
+        try:
+            v = float(text)
+        except ValueError:
+            fail(f"coefficient {i} ({text!r}) is not a number")
+        if not math.isfinite(v):
+            fail(f"coefficient {i} ({text!r}) must be finite")
+        values.append(v)
+    try:
+        r = find_roots(values, method=method)
+    except ValueError as exc:
+        fail(str(exc))
+    table = Table(title=f"roots of a degree-{len(values) - 1} polynomial ({method})", title_justify="left")
+    table.add_column("center", no_wrap=True)
+    for col in ("radius", "count", "verified", "real"):
+        table.add_column(col, justify="right" if col in ("radius", "count") else "left")
+    for i in range(len(r)):
+        z = complex(r.center[i])
+        table.add_row(
+            f"{z.real:.16g} {'+' if z.imag >= 0 else '-'} {abs(z.imag):.16g}i",
+            f"{float(r.radius[i]):.3g}",
+            str(int(r.count[i])),
+            "[green]yes[/]" if r.verified[i] else "[yellow]no[/]",
+            "yes" if r.real[i] else "",
+        )
+    console.print(table)
+    levels = {0: "double", 1: "double-double", 2: "exact (python-flint)"}
+    console.print(
+        f"degree {len(values) - 1}; roots at infinity {r.n_infinite}; "
+        f"{'all verified' if len(r) and r.all_verified else f'{int(r.verified.sum())}/{len(r)} verified'}; "
+        f"precision used: {levels.get(r.escalation, r.escalation)}"
+    )
+
+
+# ---------------------------------------------------------------------------
+# argand render
+# ---------------------------------------------------------------------------
+
+
+def _parse_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        fail(f"--size must look like 512x512, got {text!r}")
+    if not (1 <= w <= 8192 and 1 <= h <= 8192):
+        fail(f"--size must be between 1x1 and 8192x8192, got {text!r}")
+    return w, h
+
+
+@app.command()
+def render(
+    scene: str = typer.Argument(..., help="A preset name (argand presets) or a scene file (.yaml/.json)."),
+    sigma: str = typer.Option("0", "--sigma", help="Start of the argument band (e.g. 0, pi/36)."),
+    delta: Optional[str] = typer.Option(None, "--delta", help="Width of the band, one frame (e.g. pi/9)."),
+    deltas: Optional[str] = typer.Option(None, "--deltas", help="A sweep START:STOP:COUNT (e.g. 0:pi/9:24)."),
+    size: str = typer.Option("512x512", "--size", help="WxH in pixels."),
+    out: Path = typer.Option(Path("render"), "--out", help="Output folder."),
+    workers: int = typer.Option(0, "--workers", help="Threads (0: all cores)."),
+    tile: int = typer.Option(64, "--tile", help="Tile size in pixels."),
+    method: str = typer.Option("auto", "--method", help="Root method: auto | smith | paper | unverified."),
+    hue: bool = typer.Option(False, "--hue", help="Colour complex roots by their argument."),
+    fps: float = typer.Option(8.0, "--fps", help="Frames per second of the animation."),
+) -> None:
+    """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, and animation.gif."""
+    from argand.render import FrameParams, delta_sweep, parse_angle, parse_sweep, render_frame
+    from argand.render.output import to_srgb8, write_frame, write_gif
+    from argand.scene import load_scene
+
+    if delta is not None and deltas is not None:
+        fail("give --delta or --deltas, not both")
+    try:
+        sigma_value = parse_angle(sigma)
+        if deltas is not None:
+            start, stop, count = parse_sweep(deltas)
+            values = delta_sweep(start, stop, count)
+        else:
+            values = [parse_angle(delta) if delta is not None else 0.0]
+    except ValueError as exc:
+        fail(str(exc))
+    width, height = _parse_size(size)
+    try:
+        loaded = load_scene(scene)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    try:
+        params = [
+            FrameParams(sigma=sigma_value, delta=d, width=width, height=height, method=method, hue_by_argument=hue)
+            for d in values
+        ]
+    except ValueError as exc:
+        fail(str(exc))
+    tiles_per_frame = math.ceil(width / tile) * math.ceil(height / tile)
+    previews = []
+    summary = []
+    with Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("tiles"),
+        TimeElapsedColumn(), TimeRemainingColumn(), console=err,
+    ) as progress:
+        task = progress.add_task("rendering", total=tiles_per_frame * len(params))
+        for index, p in enumerate(params):
+            progress.update(task, description=f"frame {index + 1}/{len(params)} (delta={p.delta:.4g})")
+            try:
+                result = render_frame(loaded, p, tile=tile, workers=workers or None, on_tile=lambda t: progress.advance(task))
+            except ValueError as exc:
+                fail(str(exc))
+            write_frame(result, out, index)
+            if len(params) > 1:
+                previews.append(to_srgb8(result.rgba))
+            summary.append(result.figures)
+    if previews:
+        write_gif(previews, out / "animation.gif", fps=fps)
+    for f in summary:
+        console.print(
+            f"delta={f['delta']:.5g}: {f['seconds'] * 1000:.0f} ms, {f['ns_per_pixel']:.0f} ns/pixel, "
+            f"certified {100 * f['certified_share']:.3f}%, escalated {100 * f['escalated_share']:.3f}%"
+        )
+    console.print(f"wrote {len(params)} frame(s) to {out}/" + (" and animation.gif" if previews else ""))
+
+
+@app.command()
+def presets() -> None:
+    """List the preset scenes."""
+    from argand.scene import load_scene
+    from argand.scene.presets import PRESETS
+
+    table = Table(title="presets")
+    table.add_column("name")
+    table.add_column("surfaces")
+    for name in PRESETS:
+        s = load_scene(name)
+        table.add_row(name, "; ".join(o.surface for o in s.objects))
+    console.print(table)
+
+
+# ---------------------------------------------------------------------------
+# argand bench
+# ---------------------------------------------------------------------------
+
+
+@bench_app.command("roots")
+def bench_roots_cmd(
+    count: int = typer.Option(20000, help="Polynomials per suite."),
+    seed: int = typer.Option(1),
+    out: Path = typer.Option(Path("docs/bench"), "--out"),
+    smoke: bool = typer.Option(False, "--smoke", help="A tiny run that keeps the benchmark alive in CI."),
+) -> None:
+    """Verified roots vs numpy, python-flint, mpmath and MPSolve: speed and accuracy."""
+    from argand.bench.roots import bench_roots
+
+    with console.status("benchmarking roots") as status:
+        report = bench_roots(count=count, seed=seed, out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+    for suite, data in report["suites"].items():
+        table = Table(title=f"{suite} (ns per polynomial; accuracy against the exact truth)", title_justify="left")
+        table.add_column("method", no_wrap=True)
+        for col in ("ns/poly", "x auto", "median rel radius", "median rel error", "max rel error", "verified"):
+            table.add_column(col, justify="right")
+        auto = data["results"]["argand-auto"]["ns_per_poly"]
+        for name, row in data["results"].items():
+            table.add_row(
+                name,
+                f"{row['ns_per_poly']:.0f}",
+                f"{row['ns_per_poly'] / auto:.1f}",
+                f"{row['median_rel_radius']:.1e}" if row.get("median_rel_radius") is not None else "",
+                f"{row['median_rel_error']:.1e}" if row.get("median_rel_error") is not None else "",
+                f"{row['max_rel_error']:.1e}" if row.get("max_rel_error") is not None else "",
+                f"{100 * row['fully_verified_share']:.2f}%" if "fully_verified_share" in row else "",
+            )
+        console.print(table)
+    console.print(f"wrote {out / 'roots.json'} and {out / 'roots.png'}")
+
+
+@bench_app.command("render")
+def bench_render_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out"),
+    smoke: bool = typer.Option(False, "--smoke", help="Small sizes, for CI."),
+) -> None:
+    """Every preset at 512x512 and 1024x1024 for delta in {0, pi/18, pi/9} on one core."""
+    from argand.bench.render import bench_render
+
+    with console.status("benchmarking render") as status:
+        report = bench_render(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+    table = Table(title="render, one core", title_justify="left")
+    for col in ("scene", "size", "delta", "ms/frame", "ns/pixel", "certified", "unverified ms", "ratio"):
+        table.add_column(col)
+    for row in report["frames"]:
+        table.add_row(
+            row["scene"], f"{row['width']}x{row['height']}", f"{row['delta']:.4f}", f"{row['ms']:.0f}",
+            f"{row['ns_per_pixel']:.0f}", f"{100 * row['certified_share']:.3f}%", f"{row['unverified_ms']:.0f}",
+            f"{row['ms'] / row['unverified_ms']:.2f}",
+        )
+    console.print(table)
+    console.print(f"wrote {out / 'render.json'}")
+
+
+def main() -> None:  # pragma: no cover
+    app()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,36 @@
+"""argand.render: frames of a scene in complex space, rendered locally.
+
+``render_tile(scene, params, rect) -> TileAOVs`` is the unit of work (the
+farm's workers call it too); ``render_frame`` renders all tiles of a frame
+on all cores; ``argand.render.output`` writes EXR (all AOVs), PNG, JSON and
+the GIF animation through OpenImageIO.
+"""
+
+from argand.render.angles import parse_angle, parse_sweep
+from argand.render.frames import (
+    AOV_CHANNELS,
+    STATUS_NAMES,
+    FrameParams,
+    FrameResult,
+    TileAOVs,
+    TileRect,
+    delta_sweep,
+    render_frame,
+    render_tile,
+    tiles,
+)
+
+__all__ = [
+    "AOV_CHANNELS",
+    "STATUS_NAMES",
+    "FrameParams",
+    "FrameResult",
+    "TileAOVs",
+    "TileRect",
+    "delta_sweep",
+    "parse_angle",
+    "parse_sweep",
+    "render_frame",
+    "render_tile",
+    "tiles",
+]

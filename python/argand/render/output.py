@@ -1,0 +1,114 @@
+"""Frame files through OpenImageIO: EXR with every AOV, a PNG preview, the
+frame's figures as JSON, and the animation as a GIF."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from argand.render.frames import AOV_CHANNELS, FrameResult
+
+EXR_CHANNELS = ("R", "G", "B", "A") + AOV_CHANNELS
+
+
+def _oiio():
+    import OpenImageIO as oiio
+
+    return oiio
+
+
+def to_srgb8(rgba: np.ndarray) -> np.ndarray:
+    """Linear RGB -> 8-bit sRGB (the PNG preview; alpha dropped: misses show
+    the scene's background)."""
+    rgb = np.clip(rgba[..., :3], 0.0, 1.0)
+    srgb = np.where(rgb <= 0.0031308, 12.92 * rgb, 1.055 * np.power(rgb, 1 / 2.4) - 0.055)
+    return np.ascontiguousarray((srgb * 255.0 + 0.5).astype(np.uint8))
+
+
+def exr_pixels(result: FrameResult) -> np.ndarray:
+    """(h, w, 10) float32: R, G, B, A, Z, arg, re, im, count, status."""
+    planes = [result.rgba[..., i] for i in range(4)] + [result.aovs[name].astype(np.float32) for name in AOV_CHANNELS]
+    return np.ascontiguousarray(np.stack(planes, axis=-1).astype(np.float32))
+
+
+def write_exr(result: FrameResult, path: Path) -> None:
+    oiio = _oiio()
+    h, w = result.rgba.shape[:2]
+    spec = oiio.ImageSpec(w, h, len(EXR_CHANNELS), "float")
+    spec.channelnames = EXR_CHANNELS
+    spec.alpha_channel = 3
+    spec.z_channel = 4
+    spec.attribute("compression", "zip")
+    for key, value in (("argand:sigma", result.params.sigma), ("argand:delta", result.params.delta)):
+        spec.attribute(key, float(value))
+    spec.attribute("argand:certified_share", float(result.certified_share))
+    _write(oiio, path, spec, exr_pixels(result))
+
+
+def write_png(pixels: np.ndarray, path: Path) -> None:
+    oiio = _oiio()
+    h, w = pixels.shape[:2]
+    spec = oiio.ImageSpec(w, h, pixels.shape[2], "uint8")
+    _write(oiio, path, spec, pixels)
+
+
+def _write(oiio, path: Path, spec, pixels: np.ndarray) -> None:
+    tmp = path.with_name(path.name + ".tmp" + path.suffix)
+    out = oiio.ImageOutput.create(str(tmp))
+    if out is None or not out.open(str(tmp), spec):
+        raise OSError(f"cannot write {path}: {oiio.geterror()}")
+    ok = out.write_image(pixels)
+    out.close()
+    if not ok:
+        raise OSError(f"cannot write {path}: {out.geterror()}")
+    tmp.replace(path)  # atomic: readers never see half a frame
+
+
+def write_frame(result: FrameResult, out_dir: Path, index: int) -> dict[str, Path]:
+    """Writes frame_NNNN.exr, .png and .json under out_dir."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = out_dir / f"frame_{index:04d}"
+    paths = {"exr": stem.with_suffix(".exr"), "png": stem.with_suffix(".png"), "json": stem.with_suffix(".json")}
+    write_exr(result, paths["exr"])
+    write_png(to_srgb8(result.rgba), paths["png"])
+    figures = dict(result.figures, index=index)
+    paths["json"].write_text(json.dumps(figures, indent=2) + "\n")
+    return paths
+
+
+def write_gif(frames: Sequence[np.ndarray], path: Path, fps: float = 8.0) -> None:
+    """An animated GIF (OpenImageIO, one subimage per frame, looping)."""
+    if not frames:
+        raise ValueError("no frames to animate")
+    oiio = _oiio()
+    h, w = frames[0].shape[:2]
+    spec = oiio.ImageSpec(w, h, 3, "uint8")
+    spec.attribute("FramesPerSecond", oiio.TypeDesc("rational"), (int(round(fps * 100)), 100))
+    spec.attribute("oiio:Movie", 1)
+    spec.attribute("gif:LoopCount", 0)
+    tmp = path.with_name(path.name + ".tmp.gif")
+    out = oiio.ImageOutput.create(str(tmp))
+    if out is None or not out.open(str(tmp), [spec] * len(frames)):
+        raise OSError(f"cannot write {path}: {oiio.geterror()}")
+    for i, frame in enumerate(frames):
+        if i > 0 and not out.open(str(tmp), spec, "AppendSubimage"):
+            raise OSError(f"cannot append frame {i} to {path}: {out.geterror()}")
+        if not out.write_image(np.ascontiguousarray(frame[..., :3])):
+            raise OSError(f"cannot write frame {i} of {path}: {out.geterror()}")
+    out.close()
+    tmp.replace(path)
+
+
+def read_exr(path: Path) -> tuple[list[str], np.ndarray]:
+    """(channel names, (h, w, c) float32 pixels) of an EXR written above."""
+    oiio = _oiio()
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        raise OSError(f"cannot read {path}: {oiio.geterror()}")
+    names = list(inp.spec().channelnames)
+    pixels = inp.read_image("float")
+    inp.close()
+    return names, pixels
