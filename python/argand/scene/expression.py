@@ -257,6 +257,9 @@ class _Parser:
             raise self.error("the expression ends too early (an operand is missing)")
         if t.kind == ")":
             raise self.error("unexpected ')'")
+        previous = self.tokens[self.i - 1] if self.i > 0 else None
+        if t.kind == "op" and previous is not None and previous.kind == "op":
+            raise self.error(f"two operators in a row ({previous.text!r} then {t.text!r})")
         raise self.error(f"unexpected {t.text!r} (an operand is missing)")
 
     def atom_after_sign(self, sign: Token) -> Poly:
