@@ -1,0 +1,95 @@
+"""The command line, run as a person runs it (a real subprocess)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ARGAND = str(Path(sys.executable).with_name("argand"))
+
+
+def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([ARGAND, *args], capture_output=True, text=True, cwd=cwd, timeout=300)
+
+
+def test_roots_table():
+    r = run("roots", "1", "0", "0", "0", "1")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.count("yes") == 4 and "all verified" in r.stdout
+
+
+def test_roots_negative_coefficients_and_methods():
+    r = run("roots", "-2", "0", "1", "--method", "paper")
+    assert r.returncode == 0, r.stderr
+    assert "1.414213562373095" in r.stdout and "all verified" in r.stdout
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["roots", "1", "x"], "coefficient 1 ('x') is not a number"),
+        (["roots", "1", "nan"], "must be finite"),
+        (["roots", "0", "0"], "zero polynomial"),
+        (["roots", "1", "1", "--method", "fast"], "unknown method"),
+        (["render", "no-such-scene"], "no preset or file named"),
+        (["render", "bicube", "--deltas", "0:pi/9"], "START:STOP:COUNT"),
+        (["render", "bicube", "--delta", "pi/"], "cannot read"),
+        (["render", "bicube", "--size", "big"], "--size must look like"),
+    ],
+)
+def test_bad_input_exits_2_with_a_message(args, message):
+    r = run(*args)
+    assert r.returncode == 2
+    assert message in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_bad_scene_file(tmp_path):
+    f = tmp_path / "scene.yaml"
+    f.write_text("objects:\n  - surface: 'x^2 + (y'\n")
+    r = run("render", str(f), "--size", "8x8", "--out", str(tmp_path / "out"))
+    assert r.returncode == 2 and "unmatched '('" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_render_writes_frames_aovs_and_animation(tmp_path):
+    out = tmp_path / "frames"
+    r = run("render", "whitney", "--deltas", "0:pi/9:3", "--size", "32x24", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    import OpenImageIO as oiio
+
+    from argand.render.output import read_exr
+
+    for i in range(3):
+        names, pixels = read_exr(out / f"frame_{i:04d}.exr")
+        # (EXR keeps its own channel order; look channels up by name.)
+        assert sorted(names) == sorted(["R", "G", "B", "A", "Z", "arg", "re", "im", "count", "status"])
+        assert pixels.shape == (24, 32, 10)
+        assert set(np.unique(pixels[..., names.index("status")])) <= {0.0, 1.0, 2.0, 3.0}
+        alpha = pixels[..., names.index("A")]
+        assert np.all(np.isfinite(pixels[..., names.index("Z")][alpha > 0]))
+        figures = json.loads((out / f"frame_{i:04d}.json").read_text())
+        assert 0 <= figures["certified_share"] <= 1 and figures["index"] == i
+        assert (out / f"frame_{i:04d}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    inp = oiio.ImageInput.open(str(out / "animation.gif"))
+    n = 0
+    while inp.seek_subimage(n, 0):
+        n += 1
+    inp.close()
+    assert n == 3
+
+
+def test_bench_roots_smoke(tmp_path):
+    r = run("bench", "roots", "--smoke", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    report = json.loads((tmp_path / "roots.json").read_text())
+    for suite in ("quartic", "mixed_2_8"):
+        rows = report["suites"][suite]["results"]
+        for method in ("argand-auto", "argand-smith", "argand-paper", "argand-unverified", "numpy-eigvals", "flint-acb_poly.roots"):
+            assert rows[method]["ns_per_poly"] > 0
+        assert rows["argand-auto"]["fully_verified_share"] > 0.9
+    assert (tmp_path / "roots.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
