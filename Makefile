@@ -6,11 +6,23 @@ VENV    ?= .venv
 PY      := $(VENV)/bin/python
 PIP     := $(PY) -m pip
 STAMP   := $(VENV)/.argand-deps
-SOURCES := $(shell find core python api worker -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
+SOURCES := $(shell find core python api worker -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: setup build run test test-cpp test-py bench bench-smoke clean
+.PHONY: setup build run test test-cpp test-py bench bench-render bench-smoke clean
 
 setup: $(VENV)/.argand-built
+
+# Debian packages: MPSolve for the roots benchmark (optional: without root the
+# benchmark reports it unavailable). Browser tests will add chromium here.
+DEB_PACKAGES := mpsolve python3-mpsolve
+$(VENV)/.argand-debs:
+	@mkdir -p $(VENV)
+	@if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	  dpkg -s $(DEB_PACKAGES) >/dev/null 2>&1 || \
+	  { apt-get update -q >/dev/null && DEBIAN_FRONTEND=noninteractive apt-get install -y -q $(DEB_PACKAGES) >/dev/null; } || \
+	  echo "warning: could not install $(DEB_PACKAGES); the benchmark will report MPSolve unavailable"; \
+	else echo "note: not root, skipping Debian packages ($(DEB_PACKAGES))"; fi
+	@touch $@
 
 # Python environment and the build requirements (we build without isolation
 # so that the C++ build directory is reused between builds).
@@ -22,18 +34,22 @@ $(STAMP): pyproject.toml
 	touch $@
 
 # The package itself (C++ core + Python), rebuilt when a source changes.
-$(VENV)/.argand-built: $(STAMP) $(SOURCES)
+$(VENV)/.argand-built: $(STAMP) $(VENV)/.argand-debs $(SOURCES)
 	$(PIP) install -q --no-build-isolation --no-deps .
 	touch $@
 
 build: $(VENV)/.argand-built
 
 # The main job. (The render farm arrives with issue 4; until then `make run`
-# shows the verified root finder at work on a few classic cases.)
+# renders the paper's Bicube sweep locally and shows the verified roots.)
+RUN_OUT ?= argand-data/bicube
 run: setup
-	$(VENV)/bin/argand roots 1 0 0 0 1
-	$(VENV)/bin/argand roots -- -1 0 1 --method paper
 	$(VENV)/bin/argand roots 1 -4 6 -4 1
+	$(VENV)/bin/argand render bicube --deltas 0:pi/9:12 --size 384x384 --out $(RUN_OUT)
+	@echo "open $(RUN_OUT)/animation.gif (frames, EXR with AOVs and figures beside it)"
+
+bench-render: setup
+	$(VENV)/bin/argand bench render
 
 # C++ unit tests of the arithmetic, with the CMake that setup installed.
 test-cpp: $(STAMP)
@@ -51,6 +67,7 @@ bench: setup
 
 bench-smoke: setup
 	$(VENV)/bin/argand bench roots --smoke --out build/bench-smoke
+	$(VENV)/bin/argand bench render --smoke --out build/bench-smoke
 
 clean:
 	rm -rf build dist $(VENV)

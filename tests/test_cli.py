@@ -93,3 +93,13 @@ def test_bench_roots_smoke(tmp_path):
             assert rows[method]["ns_per_poly"] > 0
         assert rows["argand-auto"]["fully_verified_share"] > 0.9
     assert (tmp_path / "roots.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bench_render_smoke(tmp_path):
+    r = run("bench", "render", "--smoke", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    report = json.loads((tmp_path / "render.json").read_text())
+    assert len(report["frames"]) == 6 * 2 * 3
+    for f in report["frames"]:
+        assert f["ms"] > 0 and f["unverified_ms"] > 0 and 0 <= f["certified_share"] <= 1
+    assert (tmp_path / "render_contact.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
