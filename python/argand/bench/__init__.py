@@ -20,7 +20,9 @@ def machine_info() -> dict:
 
 
 def median_time(fn, repeats: int) -> float:
-    """Median wall time of fn() over `repeats` runs (seconds)."""
+    """Median wall time of fn() over `repeats` runs (seconds), after one
+    untimed warm-up run (first-touch page faults, caches)."""
+    fn()
     times = []
     for _ in range(repeats):
         t = time.perf_counter()
