@@ -229,6 +229,10 @@ def bench_roots(
             acc = accuracy(approx[:k], radii[:k] if radii is not None else None, truth[:k])
             rows[name] = {"polynomials": n_polys, "ns_per_poly": seconds / n_polys * 1e9, **acc, **(extra or {})}
 
+        # Warm the process up once (allocator, caches, clock) so that the
+        # first method timed does not pay for it.
+        for method in OUR_METHODS:
+            run_ours(method, polys[: sizes["ours"]], 1)
         for method in OUR_METHODS:
             progress(f"{suite}: argand {method}")
             seconds, approx, radii, verified = run_ours(method, polys[: sizes["ours"]], repeats)
