@@ -238,6 +238,75 @@ def bench_render_cmd(
     console.print(f"wrote {out / 'render.json'}")
 
 
+# ---------------------------------------------------------------------------
+# The farm
+# ---------------------------------------------------------------------------
+
+
+def _farm_settings(data: Optional[Path], host: Optional[str], port: Optional[int]):
+    from argand.api.settings import Settings
+
+    overrides = {}
+    if data is not None:
+        overrides["data_dir"] = data
+    if host is not None:
+        overrides["host"] = host
+    if port is not None:
+        overrides["port"] = port
+    return Settings(**overrides)
+
+
+@app.command()
+def serve(
+    workers: int = typer.Option(2, "--workers", min=0, help="Celery worker processes to start."),
+    host: Optional[str] = typer.Option(None, "--host", help="Default 127.0.0.1 (ARGAND_HOST)."),
+    port: Optional[int] = typer.Option(None, "--port", help="Default 8000 (ARGAND_PORT)."),
+    data: Optional[Path] = typer.Option(None, "--data", help="Data folder (default ./argand-data, ARGAND_DATA_DIR)."),
+) -> None:
+    """The render farm: Redis (embedded unless ARGAND_REDIS_URL), the API and N workers. Ctrl-C stops it."""
+    from argand.worker.serve import serve as run
+
+    run(_farm_settings(data, host, port), workers, announce=lambda m: console.print(m))
+
+
+@app.command()
+def worker(
+    name: Optional[str] = typer.Option(None, "--name", help="Worker name (default worker-PID@host)."),
+    data: Optional[Path] = typer.Option(None, "--data", help="Data folder shared with the API (ARGAND_DATA_DIR)."),
+) -> None:
+    """One worker that joins an existing Redis + database + store (ARGAND_REDIS_URL, ARGAND_DATABASE_URL)."""
+    import os
+    import sys
+
+    from argand.worker.serve import worker_command
+
+    settings = _farm_settings(data, None, None)
+    if settings.redis_url is None:
+        fail("set ARGAND_REDIS_URL to the farm's Redis (a worker does not start its own broker)")
+    env = dict(os.environ, ARGAND_DATA_DIR=str(settings.data_path))
+    worker_name = name or f"worker-{os.getpid()}@{os.uname().nodename}"
+    env["ARGAND_WORKER_NAME"] = worker_name
+    os.execvpe(sys.executable, worker_command(worker_name), env)
+
+
+@app.command()
+def api(
+    host: Optional[str] = typer.Option(None, "--host"),
+    port: Optional[int] = typer.Option(None, "--port"),
+    data: Optional[Path] = typer.Option(None, "--data"),
+) -> None:
+    """The API alone (ARGAND_REDIS_URL and ARGAND_DATABASE_URL point at the farm)."""
+    import uvicorn
+
+    from argand.api.main import create_app
+
+    settings = _farm_settings(data, host, port)
+    if settings.redis_url is None:
+        fail("set ARGAND_REDIS_URL to the farm's Redis (argand api does not start its own broker; argand serve does)")
+    console.print(f"Argand API on http://{settings.host}:{settings.port}/")
+    uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="warning")
+
+
 def main() -> None:  # pragma: no cover
     app()
 

@@ -1,0 +1,119 @@
+"""Job state in SQL (SQLAlchemy 2): the source of truth for jobs, frames and
+tiles. Celery only carries work."""
+
+from __future__ import annotations
+
+import json
+import time
+from contextlib import contextmanager
+from typing import Iterator
+
+from sqlalchemy import JSON, Float, ForeignKey, Integer, String, Text, create_engine, event, select
+from sqlalchemy.engine import Engine
+from sqlalchemy.orm import DeclarativeBase, Mapped, Session, mapped_column, relationship, sessionmaker
+
+JOB_STATES = ("queued", "running", "paused", "done", "failed", "canceled")
+
+
+class Base(DeclarativeBase):
+    pass
+
+
+class Job(Base):
+    __tablename__ = "jobs"
+    id: Mapped[str] = mapped_column(String(32), primary_key=True)
+    status: Mapped[str] = mapped_column(String(16), default="queued", index=True)
+    scene_name: Mapped[str] = mapped_column(String(200))
+    scene: Mapped[dict] = mapped_column(JSON)
+    sigma: Mapped[float] = mapped_column(Float, default=0.0)
+    width: Mapped[int] = mapped_column(Integer)
+    height: Mapped[int] = mapped_column(Integer)
+    tile: Mapped[int] = mapped_column(Integer)
+    method: Mapped[str] = mapped_column(String(16), default="auto")
+    priority: Mapped[int] = mapped_column(Integer, default=5)
+    created: Mapped[float] = mapped_column(Float, default=time.time)
+    started: Mapped[float | None] = mapped_column(Float, nullable=True)
+    finished: Mapped[float | None] = mapped_column(Float, nullable=True)
+    error: Mapped[str | None] = mapped_column(Text, nullable=True)
+    frames: Mapped[list["Frame"]] = relationship(back_populates="job", cascade="all, delete-orphan", order_by="Frame.index")
+
+
+class Frame(Base):
+    __tablename__ = "frames"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    job_id: Mapped[str] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), index=True)
+    index: Mapped[int] = mapped_column(Integer)
+    sigma: Mapped[float] = mapped_column(Float)
+    delta: Mapped[float] = mapped_column(Float)
+    status: Mapped[str] = mapped_column(String(16), default="queued")  # queued|rendering|assembling|done
+    tiles_total: Mapped[int] = mapped_column(Integer)
+    figures: Mapped[dict | None] = mapped_column(JSON, nullable=True)
+    job: Mapped[Job] = relationship(back_populates="frames")
+
+
+class Tile(Base):
+    __tablename__ = "tiles"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    job_id: Mapped[str] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), index=True)
+    frame_index: Mapped[int] = mapped_column(Integer, index=True)
+    tile_index: Mapped[int] = mapped_column(Integer)
+    status: Mapped[str] = mapped_column(String(16), default="queued", index=True)  # queued|running|done|failed
+    worker: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    started: Mapped[float | None] = mapped_column(Float, nullable=True)
+    attempts: Mapped[int] = mapped_column(Integer, default=0)
+    renders: Mapped[int] = mapped_column(Integer, default=0)  # completed renders written (must end at 1)
+    seconds: Mapped[float | None] = mapped_column(Float, nullable=True)
+
+
+class Worker(Base):
+    __tablename__ = "workers"
+    name: Mapped[str] = mapped_column(String(200), primary_key=True)
+    host: Mapped[str] = mapped_column(String(200))
+    pid: Mapped[int] = mapped_column(Integer)
+    heartbeat: Mapped[float] = mapped_column(Float)
+    current_tile: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    tiles_done: Mapped[int] = mapped_column(Integer, default=0)
+
+
+_engines: dict[str, Engine] = {}
+
+
+def engine_for(url: str) -> Engine:
+    if url not in _engines:
+        if url.startswith("sqlite"):
+            eng = create_engine(url, connect_args={"timeout": 60, "check_same_thread": False})
+
+            @event.listens_for(eng, "connect")
+            def _pragmas(conn, _record):  # several processes share the file
+                cur = conn.cursor()
+                cur.execute("PRAGMA journal_mode=WAL")
+                cur.execute("PRAGMA busy_timeout=60000")
+                cur.execute("PRAGMA foreign_keys=ON")
+                cur.close()
+        else:
+            eng = create_engine(url, pool_pre_ping=True)
+        Base.metadata.create_all(eng)
+        _engines[url] = eng
+    return _engines[url]
+
+
+@contextmanager
+def session_scope(url: str) -> Iterator[Session]:
+    factory = sessionmaker(engine_for(url), expire_on_commit=False)
+    with factory() as s:
+        try:
+            yield s
+            s.commit()
+        except Exception:
+            s.rollback()
+            raise
+
+
+def job_progress(s: Session, job: Job) -> tuple[int, int]:
+    done = s.scalar(select(__import__("sqlalchemy").func.count()).select_from(Tile).where(Tile.job_id == job.id, Tile.status == "done"))
+    total = sum(f.tiles_total for f in job.frames)
+    return int(done or 0), int(total)
+
+
+def dumps(obj) -> str:
+    return json.dumps(obj, separators=(",", ":"))

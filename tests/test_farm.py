@@ -1,0 +1,207 @@
+"""The render farm with real parts: an embedded Redis, real Celery worker
+processes, uvicorn serving the API, a SQLite file, all on loopback."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+
+from argand.render import FrameParams, render_frame
+from argand.render.output import read_exr
+from argand.scene import load_scene
+
+ARGAND = str(Path(sys.executable).with_name("argand"))
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Farm:
+    def __init__(self, data: Path, workers: int = 2, **env: str) -> None:
+        self.data, self.workers, self.port = data, workers, free_port()
+        self.env = dict(os.environ, ARGAND_HEARTBEAT_INTERVAL_S="0.5", ARGAND_HEARTBEAT_TIMEOUT_S="3", **env)
+        self.env.pop("ARGAND_REDIS_URL", None)
+        self.proc: subprocess.Popen | None = None
+
+    def start(self) -> "Farm":
+        self.data.mkdir(parents=True, exist_ok=True)
+        self.log = self.data / f"serve-{self.port}.log"
+        with open(self.log, "w") as log:  # (a pipe nobody reads could fill up and block the farm)
+            self.proc = subprocess.Popen(
+                [ARGAND, "serve", "--workers", str(self.workers), "--port", str(self.port), "--data", str(self.data)],
+                env=self.env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True,
+            )
+        self.url = f"http://127.0.0.1:{self.port}"
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            assert self.proc.poll() is None, self.log.read_text()
+            try:
+                if httpx.get(self.url + "/healthz", timeout=2).status_code == 200:
+                    break
+            except httpx.HTTPError:
+                pass
+            time.sleep(0.2)
+        else:
+            raise AssertionError("the farm did not come up")
+        if self.workers:
+            self.wait_for(lambda: len([w for w in self.get("/api/workers") if w["alive"]]) >= self.workers, 60)
+        return self
+
+    def stop(self) -> None:
+        if self.proc and self.proc.poll() is None:
+            os.killpg(self.proc.pid, signal.SIGINT)
+            try:
+                self.proc.wait(30)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait()
+
+    def get(self, path: str):
+        r = httpx.get(self.url + path, timeout=30)
+        r.raise_for_status()
+        return r.json()
+
+    def post(self, path: str, json=None) -> httpx.Response:
+        return httpx.post(self.url + path, json=json, timeout=60)
+
+    @staticmethod
+    def wait_for(cond, timeout: float) -> None:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if cond():
+                return
+            time.sleep(0.2)
+        raise AssertionError("timed out")
+
+    def wait_job(self, job_id: str, timeout: float = 180) -> dict:
+        self.wait_for(lambda: self.get(f"/api/jobs/{job_id}")["status"] in ("done", "failed", "canceled"), timeout)
+        return self.get(f"/api/jobs/{job_id}")
+
+
+@pytest.fixture
+def farm(tmp_path):
+    f = Farm(tmp_path / "data").start()
+    yield f
+    f.stop()
+
+
+def check_frames_against_local(farm: Farm, job: dict, scene_name: str) -> None:
+    scene = load_scene(scene_name)
+    for fr in job["frames"]:
+        local = render_frame(scene, FrameParams(sigma=fr["sigma"], delta=fr["delta"], width=job["width"], height=job["height"]), workers=1)
+        exr = farm.data / "store" / "jobs" / job["id"] / f"frame_{fr['index']:04d}.exr"
+        names, pixels = read_exr(exr)
+        for i, c in enumerate("RGBA"):
+            assert np.array_equal(pixels[..., names.index(c)], local.rgba[..., i]), (fr["index"], c)
+        for aov in ("Z", "arg", "re", "im", "count", "status"):
+            assert np.array_equal(pixels[..., names.index(aov)], local.aovs[aov].astype(np.float32)), (fr["index"], aov)
+        r = httpx.get(farm.url + fr["png_url"])
+        assert r.status_code == 200 and r.content[:4] == b"\x89PNG"
+
+
+def test_job_over_http_matches_local_render(farm):
+    r = farm.post("/api/jobs", {"scene": "whitney", "deltas": {"start": 0, "stop": "pi/9", "count": 5}, "width": 48, "height": 40, "tile": 16})
+    assert r.status_code == 201, r.text
+    job = farm.wait_job(r.json()["id"])
+    assert job["status"] == "done" and job["progress"] == 1.0
+    assert all(f["certified_share"] is not None for f in job["frames"])
+    check_frames_against_local(farm, job, "whitney")
+    gif = httpx.get(farm.url + job["animation_url"])
+    assert gif.status_code == 200
+    import OpenImageIO as oiio
+
+    path = farm.data / "gif.gif"
+    path.write_bytes(gif.content)
+    inp = oiio.ImageInput.open(str(path))
+    n = 0
+    while inp.seek_subimage(n, 0):
+        n += 1
+    inp.close()
+    assert n == 5
+    workers = farm.get("/api/workers")
+    assert len(workers) == 2 and sum(w["tiles_done"] for w in workers) == 5 * 3 * 3
+    metrics = httpx.get(farm.url + "/metrics").text
+    assert 'argand_jobs{status="done"} 1' in metrics
+
+
+def test_bad_jobs_are_refused_with_the_reason(farm):
+    cases = [
+        ({"scene": "nope"}, "unknown preset"),
+        ({"scene": {"objects": [{"surface": "x^2 + (y"}]}}, "unmatched '('"),
+        ({"scene": "bicube", "width": 100000}, "exceeds the limit"),
+        ({"scene": "bicube", "deltas": {"start": 0, "stop": 1, "count": 100000}}, "limit"),
+        ({"scene": "bicube", "deltas": ["pi/"]}, "cannot read"),
+        ({"scene": "bicube", "priority": 42}, "priority"),
+        ({"scene": "bicube", "colour": "red"}, "colour"),
+    ]
+    for body, message in cases:
+        r = farm.post("/api/jobs", body)
+        assert r.status_code == 422, (body, r.text)
+        assert message in r.text, (body, r.text)
+    assert farm.get("/api/jobs")["total"] == 0
+    v = farm.post("/api/scenes/validate", {"surface": "x^2 + w"}).json()
+    assert v["valid"] is False and v["position"] == 6
+    assert farm.post("/api/scenes/validate", {"surface": "x^2*z + y^2"}).json() == {"valid": True, "degree": 3}
+
+
+def test_killed_worker_loses_no_tile_and_renders_none_twice(farm):
+    r = farm.post("/api/jobs", {"scene": "bicube", "deltas": {"start": 0, "stop": "pi/9", "count": 8}, "width": 96, "height": 96, "tile": 16})
+    job_id = r.json()["id"]
+    farm.wait_for(lambda: farm.get(f"/api/jobs/{job_id}")["tiles_done"] >= 20, 60)
+    victim = farm.get("/api/workers")[0]
+    os.kill(victim["pid"], signal.SIGKILL)
+    job = farm.wait_job(job_id, 240)
+    assert job["status"] == "done" and job["tiles_done"] == job["tiles_total"] == 8 * 36
+    from sqlalchemy import create_engine, text
+
+    eng = create_engine(f"sqlite:///{farm.data / 'argand.db'}")
+    with eng.connect() as c:
+        renders = c.execute(text("select renders from tiles where job_id = :j"), {"j": job_id}).scalars().all()
+    assert len(renders) == 8 * 36 and set(renders) == {1}
+    check_frames_against_local(farm, job, "bicube")
+
+
+def test_cancel_stops_rendering(farm):
+    r = farm.post("/api/jobs", {"scene": "mitchell", "deltas": {"start": 0, "stop": "pi/9", "count": 24}, "width": 128, "height": 128, "tile": 16})
+    job_id = r.json()["id"]
+    farm.wait_for(lambda: farm.get(f"/api/jobs/{job_id}")["tiles_done"] >= 5, 60)
+    assert farm.post(f"/api/jobs/{job_id}/cancel").json()["status"] == "canceled"
+    time.sleep(2)  # a tile in flight may finish
+    done = farm.get(f"/api/jobs/{job_id}")["tiles_done"]
+    time.sleep(2)
+    assert farm.get(f"/api/jobs/{job_id}")["tiles_done"] == done < 24 * 64
+
+
+def test_restart_keeps_jobs_and_resumes_queued_work(tmp_path):
+    data = tmp_path / "data"
+    f = Farm(data, workers=0).start()  # no workers: the work stays queued in Redis
+    r = f.post("/api/jobs", {"scene": "steiner", "deltas": [0, "pi/18"], "width": 32, "height": 32, "tile": 16})
+    job_id = r.json()["id"]
+    assert f.get(f"/api/jobs/{job_id}")["status"] == "queued"
+    f.stop()  # stops the API and the embedded Redis (AOF on disk)
+    g = Farm(data, workers=2).start()  # a fresh Redis process on the same files, and workers
+    try:
+        job = g.wait_job(job_id, 120)
+        assert job["status"] == "done"
+        check_frames_against_local(g, job, "steiner")
+    finally:
+        g.stop()
+    h = Farm(data, workers=0).start()  # restart again: jobs and frames are still there
+    try:
+        job = h.get(f"/api/jobs/{job_id}")
+        assert job["status"] == "done" and len(job["frames"]) == 2
+        assert httpx.get(h.url + job["frames"][1]["png_url"]).status_code == 200
+    finally:
+        h.stop()
