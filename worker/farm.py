@@ -156,13 +156,18 @@ def run_tile(settings: Settings, job_id: str, frame_index: int, tile_index: int,
             .values(status="done", seconds=seconds, renders=Tile.renders + 1)
         ).rowcount
         s.execute(update(Worker).where(Worker.name == worker_name).values(current_tile=None, tiles_done=Worker.tiles_done + 1))
+        if won:
+            done = s.scalar(select(func.count()).select_from(Tile).where(
+                Tile.job_id == job_id, Tile.frame_index == frame_index, Tile.status == "done"))
+            total = s.scalar(select(Frame.tiles_total).where(Frame.job_id == job_id, Frame.index == frame_index))
     if not won:
         return "already done"
-    maybe_assemble(settings, job_id, frame_index)
+    if done >= total:
+        maybe_assemble(settings, job_id, frame_index, worker_name)
     return "rendered"
 
 
-def maybe_assemble(settings: Settings, job_id: str, frame_index: int) -> bool:
+def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler: str = "api") -> bool:
     url = settings.sqlalchemy_url
     with session_scope(url) as s:
         frame = s.scalar(select(Frame).where(Frame.job_id == job_id, Frame.index == frame_index))
@@ -172,7 +177,7 @@ def maybe_assemble(settings: Settings, job_id: str, frame_index: int) -> bool:
             return False
         # Elect one assembler (compare-and-set); assembly is idempotent anyway.
         won = s.execute(update(Frame).where(Frame.id == frame.id, Frame.status.in_(("queued", "rendering")))
-                        .values(status="assembling")).rowcount
+                        .values(status="assembling", assembler=assembler, assembling_since=time.time())).rowcount
     if not won:
         return False
     assemble_frame(settings, job_id, frame_index)
@@ -308,6 +313,12 @@ def reap(settings: Settings) -> int:
                     continue
                 t.status = "queued"
                 t.worker = None
+        # A frame whose assembler died (or hangs) is assembled again.
+        orphans = []
+        for f in s.scalars(select(Frame).where(Frame.status == "assembling")).all():
+            if f.assembler in dead_names or (f.assembling_since and now - f.assembling_since > settings.tile_hard_time_limit_s):
+                f.status = "rendering"
+                orphans.append((f.job_id, f.index))
         if dead:
             active = select(Job.id).where(Job.status.in_(("queued", "running")))
             requeue = [tuple(r) for r in s.execute(
@@ -315,6 +326,8 @@ def reap(settings: Settings) -> int:
             ).all()]
             for w in dead:
                 s.delete(w)
+    for job_id, index in orphans:
+        maybe_assemble(settings, job_id, index)  # idempotent
     if requeue:
         from argand.worker.app import get_app
 

@@ -238,6 +238,27 @@ def bench_render_cmd(
     console.print(f"wrote {out / 'render.json'}")
 
 
+@bench_app.command("farm")
+def bench_farm_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out"),
+    smoke: bool = typer.Option(False, "--smoke", help="3 frames of 192x192, for CI."),
+) -> None:
+    """One job of 36 frames at 512x512 on 1 and 2 workers, tile sizes 32/64/128/frame."""
+    from argand.bench.farm import bench_farm
+
+    with console.status("benchmarking the farm") as status:
+        report = bench_farm(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+    table = Table(title=f"farm: {report['frames']} frames of {report['size']}x{report['size']}", title_justify="left")
+    for col in ("workers", "tile", "seconds", "frames/s", "first frame s", "overhead"):
+        table.add_column(col, justify="right")
+    for r in report["runs"]:
+        table.add_row(str(r["workers"]), str(r["tile"]), f"{r['wall_s']:.2f}", f"{r['fps']:.2f}",
+                      f"{r['first_frame_s']:.2f}", f"{100 * r['overhead_share']:.1f}%")
+    console.print(table)
+    console.print("scaling 2 workers / 1 worker: " + ", ".join(f"tile {k}: {v:.2f}x" for k, v in report["scaling_2_vs_1"].items()))
+    console.print(f"wrote {out / 'farm.json'} and {out / 'farm.png'}")
+
+
 # ---------------------------------------------------------------------------
 # The farm
 # ---------------------------------------------------------------------------
