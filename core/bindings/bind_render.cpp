@@ -21,11 +21,9 @@ void copy_array(const py::handle& src, double (&dst)[N], const char* what) {
 }
 
 Method method_from(const std::string& name) {
-    if (name == "auto") return Method::Auto;
-    if (name == "paper") return Method::Paper;
-    if (name == "smith") return Method::Smith;
-    if (name == "unverified") return Method::Unverified;
-    throw py::value_error("unknown method '" + name + "'");
+    Method m;
+    if (!method_from_name(name.c_str(), m)) throw py::value_error("unknown method '" + name + "'");
+    return m;
 }
 
 SceneSpec scene_from(const py::dict& d) {

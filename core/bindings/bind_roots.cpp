@@ -16,11 +16,10 @@ using argand::Status;
 namespace {
 
 Method parse_method(const std::string& name) {
-    if (name == "auto") return Method::Auto;
-    if (name == "paper") return Method::Paper;
-    if (name == "smith") return Method::Smith;
-    if (name == "unverified") return Method::Unverified;
-    throw py::value_error("unknown method '" + name + "': expected one of auto, paper, smith, unverified");
+    Method m;
+    if (!argand::method_from_name(name.c_str(), m))
+        throw py::value_error("unknown method '" + name + "': expected one of auto, paper, smith, unverified");
+    return m;
 }
 
 void raise_status(Status s, py::ssize_t row) {

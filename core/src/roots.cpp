@@ -90,6 +90,17 @@ void unscale_disc(RootDisc& d, int e) {
 
 }  // namespace
 
+bool method_from_name(const char* name, Method& out) {
+    static const struct { const char* name; Method method; } table[] = {
+        {"auto", Method::Auto}, {"paper", Method::Paper}, {"smith", Method::Smith}, {"unverified", Method::Unverified}};
+    for (const auto& entry : table)
+        if (std::strcmp(name, entry.name) == 0) {
+            out = entry.method;
+            return true;
+        }
+    return false;
+}
+
 Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult& out,
                   const double* initial_re, const double* initial_im) {
     out.n_discs = 0;

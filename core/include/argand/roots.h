@@ -56,6 +56,10 @@ struct RootsResult {
     RootDisc discs[kMaxDegree];
 };
 
+/// The method named "auto", "paper", "smith" or "unverified"; false (out
+/// untouched) for any other name.
+bool method_from_name(const char* name, Method& out);
+
 enum class Status : int {
     Ok = 0,
     NonFinite = 1,     // a coefficient is NaN or infinite
