@@ -248,9 +248,17 @@ def control(job_id: str, action: Literal["cancel", "pause", "resume", "retry"], 
 
 @jobs.patch("/{job_id}")
 def patch(job_id: str, body: PriorityPatch, settings: SettingsDep) -> dict:
+    """A new priority takes effect at once: the job's queued tiles are sent
+    again at that priority (the older messages become no-ops, since a tile
+    is claimed by compare-and-set)."""
+    from argand.worker.farm import dispatch_job
+
     with session_scope(settings.sqlalchemy_url) as s:
         job = _job_or_404(s, job_id)
         job.priority = body.priority
+        active = job.status in ("queued", "running")
+    if active:
+        dispatch_job(settings, job_id)
     with session_scope(settings.sqlalchemy_url) as s:
         return job_view(s, s.get(Job, job_id))
 
