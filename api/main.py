@@ -13,8 +13,10 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, FastAPI, HTTPException, Query, Request
+from fastapi.staticfiles import StaticFiles
 from fastapi.responses import FileResponse, JSONResponse, PlainTextResponse, StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, field_validator
+import numpy as np
 from sqlalchemy import func, select
 
 from argand.api.db import JOB_STATES, Frame, Job, Tile, Worker, job_progress, session_scope
@@ -229,6 +231,56 @@ def frame_thumb(job_id: str, index: int, settings: SettingsDep):
     return _file(settings, job_id, f"thumb_{index:04d}.png", "image/png")
 
 
+CHANNELS = ("beauty", "modulus", "argument", "status")
+#: Status colours: certified, cluster, unverified, undecided.
+STATUS_RGB = np.array([[46, 160, 67], [230, 180, 30], [215, 60, 50], [120, 90, 200]], dtype=np.uint8)
+
+
+def channel_png(exr: Path, channel: str, out: Path) -> None:
+    """A false-colour PNG of one AOV of a frame (cached beside the frame)."""
+    from argand.render.output import read_exr, write_png
+
+    names, px = read_exr(exr)
+    hit = px[..., names.index("A")] > 0
+    rgb = np.full(px.shape[:2] + (3,), 24, np.uint8)
+    if channel == "status":
+        st = px[..., names.index("status")].astype(int).clip(0, 3)
+        rgb = STATUS_RGB[st]
+        rgb[~hit & (st == 0)] = (24, 24, 28)
+    else:
+        v = px[..., names.index("Z" if channel == "modulus" else "arg")]
+        if channel == "argument":
+            t = np.abs(v) / np.pi
+        else:
+            finite = hit & np.isfinite(v)
+            lo, hi = (np.percentile(v[finite], [2, 98]) if finite.any() else (0.0, 1.0))
+            t = np.clip((v - lo) / max(hi - lo, 1e-12), 0, 1)
+        t = np.nan_to_num(t)
+        ramp = np.stack([t, 1 - np.abs(2 * t - 1), 1 - t], axis=-1)  # blue -> green -> red
+        rgb = np.where(hit[..., None], (40 + 215 * ramp).astype(np.uint8), rgb)
+    write_png(np.ascontiguousarray(rgb.astype(np.uint8)), out)
+
+
+@jobs.get("/{job_id}/frames/{index}/{channel}.png")
+def frame_channel(job_id: str, index: int, channel: str, settings: SettingsDep):
+    from argand.worker.farm import store_for
+
+    if channel not in CHANNELS:
+        raise HTTPException(422, detail=f"channel must be one of {', '.join(CHANNELS)}")
+    if channel == "beauty":
+        return frame_png(job_id, index, settings)
+    if channel == "thumbnail":
+        return frame_thumb(job_id, index, settings)
+    folder = Path(store_for(settings).job_dir(job_id))
+    exr = folder / f"frame_{index:04d}.exr"
+    if not exr.exists():
+        raise HTTPException(404, detail="the frame is not ready")
+    out = folder / f"{channel}_{index:04d}.png"
+    if not out.exists():
+        channel_png(exr, channel, out)
+    return FileResponse(out, media_type="image/png")
+
+
 @jobs.get("/{job_id}/animation.gif")
 def animation(job_id: str, settings: SettingsDep):
     return _file(settings, job_id, "animation.gif", "image/gif")
@@ -316,6 +368,32 @@ def presets() -> list[dict]:
         scene = load_scene(name)
         out.append({"name": name, "scene": scene.to_dict(), "degrees": [o.polynomial.degree for o in scene.objects]})
     return out
+
+
+_preset_thumbs: dict[str, bytes] = {}
+
+
+@misc.get("/api/presets/{name}/thumbnail.png")
+def preset_thumbnail(name: str):
+    """A small render of a preset at delta = pi/18 (cached in memory)."""
+    import tempfile
+
+    from fastapi import Response
+
+    from argand.render import FrameParams, render_frame
+    from argand.render.output import to_srgb8, write_png
+    from argand.scene import load_scene
+    from argand.scene.presets import PRESETS
+
+    if name not in PRESETS:
+        raise HTTPException(404, detail=f"no preset {name!r}")
+    if name not in _preset_thumbs:
+        result = render_frame(load_scene(name), FrameParams(delta=math.pi / 18, width=128, height=128), workers=1)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "t.png"
+            write_png(to_srgb8(result.rgba), path)
+            _preset_thumbs[name] = path.read_bytes()
+    return Response(_preset_thumbs[name], media_type="image/png")
 
 
 @misc.post("/api/scenes/validate")
@@ -414,6 +492,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     web = Path(__file__).resolve().parent.parent / "web"
     index = web / "index.html"
+    if web.is_dir():
+        app.mount("/static", StaticFiles(directory=web), name="static")
 
     @app.get("/", include_in_schema=False)
     def root():

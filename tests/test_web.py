@@ -1,0 +1,118 @@
+"""The web front end in a real browser (Debian's Chromium through Playwright)
+against a real two-worker farm: submit through the form, watch progress
+reach 100%, play, scrub, switch channel, download the GIF; an invalid
+expression shows its error and submits nothing. Screenshots of each page go
+to docs/screenshots/."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import httpx
+import pytest
+
+from test_farm import Farm
+
+REPO = Path(__file__).resolve().parents[1]
+SHOTS = REPO / "docs" / "screenshots"
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+
+
+@pytest.fixture(scope="module")
+def farm(tmp_path_factory):
+    f = Farm(tmp_path_factory.mktemp("web") / "data").start()
+    yield f
+    f.stop()
+
+
+@pytest.fixture
+def page(farm):
+    from playwright.sync_api import sync_playwright
+
+    if not Path(CHROMIUM).exists():
+        pytest.fail("Chromium is missing: make setup installs Debian's chromium package (as root)")
+    with sync_playwright() as p:
+        browser = p.chromium.launch(
+            executable_path=CHROMIUM,
+            args=["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--disable-background-networking",
+                  "--disable-component-update", "--no-first-run", "--disable-sync"],
+        )
+        pg = browser.new_page(viewport={"width": 1280, "height": 900})
+        errors: list[str] = []
+        pg.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+        pg.on("pageerror", lambda e: errors.append(str(e)))
+        pg.errors = errors
+        yield pg
+        browser.close()
+
+
+def test_invalid_expression_shows_its_error_and_submits_nothing(farm, page):
+    page.goto(farm.url + "/#/new")
+    page.wait_for_selector(".preset")
+    page.fill("#surface", "x^2 + w")
+    page.wait_for_function("document.querySelector('#surface-msg').textContent.includes('unknown name')")
+    assert "column 7" in page.text_content("#surface-msg")
+    page.click("#submit")
+    page.wait_for_function("document.querySelector('#form-msg').textContent.length > 0")
+    assert farm.get("/api/jobs")["total"] == 0
+    page.fill("#surface", "x^2*z + y^2")
+    page.wait_for_function("document.querySelector('#surface-msg').textContent === 'degree 3'")
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(SHOTS / "new-job.png"), full_page=True)
+    assert not page.errors, page.errors
+
+
+def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
+    page.goto(farm.url + "/#/new")
+    page.click("[data-preset=whitney]")
+    page.fill("#count", "6")
+    page.fill("#width", "96")
+    page.fill("#height", "96")
+    page.fill("#tile", "32")
+    page.click("#submit")
+    page.wait_for_url("**/#/job/*")
+    page.wait_for_function("document.querySelector('#status').textContent === 'done'", timeout=120_000)
+    assert page.get_attribute("#progress > span", "style").replace(" ", "") == "width:100%;"
+    # Play: the shown frame changes.
+    first = page.get_attribute("#canvas", "data-frame")
+    page.click("#play")
+    page.wait_for_function(f"document.querySelector('#canvas').dataset.frame !== '{first}'", timeout=10_000)
+    page.click("#play")
+    # Scrub to the fourth frame: the label shows its delta.
+    job_id = page.url.rsplit("/", 1)[1]
+    job = farm.get(f"/api/jobs/{job_id}")
+    page.eval_on_selector("#scrub", "(el) => { el.value = 3; el.dispatchEvent(new Event('input')); }")
+    assert f"δ = {job['frames'][3]['delta']:.4f}" in page.text_content("#scrub-label")
+    page.wait_for_function("document.querySelector('#canvas').dataset.drawn === 'beauty/3'")
+    page.screenshot(path=str(SHOTS / "job.png"), full_page=True)
+    # The status channel.
+    page.select_option("#channel", "status")
+    page.wait_for_function("document.querySelector('#canvas').dataset.drawn === 'status/3'")
+    assert page.is_visible("#legend")
+    page.screenshot(path=str(SHOTS / "job-status-channel.png"), full_page=True)
+    # Keyboard: right arrow steps one frame.
+    page.keyboard.press("ArrowRight")
+    assert page.get_attribute("#canvas", "data-frame") == "4"
+    # Download the GIF.
+    with page.expect_download() as info:
+        page.click("#gif")
+    path = tmp_path / "animation.gif"
+    info.value.save_as(path)
+    assert path.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
+    # The jobs table and the workers page.
+    page.goto(farm.url + "/#/jobs")
+    page.wait_for_selector(f"tr[data-job='{job_id}']")
+    page.screenshot(path=str(SHOTS / "jobs.png"), full_page=True)
+    page.goto(farm.url + "/#/workers")
+    page.wait_for_selector("#w table")
+    assert page.locator("#w tbody tr").count() == 2
+    page.screenshot(path=str(SHOTS / "workers.png"), full_page=True)
+    assert not page.errors, page.errors
+
+
+def test_static_files_are_served_by_the_api(farm):
+    for path in ("/", "/static/app.js", "/static/style.css"):
+        r = httpx.get(farm.url + path)
+        assert r.status_code == 200
+    assert "cdn" not in httpx.get(farm.url + "/").text.lower()
