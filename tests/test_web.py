@@ -51,13 +51,13 @@ def test_invalid_expression_shows_its_error_and_submits_nothing(farm, page):
     page.goto(farm.url + "/#/new")
     page.wait_for_selector(".preset")
     page.fill("#surface", "x^2 + w")
-    page.wait_for_function("document.querySelector('#surface-msg').textContent.includes('unknown name')")
+    page.wait_for_function("document.querySelector('#surface-msg')?.textContent.includes('unknown name')")
     assert "column 7" in page.text_content("#surface-msg")
     page.click("#submit")
-    page.wait_for_function("document.querySelector('#form-msg').textContent.length > 0")
+    page.wait_for_function("document.querySelector('#form-msg')?.textContent.length > 0")
     assert farm.get("/api/jobs")["total"] == 0
     page.fill("#surface", "x^2*z + y^2")
-    page.wait_for_function("document.querySelector('#surface-msg').textContent === 'degree 3'")
+    page.wait_for_function("document.querySelector('#surface-msg')?.textContent === 'degree 3'")
     SHOTS.mkdir(parents=True, exist_ok=True)
     page.screenshot(path=str(SHOTS / "new-job.png"), full_page=True)
     assert not page.errors, page.errors
@@ -72,23 +72,23 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     page.fill("#tile", "32")
     page.click("#submit")
     page.wait_for_url("**/#/job/*")
-    page.wait_for_function("document.querySelector('#status').textContent === 'done'", timeout=120_000)
+    page.wait_for_function("document.querySelector('#status')?.textContent === 'done'", timeout=120_000)
     assert page.get_attribute("#progress > span", "style").replace(" ", "") == "width:100%;"
     # Play: the shown frame changes.
     first = page.get_attribute("#canvas", "data-frame")
     page.click("#play")
-    page.wait_for_function(f"document.querySelector('#canvas').dataset.frame !== '{first}'", timeout=10_000)
+    page.wait_for_function(f"document.querySelector('#canvas')?.dataset?.frame !== '{first}'", timeout=10_000)
     page.click("#play")
     # Scrub to the fourth frame: the label shows its delta.
     job_id = page.url.rsplit("/", 1)[1]
     job = farm.get(f"/api/jobs/{job_id}")
     page.eval_on_selector("#scrub", "(el) => { el.value = 3; el.dispatchEvent(new Event('input')); }")
     assert f"δ = {job['frames'][3]['delta']:.4f}" in page.text_content("#scrub-label")
-    page.wait_for_function("document.querySelector('#canvas').dataset.drawn === 'beauty/3'")
+    page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'beauty/3'")
     page.screenshot(path=str(SHOTS / "job.png"), full_page=True)
     # The status channel.
     page.select_option("#channel", "status")
-    page.wait_for_function("document.querySelector('#canvas').dataset.drawn === 'status/3'")
+    page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'status/3'")
     assert page.is_visible("#legend")
     page.screenshot(path=str(SHOTS / "job-status-channel.png"), full_page=True)
     # Keyboard: right arrow steps one frame.
