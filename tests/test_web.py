@@ -108,6 +108,16 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     page.wait_for_selector("#w table")
     assert page.locator("#w tbody tr").count() == 2
     page.screenshot(path=str(SHOTS / "workers.png"), full_page=True)
+    # Compare two frames of the job, then under a slider.
+    page.goto(farm.url + f"/#/compare?a={job_id}:0&b={job_id}:5")
+    page.wait_for_selector("#img-b")
+    assert page.get_attribute("#img-a", "src").endswith(f"/api/jobs/{job_id}/frames/0.png")
+    assert page.get_attribute("#img-b", "src").endswith(f"/api/jobs/{job_id}/frames/5.png")
+    page.select_option("#cmp-mode", "slider")
+    page.eval_on_selector("#cmp-split", "(el) => { el.value = 30; el.dispatchEvent(new Event('input')); }")
+    assert "30%" in page.get_attribute("#img-b", "style")
+    page.wait_for_function("document.querySelector('#img-b')?.complete")
+    page.screenshot(path=str(SHOTS / "compare.png"), full_page=True)
     assert not page.errors, page.errors
 
 

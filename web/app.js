@@ -240,6 +240,39 @@ async function workersPage() {
   cleanup = () => clearInterval(timer);
 }
 
+// ---------------------------------------------------------------- compare
+async function comparePage() {
+  const params = new URLSearchParams(location.hash.split("?")[1] || "");
+  view.replaceChildren(h(`<h1>Compare</h1><p class="muted">Two frames, of one job or of two, side by side or under a slider.</p>
+    <div class="controls" id="pickers"><span class="muted">Loading jobs…</span></div>
+    <div class="controls"><label>view <select id="cmp-mode"><option value="side">side by side</option><option value="slider">slider</option></select></label>
+      <input id="cmp-split" type="range" min="0" max="100" value="50" aria-label="Split position" hidden></div>
+    <div id="cmp"></div>`));
+  let jobs;
+  try { jobs = (await api("/api/jobs?status=done&per_page=200")).jobs; }
+  catch (e) { view.querySelector("#pickers").replaceChildren(h(`<p class="error">${esc(e.message)}</p>`)); return; }
+  if (!jobs.length) { view.querySelector("#pickers").replaceChildren(h(`<p class="muted">No finished jobs to compare yet.</p>`)); return; }
+  const opts = jobs.flatMap((j) => j.frames.map((f) => `<option value="${j.id}:${f.index}">${esc(j.scene_name)} ${j.id.slice(0, 6)} — δ=${f.delta.toFixed(4)}</option>`)).join("");
+  view.querySelector("#pickers").replaceChildren(h(`<label>left <select id="cmp-a">${opts}</select></label><label>right <select id="cmp-b">${opts}</select></label>`));
+  const a = view.querySelector("#cmp-a"), b = view.querySelector("#cmp-b"), mode = view.querySelector("#cmp-mode"), split = view.querySelector("#cmp-split");
+  if (params.get("a")) a.value = params.get("a");
+  b.value = params.get("b") || b.options[Math.min(1, b.options.length - 1)].value;
+  const src = (v) => { const [id, i] = v.split(":"); return `/api/jobs/${id}/frames/${i}.png`; };
+  function render() {
+    const box = view.querySelector("#cmp");
+    split.hidden = mode.value !== "slider";
+    if (mode.value === "side") {
+      box.replaceChildren(h(`<div style="display:grid;grid-template-columns:1fr 1fr;gap:.8rem"><img id="img-a" src="${src(a.value)}" alt="left frame" style="width:100%"><img id="img-b" src="${src(b.value)}" alt="right frame" style="width:100%"></div>`));
+    } else {
+      box.replaceChildren(h(`<div style="position:relative;max-width:720px"><img id="img-a" src="${src(a.value)}" alt="left frame" style="width:100%;display:block">
+        <img id="img-b" src="${src(b.value)}" alt="right frame" style="width:100%;position:absolute;inset:0;clip-path:inset(0 0 0 ${split.value}%)"></div>`));
+    }
+  }
+  [a, b, mode].forEach((el) => el.addEventListener("change", render));
+  split.addEventListener("input", () => { const img = view.querySelector("#img-b"); if (img) img.style.clipPath = `inset(0 0 0 ${split.value}%)`; });
+  render();
+}
+
 // ---------------------------------------------------------------- router
 async function route() {
   cleanup(); cleanup = () => {};
@@ -249,6 +282,7 @@ async function route() {
   if (parts[0] === "new") return newPage();
   if (parts[0] === "job" && parts[1]) return jobPage(parts[1]);
   if (parts[0] === "workers") return workersPage();
+  if (parts[0] === "compare") return comparePage();
   return jobsPage();
 }
 window.addEventListener("hashchange", route);
