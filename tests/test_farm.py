@@ -130,8 +130,9 @@ def test_job_over_http_matches_local_render(farm):
         n += 1
     inp.close()
     assert n == 5
-    workers = farm.get("/api/workers")
-    assert len(workers) == 2 and sum(w["tiles_done"] for w in workers) == 5 * 3 * 3
+    # Workers report their counts with their heartbeats.
+    farm.wait_for(lambda: sum(w["tiles_done"] for w in farm.get("/api/workers")) == 5 * 3 * 3, 10)
+    assert len(farm.get("/api/workers")) == 2
     metrics = httpx.get(farm.url + "/metrics").text
     assert 'argand_jobs{status="done"} 1' in metrics
 

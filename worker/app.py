@@ -42,7 +42,7 @@ _stop = threading.Event()
 def _beat(settings: Settings) -> None:
     while not _stop.is_set():
         try:
-            farm.heartbeat(settings, worker_name(), os.getpid())
+            farm.heartbeat(settings, worker_name(), os.getpid(), farm.ACTIVITY["tile"], farm.ACTIVITY["done"])
         except Exception:  # the database may be briefly busy; try again
             pass
         _stop.wait(settings.heartbeat_interval_s)
@@ -50,6 +50,7 @@ def _beat(settings: Settings) -> None:
 
 @worker_ready.connect
 def _start_heartbeat(**_kwargs) -> None:
+    farm.heartbeat(get_settings(), worker_name(), os.getpid())  # registered before the first task
     threading.Thread(target=_beat, args=(get_settings(),), daemon=True, name="argand-heartbeat").start()
 
 

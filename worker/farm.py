@@ -95,59 +95,68 @@ def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] =
 # ---------------------------------------------------------------------------
 
 _plan_cache: dict[tuple[str, int], Any] = {}
+_marked: set[tuple[str, int]] = set()  # (job, frame) this process already marked as rendering
+#: What this worker process is doing; its heartbeat thread reports it (so a
+#: tile costs no extra database writes for bookkeeping).
+ACTIVITY: dict[str, Any] = {"tile": None, "done": 0}
 
 
-def _frame_plan(job: Job, frame: Frame):
+def _frame_plan(url: str, job_id: str, frame_index: int):
+    """The frame's C++ plan, built once per worker process and frame."""
     from argand.render.convert import to_core_scene
     from argand.render.frames import FrameParams, plan
     from argand.scene import scene_from_dict
 
-    key = (job.id, frame.index)
+    key = (job_id, frame_index)
     if key not in _plan_cache:
         if len(_plan_cache) > 16:
             _plan_cache.clear()
-        params = FrameParams(sigma=frame.sigma, delta=frame.delta, width=job.width, height=job.height, method=job.method)
-        _plan_cache[key] = plan(to_core_scene(scene_from_dict(job.scene)), params)
+        with session_scope(url) as s:
+            job = s.get(Job, job_id)
+            frame = s.scalar(select(Frame).where(Frame.job_id == job_id, Frame.index == frame_index))
+            params = FrameParams(sigma=frame.sigma, delta=frame.delta, width=job.width, height=job.height, method=job.method)
+            scene = scene_from_dict(job.scene)
+            info = (params, tile_rects(job.width, job.height, job.tile), frame.tiles_total)
+        _plan_cache[key] = (plan(to_core_scene(scene), params), *info)
     return _plan_cache[key]
 
 
 def run_tile(settings: Settings, job_id: str, frame_index: int, tile_index: int, worker_name: str) -> str:
     """Renders one tile unless it is done, or its job is cancelled or paused.
-    Returns what happened (for logs and tests)."""
+    Returns what happened (for logs and tests). Two short transactions: the
+    claim, and the completion with the frame's count."""
     from argand.render.frames import TileRect, render_tile_planned
 
     url = settings.sqlalchemy_url
+    now = time.time()
     with session_scope(url) as s:
-        job = s.get(Job, job_id)
-        if job is None:
+        status = s.scalar(select(Job.status).where(Job.id == job_id))
+        if status is None:
             return "gone"
-        if job.status in ("canceled", "paused", "failed"):
-            return job.status
+        if status in ("canceled", "paused", "failed"):
+            return status
         # Claim the tile (compare-and-set): a duplicate message for a tile
         # that another worker holds, or that is done, is a no-op.
         claimed = s.execute(
             update(Tile)
             .where(Tile.job_id == job_id, Tile.frame_index == frame_index, Tile.tile_index == tile_index,
                    Tile.status == "queued")
-            .values(status="running", worker=worker_name, started=time.time(), attempts=Tile.attempts + 1)
+            .values(status="running", worker=worker_name, started=now, attempts=Tile.attempts + 1)
         ).rowcount
         if not claimed:
             return "taken or done"
-        if job.status == "queued":
-            job.status = "running"
-            job.started = time.time()
-        frame = s.scalar(select(Frame).where(Frame.job_id == job_id, Frame.index == frame_index))
-        if frame.status == "queued":
-            frame.status = "rendering"
-        s.execute(update(Worker).where(Worker.name == worker_name).values(current_tile=f"{job_id}/{frame_index}/{tile_index}"))
-        fplan = _frame_plan(job, frame)
-        rect = tile_rects(job.width, job.height, job.tile)[tile_index]
+        if (job_id, frame_index) not in _marked:
+            s.execute(update(Job).where(Job.id == job_id, Job.status == "queued").values(status="running", started=now))
+            s.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index, Frame.status == "queued")
+                      .values(status="rendering"))
+            _marked.add((job_id, frame_index))
+    ACTIVITY["tile"] = f"{job_id}/{frame_index}/{tile_index}"
+    fplan, _params, rects, total = _frame_plan(url, job_id, frame_index)
     start = time.perf_counter()
-    t = render_tile_planned(fplan, TileRect(*rect))
+    t = render_tile_planned(fplan, TileRect(*rects[tile_index]))
     seconds = time.perf_counter() - start
-    store = store_for(settings)
-    store.write_tile(job_id, frame_index, tile_index, {"rgba": t.rgba, **t.aovs,
-                     "meta": np.array([t.escalations, t.root_calls], dtype=np.int64)})
+    store_for(settings).write_tile(job_id, frame_index, tile_index, {
+        "rgba": t.rgba, **t.aovs, "meta": np.array([t.escalations, t.root_calls], dtype=np.int64)})
     with session_scope(url) as s:
         # Count the tile once: only the first completion flips its state.
         won = s.execute(
@@ -155,11 +164,10 @@ def run_tile(settings: Settings, job_id: str, frame_index: int, tile_index: int,
             .where(Tile.job_id == job_id, Tile.frame_index == frame_index, Tile.tile_index == tile_index, Tile.status != "done")
             .values(status="done", seconds=seconds, renders=Tile.renders + 1)
         ).rowcount
-        s.execute(update(Worker).where(Worker.name == worker_name).values(current_tile=None, tiles_done=Worker.tiles_done + 1))
-        if won:
-            done = s.scalar(select(func.count()).select_from(Tile).where(
-                Tile.job_id == job_id, Tile.frame_index == frame_index, Tile.status == "done"))
-            total = s.scalar(select(Frame.tiles_total).where(Frame.job_id == job_id, Frame.index == frame_index))
+        done = s.scalar(select(func.count()).select_from(Tile).where(
+            Tile.job_id == job_id, Tile.frame_index == frame_index, Tile.status == "done")) if won else 0
+    ACTIVITY["tile"] = None
+    ACTIVITY["done"] += 1
     if not won:
         return "already done"
     if done >= total:
@@ -281,14 +289,17 @@ def set_job_status(settings: Settings, job_id: str, action: str) -> str:
         return s.get(Job, job_id).status
 
 
-def heartbeat(settings: Settings, name: str, pid: int) -> None:
+def heartbeat(settings: Settings, name: str, pid: int, current_tile: str | None = None, tiles_done: int = 0) -> None:
     with session_scope(settings.sqlalchemy_url) as s:
         w = s.get(Worker, name)
         if w is None:
-            s.add(Worker(name=name, host=socket.gethostname(), pid=pid, heartbeat=time.time(), tiles_done=0))
+            s.add(Worker(name=name, host=socket.gethostname(), pid=pid, heartbeat=time.time(),
+                         current_tile=current_tile, tiles_done=tiles_done))
         else:
             w.heartbeat = time.time()
             w.pid = pid
+            w.current_tile = current_tile
+            w.tiles_done = tiles_done
 
 
 def reap(settings: Settings) -> int:
