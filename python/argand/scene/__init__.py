@@ -1,4 +1,11 @@
-"""argand.scene: scene files, the surface expression parser and the presets."""
+"""argand.scene: scene files, the surface expression parser and the presets.
+
+    parse_surface("x^2*z + y^2")            -> SurfacePolynomial (exact terms)
+    load_scene("whitney") / load_scene(path) -> Scene (validated)
+    scene_from_dict({...})                   -> Scene
+
+See docs/scenes.md for the format, the grammar and the presets.
+"""
 
 from argand.scene.expression import MAX_DEGREE, ExpressionError, SurfacePolynomial, parse_surface
 from argand.scene.model import (
@@ -11,6 +18,7 @@ from argand.scene.model import (
     Transform,
     load_scene,
     scene_from_dict,
+    scene_from_text,
 )
 from argand.scene.presets import PRESETS
 
@@ -29,4 +37,5 @@ __all__ = [
     "load_scene",
     "parse_surface",
     "scene_from_dict",
+    "scene_from_text",
 ]
