@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -30,10 +31,38 @@ def test_roots_negative_coefficients_and_methods():
 
 
 @pytest.mark.parametrize(
+    "args",
+    [
+        ["roots", "--", "-1", "0", "1"],
+        ["roots", "-1", "0", "1"],
+        ["roots", "-1", "-0.0", "1.0", "-m", "smith"],
+        ["roots", "--method", "unverified", "-1e0", "0", "1"],
+    ],
+)
+def test_roots_negative_numbers_with_and_without_double_dash(args):
+    r = run(*args)
+    assert r.returncode == 0, r.stderr
+    assert "degree 2; roots at infinity 0" in r.stdout
+    assert r.stdout.count("1 + 0i") == 2  # the discs of -1 and 1
+
+
+def test_roots_at_infinity_and_constants():
+    r = run("roots", "0", "0", "1", "0", "0")
+    assert r.returncode == 0, r.stderr
+    assert "degree 4; roots at infinity 2" in r.stdout and "all verified" in r.stdout
+    r = run("roots", "5")
+    assert r.returncode == 0, r.stderr
+    assert "no finite roots" in r.stdout
+
+
+@pytest.mark.parametrize(
     "args, message",
     [
         (["roots", "1", "x"], "coefficient 1 ('x') is not a number"),
         (["roots", "1", "nan"], "must be finite"),
+        (["roots", "1", "-inf"], "must be finite"),
+        (["roots", "1", "1e999"], "must be finite"),
+        (["roots", "1", "-x"], "coefficient 1 ('-x') is not a number"),
         (["roots", "0", "0"], "zero polynomial"),
         (["roots", "1", "1", "--method", "fast"], "unknown method"),
         (["render", "no-such-scene"], "no preset or file named"),
@@ -83,16 +112,57 @@ def test_render_writes_frames_aovs_and_animation(tmp_path):
     assert n == 3
 
 
+def _finite_positive(value) -> bool:
+    return isinstance(value, (int, float)) and math.isfinite(value) and value > 0
+
+
 def test_bench_roots_smoke(tmp_path):
     r = run("bench", "roots", "--smoke", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
+    assert "Traceback" not in r.stderr
     report = json.loads((tmp_path / "roots.json").read_text())
+    assert report["benchmark"] == "roots"
+    assert report["machine"]["cpu_count"] >= 1 and report["machine"]["date"]
+    assert set(report["versions"]) >= {"numpy", "python-flint", "mpmath"}
+    ours = ["argand-auto", "argand-smith", "argand-paper", "argand-unverified"]
+    alternatives = ["numpy-eigvals", "flint-acb_poly.roots", "flint-acb_poly.roots(tol=1e-14)", "mpmath-polyroots"]
+    mpsolve = report["mpsolve"]
+    if mpsolve["available"]:
+        alternatives.append("mpsolve")
+    else:  # unavailable is allowed, but only with the reason
+        assert mpsolve["note"]
     for suite in ("quartic", "mixed_2_8"):
-        rows = report["suites"][suite]["results"]
-        for method in ("argand-auto", "argand-smith", "argand-paper", "argand-unverified", "numpy-eigvals", "flint-acb_poly.roots"):
-            assert rows[method]["ns_per_poly"] > 0
+        data = report["suites"][suite]
+        rows = data["results"]
+        assert set(ours + alternatives) <= set(rows)
+        for name in ours + alternatives:
+            row = rows[name]
+            assert _finite_positive(row["ns_per_poly"]), (suite, name, row)
+            assert row["polynomials"] >= 10 and row["accuracy_polynomials"] >= 10
+            # Errors are >= 0 (0: the correctly rounded double) and small for every method.
+            assert 0 <= row["median_rel_error"] <= row["max_rel_error"] < 1e-2, (suite, name, row)
+        for name in ["argand-auto", "argand-smith", "argand-paper", "flint-acb_poly.roots"] + (
+            ["mpsolve"] if mpsolve["available"] else []
+        ):
+            row = rows[name]
+            assert _finite_positive(row["median_rel_radius"]) and row["median_rel_radius"] <= row["max_rel_radius"]
+            assert row["median_rel_radius"] < 1e-6, (suite, name, row)
+        for name in ours:
+            assert 0 <= rows[name]["fully_verified_share"] <= 1
         assert rows["argand-auto"]["fully_verified_share"] > 0.9
+        assert rows["argand-unverified"]["fully_verified_share"] == 0
+        assert "median_rel_radius" not in rows["argand-unverified"]  # estimates are not reported as radii
+        for name, ratio in data["slowdown_vs_auto"].items():
+            assert _finite_positive(ratio), name
+    assert any("times faster than python-flint acb_poly.roots() on quartics" in line for line in report["headline"])
+    assert "auto" in (tmp_path / "roots.md").read_text()
     assert (tmp_path / "roots.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bench_roots_rejects_a_bad_count(tmp_path):
+    r = run("bench", "roots", "--count", "0", "--out", str(tmp_path))
+    assert r.returncode == 2 and "--count" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "roots.json").exists()
 
 
 def test_bench_render_smoke(tmp_path):

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import List, Optional
 
 import typer
+from rich import box
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
@@ -71,9 +72,15 @@ def roots(
         )
     console.print(table)
     levels = {0: "double", 1: "double-double", 2: "exact (python-flint)"}
+    if len(r) == 0:
+        verified_text = "no finite roots"
+    elif r.all_verified:
+        verified_text = "all verified"
+    else:
+        verified_text = f"{int(r.verified.sum())}/{len(r)} verified (unverified discs are estimates, not proofs)"
     console.print(
         f"degree {len(values) - 1}; roots at infinity {r.n_infinite}; "
-        f"{'all verified' if len(r) and r.all_verified else f'{int(r.verified.sum())}/{len(r)} verified'}; "
+        f"{verified_text}; "
         f"precision used: {levels.get(r.escalation, r.escalation)}"
     )
 
@@ -183,36 +190,72 @@ def presets() -> None:
 # ---------------------------------------------------------------------------
 
 
+_BENCH_NAMES = {
+    "argand-auto": "auto",
+    "argand-smith": "smith",
+    "argand-paper": "paper",
+    "argand-unverified": "unverified",
+    "numpy-eigvals": "numpy eigvals",
+    "flint-acb_poly.roots": "flint roots()",
+    "flint-acb_poly.roots(tol=1e-14)": "flint roots(1e-14)",
+    "mpmath-polyroots": "mpmath polyroots",
+    "mpsolve": "MPSolve",
+}
+
+
 @bench_app.command("roots")
 def bench_roots_cmd(
-    count: int = typer.Option(20000, help="Polynomials per suite."),
-    seed: int = typer.Option(1),
-    out: Path = typer.Option(Path("docs/bench"), "--out"),
-    smoke: bool = typer.Option(False, "--smoke", help="A tiny run that keeps the benchmark alive in CI."),
+    count: int = typer.Option(20000, "--count", min=1, help="Polynomials per suite (alternatives run on subsets)."),
+    seed: int = typer.Option(1, "--seed", help="Seed of the random polynomials."),
+    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for roots.json, roots.md and roots.png."),
+    smoke: bool = typer.Option(False, "--smoke", help="A tiny run (seconds) that keeps the benchmark alive in CI."),
 ) -> None:
-    """Verified roots vs numpy, python-flint, mpmath and MPSolve: speed and accuracy."""
+    """Verified roots vs numpy, python-flint, mpmath and MPSolve: speed and accuracy on the same polynomials."""
     from argand.bench.roots import bench_roots
 
-    with console.status("benchmarking roots") as status:
-        report = bench_roots(count=count, seed=seed, out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+    with Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
+        TimeElapsedColumn(), console=err,
+    ) as bar:
+        task = bar.add_task("benchmarking roots", total=None)
+
+        def progress(message: str, done: int, total: int) -> None:
+            bar.update(task, description=message, completed=done, total=total)
+
+        report = bench_roots(count=count, seed=seed, out_dir=out, smoke=smoke, progress=progress)
     for suite, data in report["suites"].items():
-        table = Table(title=f"{suite} (ns per polynomial; accuracy against the exact truth)", title_justify="left")
-        table.add_column("method", no_wrap=True)
-        for col in ("ns/poly", "x auto", "median rel radius", "median rel error", "max rel error", "verified"):
-            table.add_column(col, justify="right")
+        table = Table(
+            title=f"{suite} ({data['results']['argand-auto']['polynomials']} polynomials): ns per polynomial; "
+            "accuracy against the exact roots",
+            title_justify="left", box=box.SIMPLE_HEAD,
+        )
+        table.add_column("method", overflow="fold")
+        for col in ("ns/poly", "÷auto", "rad/|z|", "med err", "max err", "proved"):
+            table.add_column(col, justify="right", no_wrap=True)
         auto = data["results"]["argand-auto"]["ns_per_poly"]
+
+        def sci(value) -> str:
+            return f"{value:.1e}" if value is not None else ""
+
         for name, row in data["results"].items():
             table.add_row(
-                name,
+                _BENCH_NAMES.get(name, name),
                 f"{row['ns_per_poly']:.0f}",
                 f"{row['ns_per_poly'] / auto:.1f}",
-                f"{row['median_rel_radius']:.1e}" if row.get("median_rel_radius") is not None else "",
-                f"{row['median_rel_error']:.1e}" if row.get("median_rel_error") is not None else "",
-                f"{row['max_rel_error']:.1e}" if row.get("max_rel_error") is not None else "",
-                f"{100 * row['fully_verified_share']:.2f}%" if "fully_verified_share" in row else "",
+                sci(row.get("median_rel_radius")),
+                sci(row.get("median_rel_error")),
+                sci(row.get("max_rel_error")),
+                f"{100 * row['fully_verified_share']:.1f}%" if "fully_verified_share" in row else "",
             )
         console.print(table)
-    console.print(f"wrote {out / 'roots.json'} and {out / 'roots.png'}")
+    console.print("rad/|z|: median radius / |root|; med/max err: relative error of the centers; "
+                  "proved: share of polynomials with every root proven", soft_wrap=True)
+    for line in report["headline"]:
+        console.print(f"  {line}", soft_wrap=True)
+    mps = report["mpsolve"]
+    if not mps["available"]:
+        console.print(f"MPSolve: unavailable ({mps['note']})")
+    console.print(f"wrote {out / 'roots.json'}, {out / 'roots.md'} and {out / 'roots.png'}")
 
 
 @bench_app.command("render")

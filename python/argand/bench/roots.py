@@ -21,6 +21,16 @@ from argand.bench import machine_info, median_time
 from argand.core import find_roots_batch
 
 OUR_METHODS = ("auto", "smith", "paper", "unverified")
+#: What each row measures (written into roots.json).
+CONTENDERS = {
+    "argand-*": "argand.core.find_roots_batch(matrix, method) on one (N, n+1) batch per degree",
+    "numpy-eigvals": "numpy: build the (N, n, n) companion matrices and np.linalg.eigvals on the stack (both timed)",
+    "flint-acb_poly.roots": "python-flint acb_poly(coeffs).roots() per polynomial, defaults (53 bits, isolation); "
+                            "acb_poly construction not timed",
+    "flint-acb_poly.roots(tol=1e-14)": "the same refined with roots(tol=1e-14, maxprec=1024)",
+    "mpmath-polyroots": "mpmath.polyroots(maxsteps=200, extraprec=30) per polynomial, on a subset",
+    "mpsolve": "MPSolve (libmps) through Debian's python3-mpsolve, per polynomial, on a subset",
+}
 SYSTEM_PYTHON = "/usr/bin/python3"
 
 
@@ -154,7 +164,11 @@ def run_mpmath(polys: list[np.ndarray], repeats: int):
     import mpmath
 
     def solve(p):
-        return mpmath.polyroots([float(c) for c in p[::-1]], maxsteps=200, extraprec=30)
+        coeffs = [float(c) for c in p[::-1]]
+        try:
+            return mpmath.polyroots(coeffs, maxsteps=200, extraprec=30)
+        except mpmath.libmp.NoConvergence:  # rare: give it more room, as its docs advise
+            return mpmath.polyroots(coeffs, maxsteps=2000, extraprec=200)
 
     seconds = median_time(lambda: [solve(p) for p in polys], repeats)
     approx = [np.array([complex(z) for z in solve(p)]) for p in polys]
@@ -167,13 +181,21 @@ def mpsolve_available() -> tuple[bool, str]:
     probe = subprocess.run([SYSTEM_PYTHON, "-c", "import mpsolve"], capture_output=True, text=True)
     if probe.returncode != 0:
         return False, "Debian package python3-mpsolve not installed (make setup installs it as root)"
-    return True, "python3-mpsolve (libmps 3) under Debian's python3, timed inside that process"
+    return True, (
+        "python3-mpsolve (libmps 3, Debian) run by Debian's python3 in one worker process per suite; "
+        "the time is measured inside that process around the solves only (process start, JSON and "
+        "import excluded); Context.solve() defaults: secular-equation algorithm (SECULAR_GA), output "
+        "goal APPROXIMATE at 100 bits, radii from get_inclusion_radii()"
+    )
 
 
 def run_mpsolve(polys: list[np.ndarray], repeats: int):
     worker = Path(__file__).with_name("mpsolve_worker.py")
     job = json.dumps({"polys": [[float(c) for c in p] for p in polys], "repeats": repeats})
-    proc = subprocess.run([SYSTEM_PYTHON, str(worker)], input=job, capture_output=True, text=True, check=True)
+    proc = subprocess.run([SYSTEM_PYTHON, str(worker)], input=job, capture_output=True, text=True, timeout=600)
+    if proc.returncode != 0:
+        tail = (proc.stderr.strip().splitlines() or [f"exit status {proc.returncode}"])[-1]
+        raise RuntimeError(f"MPSolve worker failed: {tail}")
     out = json.loads(proc.stdout)
     approx = [np.array([complex(re, im) for re, im in r]) for r in out["roots"]]
     radii = [np.array(r, dtype=float) for r in out["radii"]]
@@ -190,8 +212,13 @@ def bench_roots(
     seed: int = 1,
     out_dir: Path = Path("docs/bench"),
     smoke: bool = False,
-    progress: Callable[[str], None] = lambda msg: None,
+    progress: Callable[[str, int, int], None] = lambda msg, done, total: None,
 ) -> dict:
+    """Run the benchmark, write roots.json, roots.md and roots.png into
+    out_dir and return the report. ``progress(message, steps_done,
+    steps_total)`` is called before each step (for a progress bar)."""
+    if count < 1:
+        raise ValueError(f"count must be at least 1, got {count}")
     rng = np.random.default_rng(seed)
     if smoke:
         count = min(count, 200)
@@ -204,6 +231,8 @@ def bench_roots(
         "truth": max(20, min(count, 2000 if not smoke else 50)),
     }
     repeats = 3 if smoke else 5
+    # Timed repetitions after one untimed warm-up run; the median is kept.
+    timed_runs = {"ours": repeats, "numpy": repeats, "flint": 3, "mpsolve": 3, "mpmath": 1}
     suites = {
         "quartic": random_polys(rng, count, (4, 4)),
         "mixed_2_8": random_polys(rng, count, (2, 8)),
@@ -214,12 +243,29 @@ def bench_roots(
         "machine": machine_info(),
         "versions": versions(),
         "sizes": sizes,
-        "repeats": repeats,
+        "repeats": timed_runs,
         "mpsolve": {"available": have_mpsolve, "note": mpsolve_note},
+        "contenders": CONTENDERS,
+        "accuracy": (
+            "against python-flint fmpq_poly.complex_roots() on the exact rational value of the double "
+            "coefficients at 128 bits, on the first `truth` polynomials of each suite; every computed "
+            "root (a disc of count m counts m times) is matched to its nearest true root; rel error = "
+            "|z - root| / |root|, rel radius = radius / |root|; an error of 0 means the correctly "
+            "rounded double"
+        ),
         "suites": {},
     }
+    steps_per_suite = 2 + len(OUR_METHODS) + 4 + (1 if have_mpsolve else 0)
+    total = steps_per_suite * len(suites) + 1
+    done = 0
+
+    def step(message: str) -> None:
+        nonlocal done
+        progress(message, done, total)
+        done += 1
+
     for suite, polys in suites.items():
-        progress(f"{suite}: truth for {sizes['truth']} polynomials (python-flint, 128 bits, exact rationals)")
+        step(f"{suite}: truth for {sizes['truth']} polynomials (python-flint, 128 bits, exact rationals)")
         truth_idx = list(range(sizes["truth"]))
         truth = [true_roots(polys[i]) for i in truth_idx]
         rows: dict[str, dict] = {}
@@ -227,41 +273,75 @@ def bench_roots(
         def record(name: str, n_polys: int, seconds: float, approx, radii, extra: dict | None = None) -> None:
             k = min(len(approx), len(truth))
             acc = accuracy(approx[:k], radii[:k] if radii is not None else None, truth[:k])
-            rows[name] = {"polynomials": n_polys, "ns_per_poly": seconds / n_polys * 1e9, **acc, **(extra or {})}
+            rows[name] = {"polynomials": n_polys, "ns_per_poly": seconds / n_polys * 1e9,
+                          "accuracy_polynomials": k, **acc, **(extra or {})}
 
         # Warm the process up once (allocator, caches, clock) so that the
         # first method timed does not pay for it.
+        step(f"{suite}: warm-up")
         for method in OUR_METHODS:
             run_ours(method, polys[: sizes["ours"]], 1)
         for method in OUR_METHODS:
-            progress(f"{suite}: argand {method}")
+            step(f"{suite}: argand {method}")
             seconds, approx, radii, verified = run_ours(method, polys[: sizes["ours"]], repeats)
             record(f"argand-{method}", sizes["ours"], seconds, approx, radii if method != "unverified" else None,
                    {"fully_verified_share": verified})
-        progress(f"{suite}: numpy companion eigenvalues")
+        step(f"{suite}: numpy companion eigenvalues")
         seconds, approx, radii = run_numpy(polys[: sizes["numpy"]], repeats)
         record("numpy-eigvals", sizes["numpy"], seconds, approx, None)
-        progress(f"{suite}: python-flint acb_poly.roots")
-        seconds, approx, radii = run_flint(polys[: sizes["flint"]], max(1, repeats // 2))
+        step(f"{suite}: python-flint acb_poly.roots")
+        seconds, approx, radii = run_flint(polys[: sizes["flint"]], timed_runs["flint"])
         record("flint-acb_poly.roots", sizes["flint"], seconds, approx, radii)
-        progress(f"{suite}: python-flint acb_poly.roots(tol=1e-14), accuracy matched")
-        seconds, approx, radii = run_flint(polys[: sizes["flint"]], max(1, repeats // 2), tol=1e-14)
+        step(f"{suite}: python-flint acb_poly.roots(tol=1e-14), accuracy matched")
+        seconds, approx, radii = run_flint(polys[: sizes["flint"]], timed_runs["flint"], tol=1e-14)
         record("flint-acb_poly.roots(tol=1e-14)", sizes["flint"], seconds, approx, radii)
-        progress(f"{suite}: mpmath polyroots")
-        seconds, approx, radii = run_mpmath(polys[: sizes["mpmath"]], 1)
+        step(f"{suite}: mpmath polyroots")
+        seconds, approx, radii = run_mpmath(polys[: sizes["mpmath"]], timed_runs["mpmath"])
         record("mpmath-polyroots", sizes["mpmath"], seconds, approx, None)
-        if have_mpsolve:
-            progress(f"{suite}: MPSolve")
-            seconds, approx, radii = run_mpsolve(polys[: sizes["mpsolve"]], max(1, repeats // 2))
-            record("mpsolve", sizes["mpsolve"], seconds, approx, radii)
+        if report["mpsolve"]["available"]:
+            step(f"{suite}: MPSolve")
+            try:
+                seconds, approx, radii = run_mpsolve(polys[: sizes["mpsolve"]], timed_runs["mpsolve"])
+            except (RuntimeError, subprocess.TimeoutExpired, ValueError) as exc:
+                report["mpsolve"] = {"available": False, "note": f"{mpsolve_note}; but it failed here: {exc}"}
+            else:
+                record("mpsolve", sizes["mpsolve"], seconds, approx, radii)
+        elif have_mpsolve:
+            step(f"{suite}: MPSolve (skipped: failed before)")
         auto = rows["argand-auto"]["ns_per_poly"]
         ratios = {name: row["ns_per_poly"] / auto for name, row in rows.items() if name != "argand-auto"}
         report["suites"][suite] = {"results": rows, "slowdown_vs_auto": ratios}
+    report["headline"] = headline(report)
+    step("writing JSON, Markdown and the chart")
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "roots.json").write_text(json.dumps(report, indent=2) + "\n")
     (out_dir / "roots.md").write_text(markdown(report))
     chart(report, out_dir / "roots.png")
+    progress("done", total, total)
     return report
+
+
+def headline(report: dict) -> list[str]:
+    """One sentence per comparison: how many times faster argand auto is
+    than each alternative, per suite ("x times faster" = their time / ours)."""
+    names = {
+        "flint-acb_poly.roots": "python-flint acb_poly.roots()",
+        "flint-acb_poly.roots(tol=1e-14)": "python-flint acb_poly.roots(tol=1e-14)",
+        "numpy-eigvals": "numpy batched companion eigvals",
+        "mpmath-polyroots": "mpmath polyroots",
+        "mpsolve": "MPSolve",
+        "argand-paper": "argand paper",
+    }
+    lines = []
+    for suite, data in report["suites"].items():
+        label = "quartics" if suite == "quartic" else "mixed degrees 2-8"
+        ratios = data["slowdown_vs_auto"]
+        for key, text in names.items():
+            if key in ratios:
+                lines.append(f"auto is {ratios[key]:.1f} times faster than {text} on {label}")
+        if "argand-unverified" in ratios:
+            lines.append(f"the proof costs {1 / ratios['argand-unverified']:.2f}x the unverified time on {label}")
+    return lines
 
 
 def markdown(report: dict) -> str:
@@ -297,6 +377,9 @@ def versions() -> dict:
 
 
 def chart(report: dict, path: Path) -> None:
+    """Speed versus accuracy, one panel per suite, one labelled point per
+    method: x = ns per polynomial, y = median radius / |root| where the
+    method gives radii (filled), else median relative error (hollow)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -304,30 +387,68 @@ def chart(report: dict, path: Path) -> None:
 
     suites = list(report["suites"])
     floor = 1e-17  # below double precision: shown at the floor, labelled "<="
-    fig, axes = plt.subplots(1, len(suites), figsize=(6.4 * len(suites), 5.0), squeeze=False)
+    fig, axes = plt.subplots(1, len(suites), figsize=(7.2 * len(suites), 5.4), squeeze=False)
+    labelled = []
     for ax, suite in zip(axes[0], suites):
         rows = report["suites"][suite]["results"]
-        for k, (name, row) in enumerate(sorted(rows.items(), key=lambda kv: kv[1]["ns_per_poly"])):
+        points = []
+        for name, row in sorted(rows.items(), key=lambda kv: kv[1]["ns_per_poly"]):
             radius = row.get("median_rel_radius")
             y = radius if radius is not None else row.get("median_rel_error")
             if y is None:
                 continue
             ours = name.startswith("argand")
             shown = max(y, floor)
+            colour = "C0" if ours else "C1"
             ax.scatter(row["ns_per_poly"], shown, marker="o" if ours else "s", s=70,
-                       facecolors=("C0" if ours else "C1") if radius is not None else "none",
-                       edgecolors="C0" if ours else "C1", zorder=3)
-            label = name + (" (<=)" if y < floor else "")
-            ax.annotate(label, (row["ns_per_poly"], shown), textcoords="offset points",
-                        xytext=(6, 8 if k % 2 == 0 else -12), fontsize=8)
+                       facecolors=colour if radius is not None else "none", edgecolors=colour, zorder=3)
+            points.append((name + (" (<=)" if y < floor else ""), row["ns_per_poly"], shown, colour))
+        xs = [x for _, x, _, _ in points]
+        if xs:
+            ax.set_xlim(min(xs) / 2.5, max(xs) * 2.5)
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_ylim(floor / 3, 1e-6)
+        ax.set_ylim(floor / 30, 1e-6)
         ax.set_xlabel("time per polynomial (ns, log scale)")
-        ax.set_ylabel("median relative radius (filled) / error (hollow)")
-        ax.set_title(f"{suite}: speed vs accuracy")
+        ax.set_ylabel("median radius / |root| (filled) or median rel. error (hollow)")
+        ax.set_title(f"{suite}: speed vs accuracy ({rows['argand-auto']['polynomials']} polynomials)")
         ax.grid(True, which="major", alpha=0.3)
-    fig.suptitle("argand bench roots — same polynomials, same run; lower-left is better")
+        labelled.append((ax, points))
+    fig.suptitle("argand bench roots: same polynomials, same run; lower left is better")
+    fig.text(0.005, 0.005, f"(<=): at or below {floor:.0e}, drawn at {floor:.0e}", fontsize=7, color="0.35")
     fig.tight_layout()
+    # Labels last, on the final layout (they are placed in display space).
+    for ax, points in labelled:
+        _place_labels(fig, ax, points)
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _place_labels(fig, ax, points) -> None:
+    """Label each point at the first candidate offset whose text box stays
+    inside the axes and overlaps no earlier label or point (greedy), with a
+    short leader line to its point."""
+    renderer = fig.canvas.get_renderer()
+    frame = ax.get_window_extent(renderer)
+    dots = [ax.transData.transform((x, y)) for _, x, y, _ in points]
+    placed = []
+    candidates = [(7, 4, "left"), (7, -15, "left"), (-7, 4, "right"), (-7, -15, "right"),
+                  (10, 16, "left"), (10, -27, "left"), (-10, 16, "right"), (-10, -27, "right"),
+                  (0, 28, "center"), (0, -39, "center"), (12, 28, "left"), (-12, 28, "right"),
+                  (12, -39, "left"), (-12, -39, "right"), (0, 40, "center"), (0, -51, "center")]
+    for label, x, y, colour in points:
+        chosen = candidates[0]
+        for dx, dy, ha in candidates:
+            probe = ax.annotate(label, (x, y), textcoords="offset points", xytext=(dx, dy), ha=ha, va="bottom",
+                                fontsize=8)
+            box = probe.get_window_extent(renderer).expanded(1.04, 1.2)
+            probe.remove()
+            inside = frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1)
+            hits_dot = any(box.x0 - 5 < px < box.x1 + 5 and box.y0 - 5 < py < box.y1 + 5 for px, py in dots)
+            if inside and not hits_dot and not any(box.overlaps(b) for b in placed):
+                chosen = (dx, dy, ha)
+                placed.append(box)
+                break
+        dx, dy, ha = chosen
+        ax.annotate(label, (x, y), textcoords="offset points", xytext=(dx, dy), ha=ha, va="bottom", fontsize=8,
+                    arrowprops={"arrowstyle": "-", "color": colour, "lw": 0.6, "shrinkA": 1, "shrinkB": 5})
