@@ -26,7 +26,7 @@ def as_postgres(*cmd: str) -> list[str]:
 @pytest.fixture
 def postgres():
     if not BIN:
-        pytest.skip("PostgreSQL server binaries not installed (make setup installs Debian's postgresql as root)")
+        pytest.fail("PostgreSQL server binaries are missing: make setup installs Debian's postgresql (as root)")
     bindir = BIN[-1]
     # (Not under pytest's tmp_path: its parent is private to root, and the
     # server runs as the postgres user.)
