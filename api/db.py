@@ -8,7 +8,7 @@ import time
 from contextlib import contextmanager
 from typing import Iterator
 
-from sqlalchemy import JSON, Float, ForeignKey, Integer, String, Text, create_engine, event, select
+from sqlalchemy import JSON, Float, ForeignKey, Index, Integer, String, Text, create_engine, event, func, inspect, select, text
 from sqlalchemy.engine import Engine
 from sqlalchemy.orm import DeclarativeBase, Mapped, Session, mapped_column, relationship, sessionmaker
 
@@ -47,6 +47,9 @@ class Frame(Base):
     delta: Mapped[float] = mapped_column(Float)
     status: Mapped[str] = mapped_column(String(16), default="queued")  # queued|rendering|assembling|done
     tiles_total: Mapped[int] = mapped_column(Integer)
+    #: Tiles counted done (incremented in the transaction that completes them).
+    tiles_done: Mapped[int] = mapped_column(Integer, default=0, server_default="0")
+    finished: Mapped[float | None] = mapped_column(Float, nullable=True)
     figures: Mapped[dict | None] = mapped_column(JSON, nullable=True)
     assembler: Mapped[str | None] = mapped_column(String(200), nullable=True)
     assembling_since: Mapped[float | None] = mapped_column(Float, nullable=True)
@@ -55,6 +58,7 @@ class Frame(Base):
 
 class Tile(Base):
     __tablename__ = "tiles"
+    __table_args__ = (Index("ix_tiles_key", "job_id", "frame_index", "tile_index", unique=True),)
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
     job_id: Mapped[str] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), index=True)
     frame_index: Mapped[int] = mapped_column(Integer, index=True)
@@ -65,6 +69,9 @@ class Tile(Base):
     attempts: Mapped[int] = mapped_column(Integer, default=0)
     renders: Mapped[int] = mapped_column(Integer, default=0)  # completed renders written (must end at 1)
     seconds: Mapped[float | None] = mapped_column(Float, nullable=True)
+    #: The store file holding the tile's AOVs (the tiles a worker finished
+    #: between two commits share one file); None: a file of its own.
+    chunk: Mapped[str | None] = mapped_column(String(64), nullable=True)
 
 
 class Worker(Base):
@@ -104,13 +111,44 @@ def engine_for(url: str) -> Engine:
         else:
             eng = create_engine(url, pool_pre_ping=True)
         Base.metadata.create_all(eng)
+        migrate(eng)
         _engines[url] = eng
     return _engines[url]
 
 
+def migrate(eng: Engine) -> list[str]:
+    """Brings a database made by an earlier version up to the models: adds
+    the columns and indexes it lacks (additive changes only). Returns what
+    it did."""
+    done = []
+    insp = inspect(eng)
+    with eng.begin() as conn:
+        for table in Base.metadata.sorted_tables:
+            have = {c["name"] for c in insp.get_columns(table.name)}
+            for col in table.columns:
+                if col.name not in have:
+                    ddl = f"ALTER TABLE {table.name} ADD COLUMN {col.name} {col.type.compile(eng.dialect)}"
+                    if col.server_default is not None:
+                        ddl += f" DEFAULT {col.server_default.arg}"
+                    conn.execute(text(ddl))
+                    done.append(f"{table.name}.{col.name}")
+        for table in Base.metadata.sorted_tables:
+            for index in table.indexes:
+                index.create(conn, checkfirst=True)
+        if "frames.tiles_done" in done:  # count what an older version finished
+            conn.execute(text("UPDATE frames SET tiles_done = (SELECT count(*) FROM tiles WHERE tiles.job_id = frames.job_id"
+                              " AND tiles.frame_index = frames.\"index\" AND tiles.status = 'done')"))
+    return done
+
+
+_factories: dict[str, sessionmaker] = {}
+
+
 @contextmanager
 def session_scope(url: str) -> Iterator[Session]:
-    factory = sessionmaker(engine_for(url), expire_on_commit=False)
+    factory = _factories.get(url)
+    if factory is None:
+        factory = _factories[url] = sessionmaker(engine_for(url), expire_on_commit=False)
     with factory() as s:
         try:
             yield s
@@ -121,9 +159,10 @@ def session_scope(url: str) -> Iterator[Session]:
 
 
 def job_progress(s: Session, job: Job) -> tuple[int, int]:
-    done = s.scalar(select(__import__("sqlalchemy").func.count()).select_from(Tile).where(Tile.job_id == job.id, Tile.status == "done"))
+    """(tiles done, tiles in all) from the frames' counters."""
+    done = sum(f.tiles_done or 0 for f in job.frames)
     total = sum(f.tiles_total for f in job.frames)
-    return int(done or 0), int(total)
+    return int(done), int(total)
 
 
 def dumps(obj) -> str:

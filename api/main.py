@@ -115,6 +115,7 @@ def job_view(s, job: Job, request: Request | None = None) -> dict:
             "png_url": f"{base}/frames/{f.index}.png" if f.status == "done" else None,
             "exr_url": f"{base}/frames/{f.index}.exr" if f.status == "done" else None,
             "thumbnail_url": f"{base}/frames/{f.index}/thumbnail.png" if f.status == "done" else None,
+            "finished": f.finished,
             "certified_share": (f.figures or {}).get("certified_share"),
             "figures": f.figures,
         }

@@ -27,6 +27,13 @@ class Settings(BaseSettings):
     max_frames: int = Field(720, ge=1)
     max_job_pixels: int = Field(512 * 512 * 720, ge=1)
     default_tile: int = Field(64, ge=8)
+    #: Most pixels in one message to a worker: a message carries a run of
+    #: tiles of one frame (the tile stays the unit of state, storage and
+    #: redo; the message is the unit of dispatch, so small tiles do not pay
+    #: a broker round trip each).
+    batch_pixels: int = Field(512 * 512, ge=1)
+    #: OpenEXR compression of the frames: zip (default), none, rle, zips, piz.
+    exr_compression: str = "zip"
 
     # Work model.
     tile_soft_time_limit_s: int = Field(120, ge=1)
@@ -34,6 +41,14 @@ class Settings(BaseSettings):
     heartbeat_interval_s: float = Field(2.0, gt=0)
     heartbeat_timeout_s: float = Field(15.0, gt=0)
     max_tile_attempts: int = Field(3, ge=1)
+
+    @field_validator("exr_compression")
+    @classmethod
+    def _compression(cls, v: str) -> str:
+        allowed = ("none", "rle", "zip", "zips", "piz")
+        if v not in allowed:
+            raise ValueError(f"exr_compression must be one of {', '.join(allowed)}, got {v!r}")
+        return v
 
     @field_validator("tile_hard_time_limit_s")
     @classmethod

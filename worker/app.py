@@ -25,6 +25,10 @@ def get_app(settings: Settings | None = None) -> Celery:
         app.conf.update(celery_config(settings))
 
         @app.task(name=farm.TASK_NAME, bind=True, acks_late=True, reject_on_worker_lost=True)
+        def render_tiles(self, job_id: str, frame_index: int, tile_indices: list[int]) -> str:
+            return farm.run_tiles(settings, job_id, frame_index, [int(t) for t in tile_indices], worker_name())
+
+        @app.task(name=farm.LEGACY_TASK_NAME, bind=True, acks_late=True, reject_on_worker_lost=True)
         def render_tile(self, job_id: str, frame_index: int, tile_index: int) -> str:
             return farm.run_tile(settings, job_id, frame_index, tile_index, worker_name())
 

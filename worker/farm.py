@@ -2,14 +2,19 @@
 job -> frames (one per (sigma, delta)) -> tiles.
 
 * The database is the source of truth; a tile is rendered by whichever
-  worker takes its message, written atomically to the store, and counted
-  once (a compare-and-set on its row). A redelivered tile that is already
-  done is a no-op.
+  worker claims its row (compare-and-set), written atomically to the store,
+  and counted once (a compare-and-set on its row, and the frame's counter in
+  the same transaction). A redelivered tile that is done is a no-op.
+* A message carries a run of tiles of one frame (``batch_pixels`` at most):
+  the tile is the unit of state, storage and redo, the message the unit of
+  dispatch. Completions are committed every ``COMMIT_INTERVAL_S`` within a
+  run, so progress is smooth and a crash loses at most that much work.
 * The tile that completes a frame assembles it (EXR with all AOVs, PNG,
-  thumbnail); the frame that completes the job builds the animation.
-  Assembly is idempotent.
-* Tiles of cancelled or paused jobs are not rendered. A reaper re-enqueues
-  tiles whose worker stopped sending heartbeats.
+  thumbnail, and the frame's GIF fragment); the frame that completes the job
+  splices the animation from the fragments. Assembly is idempotent.
+* Tiles of cancelled or paused jobs are not rendered (checked at least every
+  ``STOP_CHECK_S`` between tiles). A reaper re-enqueues tiles whose worker
+  stopped sending heartbeats.
 """
 
 from __future__ import annotations
@@ -21,17 +26,29 @@ import uuid
 from typing import Any
 
 import numpy as np
-from sqlalchemy import func, select, update
+from sqlalchemy import case, func, insert, select, update
 
-from argand.api.db import Frame, Job, Tile, Worker, session_scope
+from argand.api.db import Frame, Job, Tile, Worker, engine_for, session_scope
 from argand.api.settings import Settings
 from argand.worker.store import FrameStore
 
-TASK_NAME = "argand.render_tile"
+TASK_NAME = "argand.render_tiles"
+#: Messages of one tile each, from an earlier version (still understood).
+LEGACY_TASK_NAME = "argand.render_tile"
+STOPPED = ("canceled", "paused", "failed")
+#: Within a run of tiles: how often to look for a cancel or pause, and how
+#: often to commit the tiles finished so far.
+STOP_CHECK_S = 0.05
+COMMIT_INTERVAL_S = 0.5
+
+_stores: dict[str, FrameStore] = {}
 
 
 def store_for(settings: Settings) -> FrameStore:
-    return FrameStore(str(settings.data_path / "store"))
+    root = str(settings.data_path / "store")
+    if root not in _stores:
+        _stores[root] = FrameStore(root)
+    return _stores[root]
 
 
 # ---------------------------------------------------------------------------
@@ -56,42 +73,73 @@ def create_job(settings: Settings, scene_name: str, scene: dict, sigma: float, d
                height: int, tile: int, priority: int, method: str = "auto") -> str:
     job_id = uuid.uuid4().hex[:12]
     n_tiles = len(tile_rects(width, height, tile))
-    with session_scope(settings.sqlalchemy_url) as s:
-        job = Job(id=job_id, status="queued", scene_name=scene_name, scene=scene, sigma=sigma, width=width,
-                  height=height, tile=tile, method=method, priority=priority)
-        s.add(job)
-        for i, d in enumerate(deltas):
-            s.add(Frame(job_id=job_id, index=i, sigma=sigma, delta=d, status="queued", tiles_total=n_tiles))
-            for t in range(n_tiles):
-                s.add(Tile(job_id=job_id, frame_index=i, tile_index=t, status="queued"))
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        c.execute(insert(Job).values(id=job_id, status="queued", scene_name=scene_name, scene=scene, sigma=sigma,
+                                     width=width, height=height, tile=tile, method=method, priority=priority,
+                                     created=time.time()))
+        c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=sigma, delta=d, status="queued",
+                                       tiles_total=n_tiles, tiles_done=0) for i, d in enumerate(deltas)])
+        c.execute(insert(Tile), [dict(job_id=job_id, frame_index=i, tile_index=t, status="queued", attempts=0, renders=0)
+                                 for i in range(len(deltas)) for t in range(n_tiles)])
     dispatch_job(settings, job_id)
     return job_id
 
 
+def alive_workers(settings: Settings) -> int:
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        return int(c.execute(select(func.count()).select_from(Worker).where(
+            Worker.heartbeat > time.time() - settings.heartbeat_timeout_s)).scalar() or 0)
+
+
+def batch_runs(tiles: list[int], rects: list[tuple[int, int, int, int]], target_pixels: int) -> list[list[int]]:
+    """Splits a frame's tile indices (in order) into runs of about
+    ``target_pixels`` pixels (one tile at least)."""
+    runs: list[list[int]] = []
+    run: list[int] = []
+    pixels = 0
+    for t in tiles:
+        x0, y0, x1, y1 = rects[t]
+        run.append(t)
+        pixels += (x1 - x0) * (y1 - y0)
+        if pixels >= target_pixels:
+            runs.append(run)
+            run, pixels = [], 0
+    if run:
+        runs.append(run)
+    return runs
+
+
 def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] = ("queued",)) -> int:
-    """Sends a message for every tile of the job in one of the given states,
-    frames in preview order. Returns the number sent."""
+    """Sends messages for every tile of the job in one of the given states:
+    frames in preview order, each frame's tiles in runs sized so that every
+    worker gets several messages (a balanced end) and no message exceeds
+    ``batch_pixels``. Returns the number of tiles sent."""
     from argand.worker.app import get_app
 
     app = get_app(settings)
-    with session_scope(settings.sqlalchemy_url) as s:
-        job = s.get(Job, job_id)
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        job = c.execute(select(Job.priority, Job.width, Job.height, Job.tile).where(Job.id == job_id)).first()
         if job is None:
             return 0
-        priority = job.priority
-        tiles = s.execute(
-            select(Tile.frame_index, Tile.tile_index).where(Tile.job_id == job_id, Tile.status.in_(only_status))
-        ).all()
-        n_frames = len(job.frames)
-    rank = {f: i for i, f in enumerate(preview_order(n_frames))}
-    tiles.sort(key=lambda t: (rank[t[0]], t[1]))
-    for frame_index, tile_index in tiles:
-        app.send_task(TASK_NAME, args=[job_id, frame_index, tile_index], priority=max(0, min(9, 9 - priority)))
-    return len(tiles)
+        n_frames = c.execute(select(func.count()).select_from(Frame).where(Frame.job_id == job_id)).scalar()
+        rows = c.execute(select(Tile.frame_index, Tile.tile_index).where(
+            Tile.job_id == job_id, Tile.status.in_(only_status)).order_by(Tile.frame_index, Tile.tile_index)).all()
+    rects = tile_rects(job.width, job.height, job.tile)
+    by_frame: dict[int, list[int]] = {}
+    for f, t in rows:
+        by_frame.setdefault(f, []).append(t)
+    pixels = sum((rects[t][2] - rects[t][0]) * (rects[t][3] - rects[t][1]) for f, t in rows)
+    workers = max(1, alive_workers(settings))
+    target = max(1, min(settings.batch_pixels, pixels // (4 * workers)))
+    priority = max(0, min(9, 9 - job.priority))
+    for f in preview_order(n_frames):
+        for run in batch_runs(by_frame.get(f, []), rects, target):
+            app.send_task(TASK_NAME, args=[job_id, f, run], priority=priority)
+    return len(rows)
 
 
 # ---------------------------------------------------------------------------
-# The tile task's body
+# The task's body: a run of tiles
 # ---------------------------------------------------------------------------
 
 _plan_cache: dict[tuple[str, int], Any] = {}
@@ -102,7 +150,8 @@ ACTIVITY: dict[str, Any] = {"tile": None, "done": 0}
 
 
 def _frame_plan(url: str, job_id: str, frame_index: int):
-    """The frame's C++ plan, built once per worker process and frame."""
+    """The frame's C++ plan and tile rectangles, built once per worker
+    process and frame."""
     from argand.render.convert import to_core_scene
     from argand.render.frames import FrameParams, plan
     from argand.scene import scene_from_dict
@@ -116,143 +165,253 @@ def _frame_plan(url: str, job_id: str, frame_index: int):
             frame = s.scalar(select(Frame).where(Frame.job_id == job_id, Frame.index == frame_index))
             params = FrameParams(sigma=frame.sigma, delta=frame.delta, width=job.width, height=job.height, method=job.method)
             scene = scene_from_dict(job.scene)
-            info = (params, tile_rects(job.width, job.height, job.tile), frame.tiles_total)
+            info = (tile_rects(job.width, job.height, job.tile), frame.tiles_total)
         _plan_cache[key] = (plan(to_core_scene(scene), params), *info)
     return _plan_cache[key]
 
 
-def run_tile(settings: Settings, job_id: str, frame_index: int, tile_index: int, worker_name: str) -> str:
-    """Renders one tile unless it is done, or its job is cancelled or paused.
-    Returns what happened (for logs and tests). Two short transactions: the
-    claim, and the completion with the frame's count."""
+def _tile_key(job_id: str, frame_index: int):
+    return (Tile.job_id == job_id, Tile.frame_index == frame_index)
+
+
+def _complete(settings: Settings, job_id: str, frame_index: int, worker_name: str, seconds: dict[int, float],
+              local: dict[int, Any]) -> tuple[int, int, int]:
+    """Writes the rendered tiles to the store (one chunk file), then marks
+    them done (only those this worker still holds: a tile the reaper gave
+    to another worker is theirs to count) and adds them to the frame's
+    counter, in one transaction. Returns (won, frame's tiles done, frame's
+    tiles in all)."""
+    chunk = f"{min(seconds):05d}-{uuid.uuid4().hex[:10]}"
+    store_for(settings).write_chunk(job_id, frame_index, chunk, {i: _tile_arrays(local[i]) for i in seconds})
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        won = c.execute(
+            update(Tile)
+            .where(*_tile_key(job_id, frame_index), Tile.tile_index.in_(list(seconds)), Tile.status == "running",
+                   Tile.worker == worker_name)
+            .values(status="done", seconds=case(seconds, value=Tile.tile_index), renders=Tile.renders + 1, chunk=chunk)
+            .returning(Tile.tile_index)
+        ).scalars().all()
+        q = update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index)
+        done, total = c.execute(q.values(tiles_done=Frame.tiles_done + len(won))
+                                .returning(Frame.tiles_done, Frame.tiles_total)).one()
+    return len(won), done, total
+
+
+def _tile_arrays(t: Any) -> dict[str, np.ndarray]:
+    return {"rgba": t.rgba, **t.aovs, "meta": np.array([t.escalations, t.root_calls], dtype=np.int64)}
+
+
+def _release(settings: Settings, job_id: str, frame_index: int, worker_name: str, tiles: list[int],
+             resend: bool) -> None:
+    """Gives tiles this worker claimed but did not finish back to the queue
+    (a pause, a cancel, a time limit or an error), and sends them again if
+    the job goes on."""
+    if not tiles:
+        return
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        mine = (*_tile_key(job_id, frame_index), Tile.tile_index.in_(tiles), Tile.status == "running", Tile.worker == worker_name)
+        if resend:  # after an error: a tile that failed too often fails its job
+            failed = c.execute(update(Tile).where(*mine, Tile.attempts >= settings.max_tile_attempts)
+                               .values(status="failed").returning(Tile.tile_index)).scalars().all()
+            if failed:
+                c.execute(update(Job).where(Job.id == job_id).values(
+                    status="failed", error=f"tile {frame_index}/{failed[0]} failed {settings.max_tile_attempts} times"))
+                resend = False
+        c.execute(update(Tile).where(*mine).values(status="queued", worker=None))
+    if resend:
+        from argand.worker.app import get_app
+
+        get_app(settings).send_task(TASK_NAME, args=[job_id, frame_index, tiles], priority=0)
+
+
+def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: list[int], worker_name: str) -> str:
+    """Renders a run of tiles of one frame, skipping those done or held by
+    another worker, and stopping between tiles when the job is cancelled or
+    paused. Returns what happened (for logs and tests)."""
     from argand.render.frames import TileRect, render_tile_planned
 
     url = settings.sqlalchemy_url
+    eng = engine_for(url)
     now = time.time()
-    with session_scope(url) as s:
-        status = s.scalar(select(Job.status).where(Job.id == job_id))
+    with eng.begin() as c:
+        status = c.execute(select(Job.status).where(Job.id == job_id)).scalar()
         if status is None:
             return "gone"
-        if status in ("canceled", "paused", "failed"):
+        if status in STOPPED:
             return status
-        # Claim the tile (compare-and-set): a duplicate message for a tile
-        # that another worker holds, or that is done, is a no-op.
-        claimed = s.execute(
+        claimed = sorted(c.execute(
             update(Tile)
-            .where(Tile.job_id == job_id, Tile.frame_index == frame_index, Tile.tile_index == tile_index,
-                   Tile.status == "queued")
+            .where(*_tile_key(job_id, frame_index), Tile.tile_index.in_(tile_indices), Tile.status == "queued")
             .values(status="running", worker=worker_name, started=now, attempts=Tile.attempts + 1)
-        ).rowcount
+            .returning(Tile.tile_index)
+        ).scalars().all())
         if not claimed:
             return "taken or done"
         if (job_id, frame_index) not in _marked:
-            s.execute(update(Job).where(Job.id == job_id, Job.status == "queued").values(status="running", started=now))
-            s.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index, Frame.status == "queued")
+            c.execute(update(Job).where(Job.id == job_id, Job.status == "queued").values(status="running", started=now))
+            c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index, Frame.status == "queued")
                       .values(status="rendering"))
             _marked.add((job_id, frame_index))
-    ACTIVITY["tile"] = f"{job_id}/{frame_index}/{tile_index}"
-    fplan, _params, rects, total = _frame_plan(url, job_id, frame_index)
-    start = time.perf_counter()
-    t = render_tile_planned(fplan, TileRect(*rects[tile_index]))
-    seconds = time.perf_counter() - start
-    store_for(settings).write_tile(job_id, frame_index, tile_index, {
-        "rgba": t.rgba, **t.aovs, "meta": np.array([t.escalations, t.root_calls], dtype=np.int64)})
-    with session_scope(url) as s:
-        # Count the tile once: only the first completion flips its state.
-        won = s.execute(
-            update(Tile)
-            .where(Tile.job_id == job_id, Tile.frame_index == frame_index, Tile.tile_index == tile_index, Tile.status != "done")
-            .values(status="done", seconds=seconds, renders=Tile.renders + 1)
-        ).rowcount
-        done = s.scalar(select(func.count()).select_from(Tile).where(
-            Tile.job_id == job_id, Tile.frame_index == frame_index, Tile.status == "done")) if won else 0
+    fplan, rects, total = _frame_plan(url, job_id, frame_index)
+    local: dict[int, Any] = {}  # what this process rendered, for its own assembly
+    pending: dict[int, float] = {}
+    done = 0
+    last_check = last_commit = time.monotonic()
+    stopped = None
+    i = -1
+    try:
+        for i in claimed:
+            if time.monotonic() - last_check > STOP_CHECK_S:
+                with eng.connect() as c:
+                    status = c.execute(select(Job.status).where(Job.id == job_id)).scalar()
+                last_check = time.monotonic()
+                if status is None or status in STOPPED:
+                    stopped = status or "gone"
+                    break
+            ACTIVITY["tile"] = f"{job_id}/{frame_index}/{i}"
+            start = time.perf_counter()
+            t = render_tile_planned(fplan, TileRect(*rects[i]))
+            pending[i] = time.perf_counter() - start
+            local[i] = t
+            if time.monotonic() - last_commit > COMMIT_INTERVAL_S:
+                won, done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
+                ACTIVITY["done"] += won
+                pending, last_commit = {}, time.monotonic()
+    except BaseException:
+        # A time limit or an error: keep what is written, give back the rest.
+        if pending:
+            won, done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
+            ACTIVITY["done"] += won
+        _release(settings, job_id, frame_index, worker_name, [t for t in claimed if t not in local], resend=True)
+        ACTIVITY["tile"] = None
+        raise
+    if pending:
+        won, done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
+        ACTIVITY["done"] += won
     ACTIVITY["tile"] = None
-    ACTIVITY["done"] += 1
-    if not won:
-        return "already done"
+    if stopped:
+        _release(settings, job_id, frame_index, worker_name, [t for t in claimed if t not in local], resend=False)
+        return stopped
     if done >= total:
-        maybe_assemble(settings, job_id, frame_index, worker_name)
+        maybe_assemble(settings, job_id, frame_index, worker_name, local)
     return "rendered"
 
 
-def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler: str = "api") -> bool:
+def run_tile(settings: Settings, job_id: str, frame_index: int, tile_index: int, worker_name: str) -> str:
+    """One tile (the older message shape)."""
+    return run_tiles(settings, job_id, frame_index, [tile_index], worker_name)
+
+
+# ---------------------------------------------------------------------------
+# Assembly
+# ---------------------------------------------------------------------------
+
+
+def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler: str = "api",
+                   local: dict[int, Any] | None = None) -> bool:
+    """Assembles the frame if all its tiles are done and nobody else is at
+    it (compare-and-set on the frame's state); the last frame also makes the
+    animation and finishes the job."""
     url = settings.sqlalchemy_url
-    with session_scope(url) as s:
-        frame = s.scalar(select(Frame).where(Frame.job_id == job_id, Frame.index == frame_index))
-        done = s.scalar(select(func.count()).select_from(Tile).where(
-            Tile.job_id == job_id, Tile.frame_index == frame_index, Tile.status == "done"))
-        if frame is None or done < frame.tiles_total:
-            return False
-        # Elect one assembler (compare-and-set); assembly is idempotent anyway.
-        won = s.execute(update(Frame).where(Frame.id == frame.id, Frame.status.in_(("queued", "rendering")))
-                        .values(status="assembling", assembler=assembler, assembling_since=time.time())).rowcount
+    with engine_for(url).begin() as c:
+        won = c.execute(update(Frame).where(
+            Frame.job_id == job_id, Frame.index == frame_index, Frame.status.in_(("queued", "rendering")),
+            Frame.tiles_done >= Frame.tiles_total,
+        ).values(status="assembling", assembler=assembler, assembling_since=time.time())).rowcount
     if not won:
         return False
-    assemble_frame(settings, job_id, frame_index)
-    with session_scope(url) as s:
-        job = s.get(Job, job_id)
-        remaining = s.scalar(select(func.count()).select_from(Frame).where(Frame.job_id == job_id, Frame.status != "done"))
-        if remaining == 0 and job.status not in ("canceled",):
-            build_animation(settings, job_id)
-            job.status = "done"
-            job.finished = time.time()
+    assemble_frame(settings, job_id, frame_index, local)
+    with engine_for(url).connect() as c:
+        remaining = c.execute(select(func.count()).select_from(Frame).where(
+            Frame.job_id == job_id, Frame.status != "done")).scalar()
+        status = c.execute(select(Job.status).where(Job.id == job_id)).scalar()
+    if remaining == 0 and status not in ("canceled", None):
+        build_animation(settings, job_id)
+        with engine_for(url).begin() as c:
+            c.execute(update(Job).where(Job.id == job_id, Job.status != "canceled").values(status="done", finished=time.time()))
     return True
 
 
-def assemble_frame(settings: Settings, job_id: str, frame_index: int) -> None:
-    """Tiles -> frame_NNNN.exr/.png/.json + thumbnail (idempotent)."""
+def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dict[int, Any] | None = None) -> None:
+    """Tiles -> frame_NNNN.exr/.png/.json, thumbnail and GIF fragment
+    (idempotent). Tiles this process rendered are taken from memory, the
+    others from the store; the EXR's interleaved buffer is filled directly."""
     from pathlib import Path
 
-    from argand.render.frames import FrameParams, FrameResult, frame_figures
+    from argand.render import gif
+    from argand.render.frames import AOV_CHANNELS, FrameParams, FrameResult, frame_figures
     from argand.render.output import to_srgb8, write_frame, write_png
 
+    t_start = time.perf_counter()
     store = store_for(settings)
-    with session_scope(settings.sqlalchemy_url) as s:
-        job = s.get(Job, job_id)
-        frame = s.scalar(select(Frame).where(Frame.job_id == job_id, Frame.index == frame_index))
-        tiles = s.scalars(select(Tile).where(Tile.job_id == job_id, Tile.frame_index == frame_index)).all()
-        w, h, size, method = job.width, job.height, job.tile, job.method
-        sigma, delta = frame.sigma, frame.delta
-        seconds = sum(t.seconds or 0.0 for t in tiles)
-    rgba = np.zeros((h, w, 4), np.float32)
-    aovs = {"Z": np.zeros((h, w), np.float32), "arg": np.zeros((h, w), np.float32), "re": np.zeros((h, w), np.float32),
-            "im": np.zeros((h, w), np.float32), "count": np.zeros((h, w), np.int32), "status": np.zeros((h, w), np.uint8)}
+    local = local or {}
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        job = c.execute(select(Job.width, Job.height, Job.tile, Job.method).where(Job.id == job_id)).one()
+        sigma, delta = c.execute(select(Frame.sigma, Frame.delta).where(Frame.job_id == job_id, Frame.index == frame_index)).one()
+        seconds = c.execute(select(func.sum(Tile.seconds)).where(*_tile_key(job_id, frame_index))).scalar() or 0.0
+        chunks = dict(c.execute(select(Tile.tile_index, Tile.chunk).where(*_tile_key(job_id, frame_index))).all())
+    stored: dict[int, dict[str, np.ndarray]] = {}
+    for name in {chunks[i] for i in chunks if i not in local and chunks[i]}:
+        stored.update(store.read_chunk(job_id, frame_index, name))
+    w, h = job.width, job.height
+    px = np.zeros((h, w, 4 + len(AOV_CHANNELS)), np.float32)
     escalations = calls = 0
-    for i, (x0, y0, x1, y1) in enumerate(tile_rects(w, h, size)):
-        t = store.read_tile(job_id, frame_index, i)
-        rgba[y0:y1, x0:x1] = t["rgba"]
-        for k in aovs:
-            aovs[k][y0:y1, x0:x1] = t[k]
-        escalations += int(t["meta"][0])
-        calls += int(t["meta"][1])
-    params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=method)
-    result = FrameResult(params, rgba, aovs, seconds, escalations, calls)
+    for i, (x0, y0, x1, y1) in enumerate(tile_rects(w, h, job.tile)):
+        t = local.get(i)
+        if t is not None:
+            rgba, aovs, esc, n = t.rgba, t.aovs, t.escalations, t.root_calls
+        else:  # another worker's tile (or one file per tile, from an earlier version)
+            d = stored.get(i) or store.read_tile(job_id, frame_index, i)
+            rgba, aovs, (esc, n) = d["rgba"], d, d["meta"]
+        block = px[y0:y1, x0:x1]
+        block[..., :4] = rgba
+        for k, name in enumerate(AOV_CHANNELS):
+            block[..., 4 + k] = aovs[name]
+        escalations += int(esc)
+        calls += int(n)
+    params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method)
+    result = FrameResult(params, px[..., :4], {name: px[..., 4 + k] for k, name in enumerate(AOV_CHANNELS)},
+                         seconds, escalations, calls)
     result.figures = frame_figures(result)
     out = Path(store.job_dir(job_id))
-    write_frame(result, out, frame_index)
-    png = to_srgb8(rgba)
+    t_encode = time.perf_counter()
+    srgb = to_srgb8(result.rgba)
+    write_frame(result, out, frame_index, exr=px, srgb8=srgb, compression=settings.exr_compression)
     step = max(1, max(w, h) // 160)
-    write_png(np.ascontiguousarray(png[::step, ::step]), out / f"thumb_{frame_index:04d}.png")
-    with session_scope(settings.sqlalchemy_url) as s:
-        s.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index)
-                  .values(status="done", figures=result.figures))
+    write_png(np.ascontiguousarray(srgb[::step, ::step]), out / f"thumb_{frame_index:04d}.png")
+    store.write_bytes_atomic(store.path("jobs", job_id, "gif", f"{frame_index:04d}.gif"), gif.encode_frame(srgb))
+    t_end = time.perf_counter()
+    # Where the assembler's time went (argand bench farm reports it).
+    figures = dict(result.figures, assembly_s=t_end - t_start, encode_s=t_end - t_encode)
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index)
+                  .values(status="done", figures=figures, finished=time.time()))
+    store.remove_tiles(job_id, frame_index)
 
 
-def build_animation(settings: Settings, job_id: str) -> None:
+def build_animation(settings: Settings, job_id: str, fps: float = 8.0) -> None:
+    """animation.gif, spliced from the frames' GIF fragments (no frame is
+    encoded again; a fragment that is missing, from a frame assembled by an
+    older version, is made from the frame's PNG)."""
     from pathlib import Path
 
     import OpenImageIO as oiio
 
-    from argand.render.output import write_gif
+    from argand.render import gif
 
-    out = Path(store_for(settings).job_dir(job_id))
-    with session_scope(settings.sqlalchemy_url) as s:
-        n = len(s.get(Job, job_id).frames)
-    frames = []
+    store = store_for(settings)
+    out = Path(store.job_dir(job_id))
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        n = c.execute(select(func.count()).select_from(Frame).where(Frame.job_id == job_id)).scalar()
+    fragments = []
     for i in range(n):
-        buf = oiio.ImageBuf(str(out / f"frame_{i:04d}.png"))
-        frames.append(buf.get_pixels(oiio.UINT8))
-    write_gif(frames, out / "animation.gif")
+        key = store.path("jobs", job_id, "gif", f"{i:04d}.gif")
+        if store.exists(key):
+            fragments.append(store.read_bytes(key))
+        else:
+            rgb = oiio.ImageBuf(str(out / f"frame_{i:04d}.png")).get_pixels(oiio.UINT8)
+            fragments.append(gif.encode_frame(rgb[..., :3]))
+    store.write_bytes_atomic(store.path("jobs", job_id, "animation.gif"), gif.splice(fragments, fps=fps))
 
 
 # ---------------------------------------------------------------------------
@@ -343,8 +502,12 @@ def reap(settings: Settings) -> int:
         from argand.worker.app import get_app
 
         app = get_app(settings)
+        runs: dict[tuple[str, int], list[int]] = {}
         for job_id, f, i in requeue:
-            app.send_task(TASK_NAME, args=[job_id, f, i], priority=0)
+            runs.setdefault((job_id, f), []).append(i)
+        for (job_id, f), tiles in runs.items():
+            for k in range(0, len(tiles), 64):
+                app.send_task(TASK_NAME, args=[job_id, f, tiles[k:k + 64]], priority=0)
     return len(requeue)
 
 

@@ -292,14 +292,17 @@ def bench_farm_cmd(
     with console.status("benchmarking the farm") as status:
         report = bench_farm(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
     table = Table(title=f"farm: {report['frames']} frames of {report['size']}x{report['size']}", title_justify="left")
-    for col in ("workers", "tile", "seconds", "frames/s", "first frame s", "overhead"):
+    for col in ("workers", "tile", "seconds", "frames/s", "first frame s", "encoding", "dispatch", "overhead"):
         table.add_column(col, justify="right")
     for r in report["runs"]:
         table.add_row(str(r["workers"]), str(r["tile"]), f"{r['wall_s']:.2f}", f"{r['fps']:.2f}",
-                      f"{r['first_frame_s']:.2f}", f"{100 * r['overhead_share']:.1f}%")
+                      f"{r['first_frame_s']:.2f}", f"{100 * r['encode_share']:.1f}%",
+                      f"{100 * r['dispatch_share']:.1f}%", f"{100 * r['overhead_share']:.1f}%")
     console.print(table)
     console.print("scaling 2 workers / 1 worker: " + ", ".join(f"tile {k}: {v:.2f}x" for k, v in report["scaling_2_vs_1"].items()))
-    console.print(f"wrote {out / 'farm.json'} and {out / 'farm.png'}")
+    console.print("shares are of the render time; encoding: the frames' files, as a local render writes them; "
+                  "dispatch: what the farm adds")
+    console.print(f"wrote {out / 'farm.json'}, {out / 'farm.md'} and {out / 'farm.png'}")
 
 
 # ---------------------------------------------------------------------------
