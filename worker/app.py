@@ -52,8 +52,20 @@ def _beat(settings: Settings) -> None:
         _stop.wait(settings.heartbeat_interval_s)
 
 
+def _one_core() -> None:
+    """A worker is one process on one core (run one per core): OpenImageIO's
+    own thread pools would make workers fight over cores, and would let a
+    lone worker borrow an idle core for its encoding, which no longer exists
+    once every core runs a worker."""
+    import OpenImageIO as oiio
+
+    oiio.attribute("threads", 1)
+    oiio.attribute("exr_threads", 1)
+
+
 @worker_ready.connect
 def _start_heartbeat(**_kwargs) -> None:
+    _one_core()
     farm.heartbeat(get_settings(), worker_name(), os.getpid())  # registered before the first task
     threading.Thread(target=_beat, args=(get_settings(),), daemon=True, name="argand-heartbeat").start()
 

@@ -26,7 +26,7 @@ import uuid
 from typing import Any
 
 import numpy as np
-from sqlalchemy import case, func, insert, select, update
+from sqlalchemy import func, insert, select, update
 
 from argand.api.db import Frame, Job, Tile, Worker, engine_for, session_scope
 from argand.api.settings import Settings
@@ -149,9 +149,12 @@ _marked: set[tuple[str, int]] = set()  # (job, frame) this process already marke
 ACTIVITY: dict[str, Any] = {"tile": None, "done": 0}
 
 
+_job_cache: dict[str, Any] = {}
+
+
 def _frame_plan(url: str, job_id: str, frame_index: int):
     """The frame's C++ plan and tile rectangles, built once per worker
-    process and frame."""
+    process and frame (the job's scene is converted once per job)."""
     from argand.render.convert import to_core_scene
     from argand.render.frames import FrameParams, plan
     from argand.scene import scene_from_dict
@@ -160,13 +163,17 @@ def _frame_plan(url: str, job_id: str, frame_index: int):
     if key not in _plan_cache:
         if len(_plan_cache) > 16:
             _plan_cache.clear()
-        with session_scope(url) as s:
-            job = s.get(Job, job_id)
-            frame = s.scalar(select(Frame).where(Frame.job_id == job_id, Frame.index == frame_index))
-            params = FrameParams(sigma=frame.sigma, delta=frame.delta, width=job.width, height=job.height, method=job.method)
-            scene = scene_from_dict(job.scene)
-            info = (tile_rects(job.width, job.height, job.tile), frame.tiles_total)
-        _plan_cache[key] = (plan(to_core_scene(scene), params), *info)
+        with engine_for(url).connect() as c:
+            if job_id not in _job_cache:
+                if len(_job_cache) > 8:
+                    _job_cache.clear()
+                job = c.execute(select(Job.scene, Job.width, Job.height, Job.tile, Job.method).where(Job.id == job_id)).one()
+                _job_cache[job_id] = (to_core_scene(scene_from_dict(job.scene)), job.width, job.height, job.tile, job.method)
+            sigma, delta, tiles_total = c.execute(select(Frame.sigma, Frame.delta, Frame.tiles_total).where(
+                Frame.job_id == job_id, Frame.index == frame_index)).one()
+        core_scene, w, h, tile, method = _job_cache[job_id]
+        params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=method)
+        _plan_cache[key] = (plan(core_scene, params), tile_rects(w, h, tile), tiles_total)
     return _plan_cache[key]
 
 
@@ -188,7 +195,7 @@ def _complete(settings: Settings, job_id: str, frame_index: int, worker_name: st
             update(Tile)
             .where(*_tile_key(job_id, frame_index), Tile.tile_index.in_(list(seconds)), Tile.status == "running",
                    Tile.worker == worker_name)
-            .values(status="done", seconds=case(seconds, value=Tile.tile_index), renders=Tile.renders + 1, chunk=chunk)
+            .values(status="done", seconds=_mean(seconds), renders=Tile.renders + 1, chunk=chunk)
             .returning(Tile.tile_index)
         ).scalars().all()
         q = update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index)
@@ -197,8 +204,16 @@ def _complete(settings: Settings, job_id: str, frame_index: int, worker_name: st
     return len(won), done, total
 
 
-def _tile_arrays(t: Any) -> dict[str, np.ndarray]:
-    return {"rgba": t.rgba, **t.aovs, "meta": np.array([t.escalations, t.root_calls], dtype=np.int64)}
+def _mean(seconds: dict[int, float]) -> float:
+    """A tile's recorded render time is its run's mean (one value for the
+    whole statement, so it compiles once however many tiles; the frame's
+    sum is the same)."""
+    return sum(seconds.values()) / max(1, len(seconds))
+
+
+def _tile_arrays(t: tuple[np.ndarray, int, int]) -> dict[str, np.ndarray]:
+    block, esc, calls = t
+    return {"px": np.ascontiguousarray(block), "meta": np.array([esc, calls], dtype=np.int64)}
 
 
 def _release(settings: Settings, job_id: str, frame_index: int, worker_name: str, tiles: list[int],
@@ -228,7 +243,7 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
     """Renders a run of tiles of one frame, skipping those done or held by
     another worker, and stopping between tiles when the job is cancelled or
     paused. Returns what happened (for logs and tests)."""
-    from argand.render.frames import TileRect, render_tile_planned
+    from argand.render.frames import INTERLEAVED_CHANNELS, TileRect, render_tile_into
 
     url = settings.sqlalchemy_url
     eng = engine_for(url)
@@ -253,7 +268,11 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
                       .values(status="rendering"))
             _marked.add((job_id, frame_index))
     fplan, rects, total = _frame_plan(url, job_id, frame_index)
-    local: dict[int, Any] = {}  # what this process rendered, for its own assembly
+    # A run that holds the whole frame renders straight into the frame's
+    # buffer (the EXR's layout); otherwise each tile gets a block of its own.
+    whole = len(claimed) == total
+    frame_px = np.empty((fplan.height, fplan.width, len(INTERLEAVED_CHANNELS)), np.float32) if whole else None
+    local: dict[int, Any] = {}  # tile -> (pixels, escalations, root calls), for this process's own assembly
     pending: dict[int, float] = {}
     done = 0
     last_check = last_commit = time.monotonic()
@@ -269,10 +288,15 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
                     stopped = status or "gone"
                     break
             ACTIVITY["tile"] = f"{job_id}/{frame_index}/{i}"
+            x0, y0, x1, y1 = rects[i]
+            if frame_px is not None:
+                block, ox, oy = frame_px, x0, y0
+            else:
+                block, ox, oy = np.empty((y1 - y0, x1 - x0, len(INTERLEAVED_CHANNELS)), np.float32), 0, 0
             start = time.perf_counter()
-            t = render_tile_planned(fplan, TileRect(*rects[i]))
+            esc, calls = render_tile_into(fplan, TileRect(x0, y0, x1, y1), block, ox, oy)
             pending[i] = time.perf_counter() - start
-            local[i] = t
+            local[i] = (block[y0:y1, x0:x1] if frame_px is not None else block, esc, calls)
             if time.monotonic() - last_commit > COMMIT_INTERVAL_S:
                 won, done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
                 ACTIVITY["done"] += won
@@ -285,6 +309,12 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
         _release(settings, job_id, frame_index, worker_name, [t for t in claimed if t not in local], resend=True)
         ACTIVITY["tile"] = None
         raise
+    if pending and not stopped and len(local) == len(pending) == total:
+        # The run rendered the whole frame: assemble from memory, then count
+        # the tiles and the frame done in one transaction (no tile files).
+        ACTIVITY["tile"] = None
+        if _finish_whole_frame(settings, job_id, frame_index, worker_name, pending, local, frame_px):
+            return "rendered"
     if pending:
         won, done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
         ACTIVITY["done"] += won
@@ -295,6 +325,43 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
     if done >= total:
         maybe_assemble(settings, job_id, frame_index, worker_name, local)
     return "rendered"
+
+
+class _Lost(Exception):
+    """Some tile of the run is no longer this worker's (the reaper gave it away)."""
+
+
+def _finish_whole_frame(settings: Settings, job_id: str, frame_index: int, worker_name: str,
+                        seconds: dict[int, float], local: dict[int, Any], frame_px: np.ndarray) -> bool:
+    """Assembles a frame this worker rendered alone, then marks its tiles and
+    the frame done in one transaction: a crash before the commit leaves the
+    tiles claimed by a dead worker, and the reaper has them rendered again;
+    a crash after it leaves a finished frame. Returns False (nothing
+    committed; the caller goes the usual way) if any tile was taken away."""
+    figures = assemble_frame(settings, job_id, frame_index, local, seconds=sum(seconds.values()), commit=False,
+                             frame_px=frame_px)
+    try:
+        with engine_for(settings.sqlalchemy_url).begin() as c:
+            won = c.execute(
+                update(Tile)
+                .where(*_tile_key(job_id, frame_index), Tile.tile_index.in_(list(seconds)), Tile.status == "running",
+                       Tile.worker == worker_name)
+                .values(status="done", seconds=_mean(seconds), renders=Tile.renders + 1, chunk="frame")
+                .returning(Tile.tile_index)
+            ).scalars().all()
+            if len(won) < len(seconds):
+                raise _Lost
+            n = c.execute(update(Frame).where(
+                Frame.job_id == job_id, Frame.index == frame_index, Frame.status.in_(("queued", "rendering"))
+            ).values(tiles_done=len(won), status="done", assembler=worker_name, figures=figures,
+                     finished=time.time())).rowcount
+            if n != 1:
+                raise _Lost
+    except _Lost:
+        return False
+    ACTIVITY["done"] += len(won)
+    _finish_job_if_last(settings, job_id)
+    return True
 
 
 def run_tile(settings: Settings, job_id: str, frame_index: int, tile_index: int, worker_name: str) -> str:
@@ -321,6 +388,13 @@ def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler:
     if not won:
         return False
     assemble_frame(settings, job_id, frame_index, local)
+    _finish_job_if_last(settings, job_id)
+    return True
+
+
+def _finish_job_if_last(settings: Settings, job_id: str) -> None:
+    """When every frame is done: the animation, then the job is done."""
+    url = settings.sqlalchemy_url
     with engine_for(url).connect() as c:
         remaining = c.execute(select(func.count()).select_from(Frame).where(
             Frame.job_id == job_id, Frame.status != "done")).scalar()
@@ -329,13 +403,27 @@ def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler:
         build_animation(settings, job_id)
         with engine_for(url).begin() as c:
             c.execute(update(Job).where(Job.id == job_id, Job.status != "canceled").values(status="done", finished=time.time()))
-    return True
 
 
-def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dict[int, Any] | None = None) -> None:
+def _legacy_tile(store: FrameStore, job_id: str, frame_index: int, tile: int) -> dict[str, np.ndarray]:
+    """A tile written by an earlier version (one .npz per tile, one array per
+    AOV), in the interleaved layout."""
+    import io
+
+    from argand.render.frames import AOV_CHANNELS
+
+    with np.load(io.BytesIO(store.read_bytes(f"{store.tile_dir(job_id, frame_index)}/{tile:05d}.npz"))) as z:
+        planes = [z["rgba"][..., c] for c in range(4)] + [z[name].astype(np.float32) for name in AOV_CHANNELS]
+        return {"px": np.stack(planes, axis=-1).astype(np.float32), "meta": z["meta"]}
+
+
+def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dict[int, Any] | None = None,
+                   seconds: float | None = None, commit: bool = True, frame_px: np.ndarray | None = None) -> dict:
     """Tiles -> frame_NNNN.exr/.png/.json, thumbnail and GIF fragment
     (idempotent). Tiles this process rendered are taken from memory, the
-    others from the store; the EXR's interleaved buffer is filled directly."""
+    others from the store; the EXR's interleaved buffer is filled directly.
+    With ``commit`` the frame is marked done and its tile files dropped.
+    Returns the frame's figures."""
     from pathlib import Path
 
     from argand.render import gif
@@ -348,25 +436,24 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     with engine_for(settings.sqlalchemy_url).connect() as c:
         job = c.execute(select(Job.width, Job.height, Job.tile, Job.method).where(Job.id == job_id)).one()
         sigma, delta = c.execute(select(Frame.sigma, Frame.delta).where(Frame.job_id == job_id, Frame.index == frame_index)).one()
-        seconds = c.execute(select(func.sum(Tile.seconds)).where(*_tile_key(job_id, frame_index))).scalar() or 0.0
-        chunks = dict(c.execute(select(Tile.tile_index, Tile.chunk).where(*_tile_key(job_id, frame_index))).all())
+        if seconds is None:
+            seconds = c.execute(select(func.sum(Tile.seconds)).where(*_tile_key(job_id, frame_index))).scalar() or 0.0
+        chunks = {} if len(local) == len(tile_rects(job.width, job.height, job.tile)) else dict(c.execute(
+            select(Tile.tile_index, Tile.chunk).where(*_tile_key(job_id, frame_index))).all())
     stored: dict[int, dict[str, np.ndarray]] = {}
     for name in {chunks[i] for i in chunks if i not in local and chunks[i]}:
         stored.update(store.read_chunk(job_id, frame_index, name))
     w, h = job.width, job.height
-    px = np.zeros((h, w, 4 + len(AOV_CHANNELS)), np.float32)
+    px = frame_px if frame_px is not None else np.empty((h, w, 4 + len(AOV_CHANNELS)), np.float32)
     escalations = calls = 0
     for i, (x0, y0, x1, y1) in enumerate(tile_rects(w, h, job.tile)):
-        t = local.get(i)
-        if t is not None:
-            rgba, aovs, esc, n = t.rgba, t.aovs, t.escalations, t.root_calls
+        if i in local:
+            block, esc, n = local[i]
         else:  # another worker's tile (or one file per tile, from an earlier version)
-            d = stored.get(i) or store.read_tile(job_id, frame_index, i)
-            rgba, aovs, (esc, n) = d["rgba"], d, d["meta"]
-        block = px[y0:y1, x0:x1]
-        block[..., :4] = rgba
-        for k, name in enumerate(AOV_CHANNELS):
-            block[..., 4 + k] = aovs[name]
+            d = stored.get(i) or _legacy_tile(store, job_id, frame_index, i)
+            block, (esc, n) = d["px"], d["meta"]
+        if frame_px is None:
+            px[y0:y1, x0:x1] = block
         escalations += int(esc)
         calls += int(n)
     params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method)
@@ -383,10 +470,12 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     t_end = time.perf_counter()
     # Where the assembler's time went (argand bench farm reports it).
     figures = dict(result.figures, assembly_s=t_end - t_start, encode_s=t_end - t_encode)
-    with engine_for(settings.sqlalchemy_url).begin() as c:
-        c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index)
-                  .values(status="done", figures=figures, finished=time.time()))
-    store.remove_tiles(job_id, frame_index)
+    if commit:
+        with engine_for(settings.sqlalchemy_url).begin() as c:
+            c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index)
+                      .values(status="done", figures=figures, finished=time.time()))
+        store.remove_tiles(job_id, frame_index)
+    return figures
 
 
 def build_animation(settings: Settings, job_id: str, fps: float = 8.0) -> None:

@@ -68,6 +68,8 @@ SceneSpec scene_from(const py::dict& d) {
     return sc;
 }
 
+constexpr int kInterleavedChannels = 10;
+
 template <class T>
 py::array_t<T> as_image(const std::vector<T>& v, int h, int w, int channels) {
     std::vector<py::ssize_t> shape = {h, w};
@@ -126,6 +128,47 @@ void init_render(py::module_& m) {
             return out;
         },
         py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"));
+    m.def(
+        "render_tile_into",
+        [](const FramePlan& plan, int x0, int y0, int x1, int y1, py::array_t<float, py::array::c_style> out, int ox,
+           int oy) {
+            // The farm's layout: the EXR's interleaved channels, written in
+            // place (no per-AOV arrays to allocate and stitch in Python).
+            const int W = plan.params.width, H = plan.params.height;
+            if (!(0 <= x0 && x0 < x1 && x1 <= W && 0 <= y0 && y0 < y1 && y1 <= H))
+                throw py::value_error("tile [" + std::to_string(x0) + ", " + std::to_string(x1) + ") x [" +
+                                      std::to_string(y0) + ", " + std::to_string(y1) + ") is not inside the " +
+                                      std::to_string(W) + "x" + std::to_string(H) + " frame");
+            if (out.ndim() != 3 || out.shape(2) != kInterleavedChannels)
+                throw py::value_error("out must be a C-contiguous (h, w, 10) float32 array");
+            const py::ssize_t oh = out.shape(0), ow = out.shape(1);
+            if (ox < 0 || oy < 0 || ox + (x1 - x0) > ow || oy + (y1 - y0) > oh)
+                throw py::value_error("the tile does not fit in out at the given offset");
+            float* base = out.mutable_data();
+            TileAOVs t;
+            {
+                py::gil_scoped_release release;
+                render_tile(plan, TileRect{x0, y0, x1, y1}, t);
+                for (int y = 0; y < t.height; ++y) {
+                    float* p = base + (static_cast<std::size_t>(oy + y) * ow + ox) * kInterleavedChannels;
+                    for (int x = 0; x < t.width; ++x, p += kInterleavedChannels) {
+                        const std::size_t i = static_cast<std::size_t>(y) * t.width + x;
+                        for (int c = 0; c < 4; ++c) p[c] = t.rgba[4 * i + c];
+                        p[4] = t.modulus[i];
+                        p[5] = t.argument[i];
+                        p[6] = t.re[i];
+                        p[7] = t.im[i];
+                        p[8] = static_cast<float>(t.count[i]);
+                        p[9] = static_cast<float>(t.status[i]);
+                    }
+                }
+            }
+            return py::make_tuple(t.escalations, t.root_calls);
+        },
+        "Renders the tile [x0, x1) x [y0, y1) into out[oy:, ox:] as 10 interleaved float32 channels (R, G, B, A, "
+        "Z, arg, re, im, count, status: the EXR's layout). Returns (escalations, root_calls).",
+        py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("out"), py::arg("ox") = 0,
+        py::arg("oy") = 0);
     m.def(
         "ray_polynomial",
         [](const FramePlan& plan, int object, std::array<double, 3> origin, std::array<double, 3> direction) {

@@ -38,14 +38,16 @@ def _free_port() -> int:
 class LocalFarm:
     """`argand serve` in a subprocess on a free loopback port."""
 
-    def __init__(self, data: Path, workers: int) -> None:
+    def __init__(self, data: Path, workers: int, env: dict[str, str] | None = None) -> None:
         self.data, self.workers, self.port = data, workers, _free_port()
+        self.extra_env = env or {}
         self.url = f"http://127.0.0.1:{self.port}"
 
     def __enter__(self) -> "LocalFarm":
         argand = str(Path(sys.executable).with_name("argand"))
         env = dict(os.environ)
         env.pop("ARGAND_REDIS_URL", None)
+        env.update(self.extra_env)
         self.data.mkdir(parents=True, exist_ok=True)
         with open(self.data / "serve.log", "w") as log:
             self.proc = subprocess.Popen([argand, "serve", "--workers", str(self.workers), "--port", str(self.port),
@@ -74,7 +76,7 @@ class LocalFarm:
     def run_job(self, body: dict) -> dict:
         job = httpx.post(self.url + "/api/jobs", json=body, timeout=120).json()
         while True:
-            time.sleep(0.5)  # a light poll: the farm shares the machine, and the times are the server's
+            time.sleep(1.0)  # a light poll: the farm shares the machine, and the times are the server's
             view = httpx.get(self.url + f"/api/jobs/{job['id']}", timeout=60).json()
             if view["status"] in ("done", "failed", "canceled"):
                 break
@@ -90,14 +92,19 @@ class LocalFarm:
         }
 
 
-def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress: Callable[[str], None] = lambda m: None) -> dict:
+def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress: Callable[[str], None] = lambda m: None,
+               exr_compression: str | None = None) -> dict:
+    from argand.api.settings import Settings
+
+    env = {"ARGAND_EXR_COMPRESSION": exr_compression} if exr_compression else {}
+    compression = exr_compression or Settings().exr_compression
     frames, size = (3, 192) if smoke else (36, 512)
     tiles = (32, 64, 128, size)
     rows = []
     with tempfile.TemporaryDirectory(prefix="argand-bench-farm-") as tmp:
         for workers in (1, 2):
             progress(f"starting a farm with {workers} worker(s)")
-            with LocalFarm(Path(tmp) / f"w{workers}", workers) as farm:
+            with LocalFarm(Path(tmp) / f"w{workers}", workers, env) as farm:
                 for tile in tiles:
                     progress(f"{workers} worker(s), tile {tile}: {frames} frames of {size}x{size}")
                     body = {"scene": "bicube", "deltas": {"start": 0, "stop": "pi/9", "count": frames},
@@ -122,6 +129,7 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
         "runs": rows,
         "scaling_2_vs_1": {str(t): by[(1, t)]["wall_s"] / by[(2, t)]["wall_s"] for t in (32, 64, 128, "frame")},
         "default_tile": 64,
+        "exr_compression": compression,
         "measures": {
             "wall_s": "server clock, job created -> job done (animation included)",
             "first_frame_s": "server clock, job created -> first frame done",
@@ -140,7 +148,8 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
 
 def markdown(report: dict) -> str:
     lines = [
-        f"{report['frames']} frames of {report['size']}×{report['size']} ({report['scene']}); shares are of the render time.",
+        f"{report['frames']} frames of {report['size']}×{report['size']} ({report['scene']}), EXR compression "
+        f"`{report['exr_compression']}`; shares are of the render time.",
         "",
         "| workers | tile | seconds | frames / s | first frame (s) | encoding | dispatch | overhead (all) |",
         "|---:|---:|---:|---:|---:|---:|---:|---:|",

@@ -112,6 +112,18 @@ def render_tile_planned(frame_plan: Any, rect: TileRect) -> TileAOVs:
     return TileAOVs(rect, out["rgba"], aovs, int(out["escalations"]), int(out["root_calls"]))
 
 
+#: The farm's interleaved layout (the EXR's channel order).
+INTERLEAVED_CHANNELS = ("R", "G", "B", "A") + AOV_CHANNELS
+
+
+def render_tile_into(frame_plan: Any, rect: TileRect, out: np.ndarray, ox: int = 0, oy: int = 0) -> tuple[int, int]:
+    """Renders ``rect`` into ``out[oy:, ox:]``, a C-contiguous (h, w, 10)
+    float32 array in the order of INTERLEAVED_CHANNELS (count and status as
+    floats, exactly). Returns (escalations, root_calls)."""
+    esc, calls = _core.render_tile_into(frame_plan, rect.x0, rect.y0, rect.x1, rect.y1, out, ox, oy)
+    return int(esc), int(calls)
+
+
 def render_tile(scene: Any, params: FrameParams, rect: TileRect) -> TileAOVs:
     """(scene, frame params, tile rectangle) -> AOV arrays. ``scene`` is a
     :class:`argand.scene.Scene` or an already converted core dict."""
