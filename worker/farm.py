@@ -71,17 +71,35 @@ def tile_rects(width: int, height: int, tile: int) -> list[tuple[int, int, int, 
 
 def create_job(settings: Settings, scene_name: str, scene: dict, sigma: float, deltas: list[float], width: int,
                height: int, tile: int, priority: int, method: str = "auto") -> str:
+    """Stores the job, its frames and tiles, and sends its messages. The
+    first frames' tiles are stored and sent first, so workers start while
+    the rest is written."""
     job_id = uuid.uuid4().hex[:12]
-    n_tiles = len(tile_rects(width, height, tile))
-    with engine_for(settings.sqlalchemy_url).begin() as c:
+    rects = tile_rects(width, height, tile)
+    n_frames = len(deltas)
+    workers = max(1, alive_workers(settings))
+    runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects, settings.batch_pixels, workers)
+    early = set(preview_order(n_frames)[:2 * workers])
+    split = next((k for k, (f, _) in enumerate(runs) if f not in early), len(runs))
+
+    def tiles_of(frames):
+        return [dict(job_id=job_id, frame_index=i, tile_index=t, status="queued", attempts=0, renders=0)
+                for i in sorted(frames) for t in range(len(rects))]
+
+    eng = engine_for(settings.sqlalchemy_url)
+    with eng.begin() as c:
         c.execute(insert(Job).values(id=job_id, status="queued", scene_name=scene_name, scene=scene, sigma=sigma,
                                      width=width, height=height, tile=tile, method=method, priority=priority,
                                      created=time.time()))
         c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=sigma, delta=d, status="queued",
-                                       tiles_total=n_tiles, tiles_done=0) for i, d in enumerate(deltas)])
-        c.execute(insert(Tile), [dict(job_id=job_id, frame_index=i, tile_index=t, status="queued", attempts=0, renders=0)
-                                 for i in range(len(deltas)) for t in range(n_tiles)])
-    dispatch_job(settings, job_id)
+                                       tiles_total=len(rects), tiles_done=0) for i, d in enumerate(deltas)])
+        c.execute(insert(Tile), tiles_of(early))
+    _send(settings, job_id, runs[:split], priority)
+    rest = set(range(n_frames)) - early
+    if rest:
+        with eng.begin() as c:
+            c.execute(insert(Tile), tiles_of(rest))
+        _send(settings, job_id, runs[split:], priority)
     return job_id
 
 
@@ -109,14 +127,38 @@ def batch_runs(tiles: list[int], rects: list[tuple[int, int, int, int]], target_
     return runs
 
 
-def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] = ("queued",)) -> int:
-    """Sends messages for every tile of the job in one of the given states:
-    frames in preview order, each frame's tiles in runs sized so that every
-    worker gets several messages (a balanced end) and no message exceeds
-    ``batch_pixels``. Returns the number of tiles sent."""
+def plan_runs(by_frame: dict[int, list[int]], n_frames: int, rects: list[tuple[int, int, int, int]], batch_pixels: int,
+              workers: int) -> list[tuple[int, list[int]]]:
+    """The messages, in sending order, as (frame, tiles): frames in preview
+    order; runs of at most ``batch_pixels``, small enough that every worker
+    gets four or more; and, with several workers, the last ``2 * workers``
+    runs cut in quarters, so that the workers finish together instead of
+    one waiting on another's last frame."""
+    pixels = sum((rects[t][2] - rects[t][0]) * (rects[t][3] - rects[t][1]) for ts in by_frame.values() for t in ts)
+    target = max(1, min(batch_pixels, pixels // (4 * workers)))
+    runs = [(f, run) for f in preview_order(n_frames) for run in batch_runs(by_frame.get(f, []), rects, target)]
+    tail = 2 * workers
+    if workers > 1 and len(runs) > tail:
+        cut = []
+        for f, run in runs[-tail:]:
+            size = max(1, math.ceil(len(run) / 4))
+            cut += [(f, run[k:k + size]) for k in range(0, len(run), size)]
+        runs = runs[:-tail] + cut
+    return runs
+
+
+def _send(settings: Settings, job_id: str, runs: list[tuple[int, list[int]]], priority: int) -> None:
     from argand.worker.app import get_app
 
     app = get_app(settings)
+    level = max(0, min(9, 9 - priority))
+    for f, run in runs:
+        app.send_task(TASK_NAME, args=[job_id, f, run], priority=level)
+
+
+def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] = ("queued",)) -> int:
+    """Sends messages for every tile of the job in one of the given states
+    (see plan_runs). Returns the number of tiles sent."""
     with engine_for(settings.sqlalchemy_url).connect() as c:
         job = c.execute(select(Job.priority, Job.width, Job.height, Job.tile).where(Job.id == job_id)).first()
         if job is None:
@@ -124,17 +166,12 @@ def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] =
         n_frames = c.execute(select(func.count()).select_from(Frame).where(Frame.job_id == job_id)).scalar()
         rows = c.execute(select(Tile.frame_index, Tile.tile_index).where(
             Tile.job_id == job_id, Tile.status.in_(only_status)).order_by(Tile.frame_index, Tile.tile_index)).all()
-    rects = tile_rects(job.width, job.height, job.tile)
     by_frame: dict[int, list[int]] = {}
     for f, t in rows:
         by_frame.setdefault(f, []).append(t)
-    pixels = sum((rects[t][2] - rects[t][0]) * (rects[t][3] - rects[t][1]) for f, t in rows)
-    workers = max(1, alive_workers(settings))
-    target = max(1, min(settings.batch_pixels, pixels // (4 * workers)))
-    priority = max(0, min(9, 9 - job.priority))
-    for f in preview_order(n_frames):
-        for run in batch_runs(by_frame.get(f, []), rects, target):
-            app.send_task(TASK_NAME, args=[job_id, f, run], priority=priority)
+    runs = plan_runs(by_frame, n_frames, tile_rects(job.width, job.height, job.tile), settings.batch_pixels,
+                     max(1, alive_workers(settings)))
+    _send(settings, job_id, runs, job.priority)
     return len(rows)
 
 
