@@ -173,3 +173,29 @@ def test_bench_render_smoke(tmp_path):
     for f in report["frames"]:
         assert f["ms"] > 0 and f["unverified_ms"] > 0 and 0 <= f["certified_share"] <= 1
     assert (tmp_path / "render_contact.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bench_farm_smoke(tmp_path):
+    """The farm benchmark end to end on tiny jobs (real farms of 1 and 2
+    workers), so that it never rots; its numbers are not judged here."""
+    r = run("bench", "farm", "--smoke", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    report = json.loads((tmp_path / "farm.json").read_text())
+    assert [(x["workers"], x["tile"]) for x in report["runs"]] == [
+        (w, t) for w in (1, 2) for t in (32, 64, 128, "frame")]
+    for x in report["runs"]:
+        assert x["status"] == "done" and x["wall_s"] > 0 and x["render_s"] > 0
+        assert 0 < x["first_frame_s"] <= x["wall_s"]
+        assert x["encode_s"] <= x["assembly_s"] and x["encode_share"] >= 0 and x["dispatch_share"] >= 0
+        assert math.isclose(x["overhead_share"], x["encode_share"] + x["dispatch_share"], rel_tol=1e-9, abs_tol=1e-9) \
+            or x["dispatch_share"] == 0
+    assert set(report["scaling_2_vs_1"]) == {"32", "64", "128", "frame"}
+    assert report["exr_compression"] == "zip"
+    assert (tmp_path / "farm.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "| 2 | 64 |" in (tmp_path / "farm.md").read_text()
+
+
+def test_bench_farm_rejects_an_unknown_compression(tmp_path):
+    r = run("bench", "farm", "--smoke", "--exr-compression", "lzma", "--out", str(tmp_path))
+    assert r.returncode == 2 and "--exr-compression" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "farm.json").exists()

@@ -157,7 +157,49 @@ def test_bad_jobs_are_refused_with_the_reason(farm):
     assert farm.post("/api/scenes/validate", {"surface": "x^2*z + y^2"}).json() == {"valid": True, "degree": 3}
 
 
-def test_killed_worker_loses_no_tile_and_renders_none_twice(farm):
+def tile_rows(farm: Farm, job_id: str, column: str) -> list:
+    from sqlalchemy import create_engine, text
+
+    eng = create_engine(f"sqlite:///{farm.data / 'argand.db'}")
+    with eng.connect() as c:
+        return c.execute(text(f"select {column} from tiles where job_id = :j"), {"j": job_id}).scalars().all()
+
+
+def tile_renders(farm: Farm, job_id: str) -> list[int]:
+    return tile_rows(farm, job_id, "renders")
+
+
+def test_frames_shared_between_workers_match_local_render(tmp_path):
+    """Runs far smaller than a frame: the two workers share every frame, the
+    tiles travel through the store's chunk files, and the assembler takes
+    its own tiles from memory and the other worker's from the store."""
+    f = Farm(tmp_path / "data", ARGAND_BATCH_PIXELS="600").start()
+    try:
+        r = f.post("/api/jobs", {"scene": "steiner", "deltas": [0, "pi/18", "pi/9"], "width": 128, "height": 96, "tile": 16})
+        job = f.wait_job(r.json()["id"], 120)
+        assert job["status"] == "done" and job["tiles_done"] == job["tiles_total"] == 3 * 48
+        assert all(fr["figures"]["certified_share"] is not None for fr in job["frames"])
+        renders = tile_renders(f, job["id"])
+        assert len(renders) == 3 * 48 and set(renders) == {1}
+        check_frames_against_local(f, job, "steiner")
+        assert len(set(tile_rows(f, job["id"], "worker"))) == 2  # both workers rendered tiles
+        assert {c for c in tile_rows(f, job["id"], "chunk")} - {None, "frame"}  # through chunk files
+        assert not (f.data / "store" / "jobs" / job["id"] / "tiles").exists() or not any(
+            (f.data / "store" / "jobs" / job["id"] / "tiles").rglob("*.chunk"))  # dropped once assembled
+    finally:
+        f.stop()
+
+
+def test_killed_worker_loses_no_tile_and_renders_none_twice(tmp_path):
+    # Small runs, so that the victim holds tiles of a frame that others finish.
+    farm = Farm(tmp_path / "data", ARGAND_BATCH_PIXELS="1500").start()
+    try:
+        _killed_worker(farm)
+    finally:
+        farm.stop()
+
+
+def _killed_worker(farm: Farm) -> None:
     r = farm.post("/api/jobs", {"scene": "bicube", "deltas": {"start": 0, "stop": "pi/9", "count": 8}, "width": 96, "height": 96, "tile": 16})
     job_id = r.json()["id"]
     farm.wait_for(lambda: farm.get(f"/api/jobs/{job_id}")["tiles_done"] >= 20, 60)
@@ -165,11 +207,7 @@ def test_killed_worker_loses_no_tile_and_renders_none_twice(farm):
     os.kill(victim["pid"], signal.SIGKILL)
     job = farm.wait_job(job_id, 240)
     assert job["status"] == "done" and job["tiles_done"] == job["tiles_total"] == 8 * 36
-    from sqlalchemy import create_engine, text
-
-    eng = create_engine(f"sqlite:///{farm.data / 'argand.db'}")
-    with eng.connect() as c:
-        renders = c.execute(text("select renders from tiles where job_id = :j"), {"j": job_id}).scalars().all()
+    renders = tile_renders(farm, job_id)
     assert len(renders) == 8 * 36 and set(renders) == {1}
     check_frames_against_local(farm, job, "bicube")
 

@@ -1,0 +1,126 @@
+"""The farm's work model in pieces: how tiles become messages, the tile
+store's files, and the upgrade of a database made by an earlier version.
+(The whole farm, with real processes, is in test_farm.py.)"""
+
+from __future__ import annotations
+
+import sqlite3
+
+import numpy as np
+import pytest
+from sqlalchemy import create_engine, inspect, text
+
+from argand.worker.farm import batch_runs, plan_runs, preview_order, tile_rects
+from argand.worker.store import FrameStore, pack_arrays, unpack_arrays
+
+
+def pixels(rects, tiles):
+    return sum((rects[t][2] - rects[t][0]) * (rects[t][3] - rects[t][1]) for t in tiles)
+
+
+@pytest.mark.parametrize("width,height,tile,frames,workers,batch", [
+    (512, 512, 64, 36, 2, 512 * 512),  # the benchmark's job: whole frames, the last ones cut
+    (512, 512, 64, 36, 1, 512 * 512),  # one worker: nothing to balance, nothing cut
+    (96, 80, 16, 1, 2, 512 * 512),     # one small frame: split so both workers get work
+    (1000, 700, 128, 3, 3, 100_000),   # ragged edges, batch smaller than a frame
+    (40, 30, 64, 5, 4, 10),            # a tile larger than the batch: one tile per run
+])
+def test_runs_cover_every_tile_once_in_preview_order(width, height, tile, frames, workers, batch):
+    rects = tile_rects(width, height, tile)
+    by_frame = {f: list(range(len(rects))) for f in range(frames)}
+    runs = plan_runs(by_frame, frames, rects, batch, workers)
+    sent = [(f, t) for f, run in runs for t in run]
+    assert sorted(sent) == sorted((f, t) for f in range(frames) for t in range(len(rects)))
+    assert len(sent) == len(set(sent))
+    for f, run in runs:
+        assert run and (len(run) == 1 or pixels(rects, run[:-1]) < batch)  # a run stops once it reaches the batch
+    first_seen = list(dict.fromkeys(f for f, _ in runs))
+    assert first_seen == preview_order(frames)
+    if frames == 1:  # a one-frame job is still shared: every worker gets four runs or more
+        assert len(runs) >= 4 * workers
+
+
+def test_the_last_runs_are_cut_only_when_several_workers_share_them():
+    rects = tile_rects(512, 512, 64)
+    by_frame = {f: list(range(64)) for f in range(36)}
+    two = plan_runs(by_frame, 36, rects, 512 * 512, 2)
+    one = plan_runs(by_frame, 36, rects, 512 * 512, 1)
+    assert [len(r) for _, r in one] == [64] * 36
+    assert [len(r) for _, r in two[:32]] == [64] * 32 and [len(r) for _, r in two[32:]] == [16] * 16
+
+
+def test_batch_runs_keeps_tile_order():
+    rects = tile_rects(100, 10, 10)
+    assert batch_runs(list(range(10)), rects, 250) == [[0, 1, 2], [3, 4, 5], [6, 7, 8], [9]]
+    assert batch_runs([], rects, 250) == []
+
+
+def test_tile_files_round_trip_exactly(tmp_path):
+    rng = np.random.default_rng(7)
+    px = rng.standard_normal((16, 24, 10)).astype(np.float32)
+    px[0, 0, 4] = np.inf
+    px[1, 1, 5] = np.nan
+    arrays = {"px": px, "meta": np.array([3, 99], np.int64), "flags": np.arange(5, dtype=np.uint8)}
+    back = unpack_arrays(pack_arrays(arrays))
+    assert list(back) == list(arrays)
+    for k in arrays:
+        assert back[k].dtype == arrays[k].dtype and back[k].shape == arrays[k].shape
+        assert np.array_equal(back[k], arrays[k], equal_nan=True)
+    with pytest.raises(ValueError, match="bad magic"):
+        unpack_arrays(b"PK\x03\x04" + bytes(20))
+
+    store = FrameStore(str(tmp_path / "store"))
+    tiles = {3: {"px": px, "meta": np.array([1, 2], np.int64)}, 4: {"px": px[::-1].copy(), "meta": np.array([0, 5], np.int64)}}
+    store.write_chunk("job", 2, "00003-abc", tiles)
+    got = store.read_chunk("job", 2, "00003-abc")
+    assert set(got) == {3, 4}
+    assert np.array_equal(got[4]["px"], px[::-1], equal_nan=True) and list(got[3]["meta"]) == [1, 2]
+    # Atomic: no temporary file is left, and the frame's tiles go away with it.
+    assert [p.name for p in (tmp_path / "store/jobs/job/tiles/0002").iterdir()] == ["00003-abc.chunk"]
+    store.remove_tiles("job", 2)
+    assert not (tmp_path / "store/jobs/job/tiles/0002").exists()
+    store.write_chunk("job", 2, "again", tiles)  # the folder comes back when needed
+    assert set(store.read_chunk("job", 2, "again")) == {3, 4}
+
+
+OLD_SCHEMA = """
+CREATE TABLE jobs (id VARCHAR(32) NOT NULL PRIMARY KEY, status VARCHAR(16) NOT NULL, scene_name VARCHAR(200) NOT NULL,
+  scene JSON NOT NULL, sigma FLOAT NOT NULL, width INTEGER NOT NULL, height INTEGER NOT NULL, tile INTEGER NOT NULL,
+  method VARCHAR(16) NOT NULL, priority INTEGER NOT NULL, created FLOAT NOT NULL, started FLOAT, finished FLOAT, error TEXT);
+CREATE TABLE workers (name VARCHAR(200) NOT NULL PRIMARY KEY, host VARCHAR(200) NOT NULL, pid INTEGER NOT NULL,
+  heartbeat FLOAT NOT NULL, current_tile VARCHAR(200), tiles_done INTEGER NOT NULL);
+CREATE TABLE frames (id INTEGER NOT NULL PRIMARY KEY, job_id VARCHAR(32) NOT NULL REFERENCES jobs (id) ON DELETE CASCADE,
+  "index" INTEGER NOT NULL, sigma FLOAT NOT NULL, delta FLOAT NOT NULL, status VARCHAR(16) NOT NULL,
+  tiles_total INTEGER NOT NULL, figures JSON, assembler VARCHAR(200), assembling_since FLOAT);
+CREATE TABLE tiles (id INTEGER NOT NULL PRIMARY KEY, job_id VARCHAR(32) NOT NULL REFERENCES jobs (id) ON DELETE CASCADE,
+  frame_index INTEGER NOT NULL, tile_index INTEGER NOT NULL, status VARCHAR(16) NOT NULL, worker VARCHAR(200),
+  started FLOAT, attempts INTEGER NOT NULL, renders INTEGER NOT NULL, seconds FLOAT);
+INSERT INTO jobs VALUES ('old', 'running', 'bicube', '{}', 0, 32, 32, 16, 'auto', 5, 1.0, 2.0, NULL, NULL);
+INSERT INTO frames VALUES (1, 'old', 0, 0, 0, 'done', 4, NULL, NULL, NULL), (2, 'old', 1, 0, 0.1, 'rendering', 4, NULL, NULL, NULL);
+INSERT INTO tiles VALUES (1, 'old', 0, 0, 'done', NULL, NULL, 1, 1, 0.1), (2, 'old', 0, 1, 'done', NULL, NULL, 1, 1, 0.1),
+  (3, 'old', 0, 2, 'done', NULL, NULL, 1, 1, 0.1), (4, 'old', 0, 3, 'done', NULL, NULL, 1, 1, 0.1),
+  (5, 'old', 1, 0, 'done', NULL, NULL, 1, 1, 0.1), (6, 'old', 1, 1, 'queued', NULL, NULL, 0, 0, NULL),
+  (7, 'old', 1, 2, 'running', 'w', 3.0, 1, 0, NULL), (8, 'old', 1, 3, 'done', NULL, NULL, 1, 1, 0.1);
+"""
+
+
+def test_a_database_from_an_earlier_version_is_brought_up_to_date(tmp_path):
+    from argand.api.db import Frame, Job, engine_for, job_progress, migrate, session_scope
+
+    path = tmp_path / "old.db"
+    with sqlite3.connect(path) as conn:
+        conn.executescript(OLD_SCHEMA)
+    url = f"sqlite:///{path}"
+    eng = engine_for(url)  # migrates on first use
+    cols = {c["name"] for c in inspect(eng).get_columns("frames")}
+    assert {"tiles_done", "finished"} <= cols
+    assert "chunk" in {c["name"] for c in inspect(eng).get_columns("tiles")}
+    assert "ix_tiles_key" in {i["name"] for i in inspect(eng).get_indexes("tiles")}
+    with session_scope(url) as s:
+        job = s.get(Job, "old")
+        assert [f.tiles_done for f in job.frames] == [4, 2]  # what the old version had finished, counted
+        assert job_progress(s, job) == (6, 8)
+        assert s.get(Frame, 2).status == "rendering"
+    assert migrate(eng) == []  # a second time: nothing to do
+    with create_engine(url).connect() as c:  # the old rows are untouched
+        assert c.execute(text("select count(*) from tiles where status = 'done'")).scalar() == 6
