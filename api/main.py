@@ -142,6 +142,7 @@ def job_view(s, job: Job, request: Request | None = None) -> dict:
         "error": job.error,
         "frames": frames,
         "animation_url": f"{base}/animation.gif" if job.status == "done" and len(frames) > 1 else None,
+        "webp_url": f"{base}/animation.webp" if job.status == "done" and len(frames) > 1 else None,
     }
 
 
@@ -285,6 +286,31 @@ def frame_channel(job_id: str, index: int, channel: str, settings: SettingsDep):
 @jobs.get("/{job_id}/animation.gif")
 def animation(job_id: str, settings: SettingsDep):
     return _file(settings, job_id, "animation.gif", "image/gif")
+
+
+@jobs.get("/{job_id}/animation.webp")
+def animation_webp(job_id: str, settings: SettingsDep):
+    """The animation as a looping WebP (smaller than the GIF, full colour),
+    made from the frames' PNGs on the first request, then kept."""
+    import OpenImageIO as oiio
+
+    from argand.render import gif
+    from argand.worker.farm import store_for
+
+    with session_scope(settings.sqlalchemy_url) as s:
+        job = _job_or_404(s, job_id)
+        status, n = job.status, len(job.frames)
+    if status != "done":
+        raise HTTPException(404, detail=f"the animation is not ready: the job is {status}")
+    store = store_for(settings)
+    path = Path(store.job_dir(job_id)) / "animation.webp"
+    if not path.exists():
+        frames = [oiio.ImageBuf(str(path.with_name(f"frame_{i:04d}.png"))).get_pixels(oiio.UINT8)[..., :3] for i in range(n)]
+        data = gif.encode_animation_webp(frames)
+        if data is None:
+            raise HTTPException(501, detail="this installation's Pillow has no WebP support")
+        store.write_bytes_atomic(store.path("jobs", job_id, "animation.webp"), data)
+    return FileResponse(path, media_type="image/webp")
 
 
 @jobs.post("/{job_id}/{action}")

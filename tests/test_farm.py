@@ -130,6 +130,14 @@ def test_job_over_http_matches_local_render(farm):
         n += 1
     inp.close()
     assert n == 5
+    # The WebP, made on first request: the same number of frames, the frames' size.
+    from PIL import Image
+
+    webp = httpx.get(farm.url + job["webp_url"], timeout=60)
+    assert webp.status_code == 200 and webp.headers["content-type"] == "image/webp"
+    im = Image.open(__import__("io").BytesIO(webp.content))
+    assert im.n_frames == 5 and im.size == (48, 40)
+    assert httpx.get(farm.url + job["webp_url"]).content == webp.content  # kept, not made again
     # Workers report their counts with their heartbeats.
     farm.wait_for(lambda: sum(w["tiles_done"] for w in farm.get("/api/workers")) == 5 * 3 * 3, 10)
     assert len(farm.get("/api/workers")) == 2

@@ -193,7 +193,7 @@ async function jobPage(id) {
       `<div class="cell" data-index="${f.index}" title="δ = ${f.delta.toFixed(4)}">${f.thumbnail_url ? `<img src="${f.thumbnail_url}" alt="frame ${f.index}">` : f.status}</div>`).join("")));
     j.frames.forEach((f) => image(f, channel.value));
     if (j.status === "done") {
-      view.querySelector("#downloads").replaceChildren(h(`${j.animation_url ? `<p><a id="gif" href="${j.animation_url}" download>animation.gif</a></p>` : ""}
+      view.querySelector("#downloads").replaceChildren(h(`${j.animation_url ? `<p><a id="gif" href="${j.animation_url}" download>animation.gif</a> · <a id="webp" href="${j.webp_url}" download>animation.webp</a></p>` : ""}
         <details><summary>frames</summary>${j.frames.map((f) => `<div>${f.index}: <a href="${f.png_url}" download>PNG</a> <a href="${f.exr_url}" download>EXR</a></div>`).join("")}</details>`));
     }
     show(Math.min(current, j.frames.length - 1));

@@ -116,7 +116,8 @@ def render(
 ) -> None:
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, and animation.gif."""
     from argand.render import FrameParams, delta_sweep, parse_angle, parse_sweep, render_frame
-    from argand.render.output import to_srgb8, write_frame, write_gif
+    from argand.render import gif
+    from argand.render.output import to_srgb8, write_frame
     from argand.scene import load_scene
 
     if delta is not None and deltas is not None:
@@ -158,10 +159,12 @@ def render(
                 fail(str(exc))
             write_frame(result, out, index)
             if len(params) > 1:
-                previews.append(to_srgb8(result.rgba))
+                previews.append(gif.encode_frame(to_srgb8(result.rgba)))
             summary.append(result.figures)
     if previews:
-        write_gif(previews, out / "animation.gif", fps=fps)
+        tmp = out / "animation.gif.tmp"
+        tmp.write_bytes(gif.splice(previews, fps=fps))
+        tmp.replace(out / "animation.gif")
     for f in summary:
         console.print(
             f"delta={f['delta']:.5g}: {f['seconds'] * 1000:.0f} ms, {f['ns_per_pixel']:.0f} ns/pixel, "

@@ -2,8 +2,9 @@
 
 ``render_tile(scene, params, rect) -> TileAOVs`` is the unit of work (the
 farm's workers call it too); ``render_frame`` renders all tiles of a frame
-on all cores; ``argand.render.output`` writes EXR (all AOVs), PNG, JSON and
-the GIF animation through OpenImageIO.
+on all cores; ``argand.render.output`` writes EXR (all AOVs), PNG and JSON
+through OpenImageIO; ``argand.render.gif`` encodes each frame's GIF
+fragment and splices the animation from them.
 """
 
 from argand.render.angles import parse_angle, parse_sweep

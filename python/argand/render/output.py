@@ -1,12 +1,10 @@
-"""Frame files through OpenImageIO: EXR with every AOV, a PNG preview, the
-frame's figures as JSON, and the animation as a GIF."""
+"""Frame files through OpenImageIO: EXR with every AOV, a PNG preview and
+the frame's figures as JSON. (Animations: argand.render.gif.)"""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Sequence
-
 import numpy as np
 
 from argand.render.frames import AOV_CHANNELS, FrameResult
@@ -104,29 +102,6 @@ def write_frame(result: FrameResult, out_dir: Path, index: int, exr: np.ndarray 
     figures = dict(result.figures, index=index)
     paths["json"].write_text(json.dumps(figures, indent=2) + "\n")
     return paths
-
-
-def write_gif(frames: Sequence[np.ndarray], path: Path, fps: float = 8.0) -> None:
-    """An animated GIF (OpenImageIO, one subimage per frame, looping)."""
-    if not frames:
-        raise ValueError("no frames to animate")
-    oiio = _oiio()
-    h, w = frames[0].shape[:2]
-    spec = oiio.ImageSpec(w, h, 3, "uint8")
-    spec.attribute("FramesPerSecond", oiio.TypeDesc("rational"), (int(round(fps * 100)), 100))
-    spec.attribute("oiio:Movie", 1)
-    spec.attribute("gif:LoopCount", 0)
-    tmp = path.with_name(path.name + ".tmp.gif")
-    out = oiio.ImageOutput.create(str(tmp))
-    if out is None or not out.open(str(tmp), [spec] * len(frames)):
-        raise OSError(f"cannot write {path}: {oiio.geterror()}")
-    for i, frame in enumerate(frames):
-        if i > 0 and not out.open(str(tmp), spec, "AppendSubimage"):
-            raise OSError(f"cannot append frame {i} to {path}: {out.geterror()}")
-        if not out.write_image(np.ascontiguousarray(frame[..., :3])):
-            raise OSError(f"cannot write frame {i} of {path}: {out.geterror()}")
-    out.close()
-    tmp.replace(path)
 
 
 def read_exr(path: Path) -> tuple[list[str], np.ndarray]:
