@@ -109,6 +109,9 @@ def check_frames_against_local(farm: Farm, job: dict, scene_name: str) -> None:
             assert np.array_equal(pixels[..., names.index(aov)], local.aovs[aov].astype(np.float32)), (fr["index"], aov)
         r = httpx.get(farm.url + fr["png_url"])
         assert r.status_code == 200 and r.content[:4] == b"\x89PNG"
+        # The farm counts statuses and hits as it renders; the local render counts the arrays.
+        for key in ("certified_share", "status_shares", "hit_share", "escalations", "root_calls"):
+            assert fr["figures"][key] == local.figures[key], (fr["index"], key)
 
 
 def test_job_over_http_matches_local_render(farm):

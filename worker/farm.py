@@ -248,9 +248,11 @@ def _mean(seconds: dict[int, float]) -> float:
     return sum(seconds.values()) / max(1, len(seconds))
 
 
-def _tile_arrays(t: tuple[np.ndarray, int, int]) -> dict[str, np.ndarray]:
-    block, esc, calls = t
-    return {"px": np.ascontiguousarray(block), "meta": np.array([esc, calls], dtype=np.int64)}
+def _tile_arrays(t: tuple[np.ndarray, int, int, np.ndarray]) -> dict[str, np.ndarray]:
+    """A tile as stored: its pixels, and meta = [escalations, root calls,
+    pixels per status 0..3, hits]."""
+    block, esc, calls, stats = t
+    return {"px": np.ascontiguousarray(block), "meta": np.array([esc, calls, *stats], dtype=np.int64)}
 
 
 def _release(settings: Settings, job_id: str, frame_index: int, worker_name: str, tiles: list[int],
@@ -331,9 +333,9 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
             else:
                 block, ox, oy = np.empty((y1 - y0, x1 - x0, len(INTERLEAVED_CHANNELS)), np.float32), 0, 0
             start = time.perf_counter()
-            esc, calls = render_tile_into(fplan, TileRect(x0, y0, x1, y1), block, ox, oy)
+            esc, calls, stats = render_tile_into(fplan, TileRect(x0, y0, x1, y1), block, ox, oy)
             pending[i] = time.perf_counter() - start
-            local[i] = (block[y0:y1, x0:x1] if frame_px is not None else block, esc, calls)
+            local[i] = (block[y0:y1, x0:x1] if frame_px is not None else block, esc, calls, stats)
             if time.monotonic() - last_commit > COMMIT_INTERVAL_S:
                 won, done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
                 ACTIVITY["done"] += won
@@ -451,7 +453,9 @@ def _legacy_tile(store: FrameStore, job_id: str, frame_index: int, tile: int) ->
 
     with np.load(io.BytesIO(store.read_bytes(f"{store.tile_dir(job_id, frame_index)}/{tile:05d}.npz"))) as z:
         planes = [z["rgba"][..., c] for c in range(4)] + [z[name].astype(np.float32) for name in AOV_CHANNELS]
-        return {"px": np.stack(planes, axis=-1).astype(np.float32), "meta": z["meta"]}
+        counts = np.bincount(z["status"].astype(np.intp).ravel(), minlength=4)[:4]
+        meta = np.array([*z["meta"][:2], *counts, int(np.count_nonzero(z["rgba"][..., 3] > 0))], np.int64)
+        return {"px": np.stack(planes, axis=-1).astype(np.float32), "meta": meta}
 
 
 def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dict[int, Any] | None = None,
@@ -483,19 +487,21 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     w, h = job.width, job.height
     px = frame_px if frame_px is not None else np.empty((h, w, 4 + len(AOV_CHANNELS)), np.float32)
     escalations = calls = 0
+    stats = np.zeros(5, np.int64)
     for i, (x0, y0, x1, y1) in enumerate(tile_rects(w, h, job.tile)):
         if i in local:
-            block, esc, n = local[i]
+            block, esc, n, st = local[i]
         else:  # another worker's tile (or one file per tile, from an earlier version)
             d = stored.get(i) or _legacy_tile(store, job_id, frame_index, i)
-            block, (esc, n) = d["px"], d["meta"]
+            block, (esc, n), st = d["px"], d["meta"][:2], d["meta"][2:7]
         if frame_px is None:
             px[y0:y1, x0:x1] = block
         escalations += int(esc)
         calls += int(n)
+        stats += st
     params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method)
     result = FrameResult(params, px[..., :4], {name: px[..., 4 + k] for k, name in enumerate(AOV_CHANNELS)},
-                         seconds, escalations, calls)
+                         seconds, escalations, calls, stats=stats)
     result.figures = frame_figures(result)
     out = Path(store.job_dir(job_id))
     t_encode = time.perf_counter()

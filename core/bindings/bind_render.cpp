@@ -146,6 +146,7 @@ void init_render(py::module_& m) {
                 throw py::value_error("the tile does not fit in out at the given offset");
             float* base = out.mutable_data();
             TileAOVs t;
+            std::int64_t by_status[4] = {0, 0, 0, 0}, hits = 0;
             {
                 py::gil_scoped_release release;
                 render_tile(plan, TileRect{x0, y0, x1, y1}, t);
@@ -160,13 +161,17 @@ void init_render(py::module_& m) {
                         p[7] = t.im[i];
                         p[8] = static_cast<float>(t.count[i]);
                         p[9] = static_cast<float>(t.status[i]);
+                        ++by_status[t.status[i] & 3];
+                        hits += p[3] > 0.0f;
                     }
                 }
             }
-            return py::make_tuple(t.escalations, t.root_calls);
+            return py::make_tuple(t.escalations, t.root_calls, py::make_tuple(by_status[0], by_status[1], by_status[2], by_status[3]),
+                                  hits);
         },
         "Renders the tile [x0, x1) x [y0, y1) into out[oy:, ox:] as 10 interleaved float32 channels (R, G, B, A, "
-        "Z, arg, re, im, count, status: the EXR's layout). Returns (escalations, root_calls).",
+        "Z, arg, re, im, count, status: the EXR's layout). Returns (escalations, root_calls, pixels per status "
+        "code 0..3, pixels that hit a surface).",
         py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("out"), py::arg("ox") = 0,
         py::arg("oy") = 0);
     m.def(

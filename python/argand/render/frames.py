@@ -75,12 +75,23 @@ class FrameResult:
     escalations: int
     root_calls: int
     figures: dict[str, Any] = field(default_factory=dict)
+    #: [pixels per status code 0..3, pixels that hit], when the renderer
+    #: counted them (the farm's path); else they are counted from the AOVs.
+    stats: np.ndarray | None = None
 
     @cached_property
     def status_counts(self) -> np.ndarray:
         """Pixels per status code (one pass over the status AOV)."""
+        if self.stats is not None:
+            return self.stats[: len(STATUS_NAMES)]
         st = np.asarray(self.aovs["status"]).astype(np.intp, copy=False).ravel()
         return np.bincount(st, minlength=len(STATUS_NAMES))
+
+    @property
+    def hit_share(self) -> float:
+        if self.stats is not None:
+            return float(self.stats[len(STATUS_NAMES)] / max(1, self.aovs["status"].size))
+        return float(np.mean(self.rgba[..., 3] > 0))
 
     @property
     def certified_share(self) -> float:
@@ -116,12 +127,14 @@ def render_tile_planned(frame_plan: Any, rect: TileRect) -> TileAOVs:
 INTERLEAVED_CHANNELS = ("R", "G", "B", "A") + AOV_CHANNELS
 
 
-def render_tile_into(frame_plan: Any, rect: TileRect, out: np.ndarray, ox: int = 0, oy: int = 0) -> tuple[int, int]:
+def render_tile_into(frame_plan: Any, rect: TileRect, out: np.ndarray, ox: int = 0,
+                     oy: int = 0) -> tuple[int, int, np.ndarray]:
     """Renders ``rect`` into ``out[oy:, ox:]``, a C-contiguous (h, w, 10)
     float32 array in the order of INTERLEAVED_CHANNELS (count and status as
-    floats, exactly). Returns (escalations, root_calls)."""
-    esc, calls = _core.render_tile_into(frame_plan, rect.x0, rect.y0, rect.x1, rect.y1, out, ox, oy)
-    return int(esc), int(calls)
+    floats, exactly). Returns (escalations, root_calls, stats) with stats
+    = [pixels per status code 0..3, pixels that hit] (int64)."""
+    esc, calls, counts, hits = _core.render_tile_into(frame_plan, rect.x0, rect.y0, rect.x1, rect.y1, out, ox, oy)
+    return int(esc), int(calls), np.array([*counts, hits], np.int64)
 
 
 def render_tile(scene: Any, params: FrameParams, rect: TileRect) -> TileAOVs:
@@ -206,7 +219,7 @@ def frame_figures(result: FrameResult) -> dict[str, Any]:
         "ns_per_pixel": result.seconds / n * 1e9,
         "certified_share": result.certified_share,
         "status_shares": result.status_shares(),
-        "hit_share": float(np.mean(result.rgba[..., 3] > 0)),
+        "hit_share": result.hit_share,
         "escalations": result.escalations,
         "escalated_share": result.escalations / n,
         "root_calls": result.root_calls,
