@@ -19,8 +19,8 @@ def pixels(rects, tiles):
 
 
 @pytest.mark.parametrize("width,height,tile,frames,workers,batch", [
-    (512, 512, 64, 36, 2, 512 * 512),  # the benchmark's job: whole frames, the last ones cut
-    (512, 512, 64, 36, 1, 512 * 512),  # one worker: nothing to balance, nothing cut
+    (512, 512, 64, 36, 2, 512 * 512),  # the benchmark's job: whole frames
+    (512, 512, 64, 36, 1, 512 * 512),  # one worker
     (96, 80, 16, 1, 2, 512 * 512),     # one small frame: split so both workers get work
     (1000, 700, 128, 3, 3, 100_000),   # ragged edges, batch smaller than a frame
     (40, 30, 64, 5, 4, 10),            # a tile larger than the batch: one tile per run
@@ -40,13 +40,14 @@ def test_runs_cover_every_tile_once_in_preview_order(width, height, tile, frames
         assert len(runs) >= 4 * workers
 
 
-def test_the_last_runs_are_cut_only_when_several_workers_share_them():
+def test_whole_frames_travel_as_one_message_when_there_are_enough_of_them():
     rects = tile_rects(512, 512, 64)
     by_frame = {f: list(range(64)) for f in range(36)}
-    two = plan_runs(by_frame, 36, rects, 512 * 512, 2)
-    one = plan_runs(by_frame, 36, rects, 512 * 512, 1)
-    assert [len(r) for _, r in one] == [64] * 36
-    assert [len(r) for _, r in two[:32]] == [64] * 32 and [len(r) for _, r in two[32:]] == [16] * 16
+    for workers in (1, 2):
+        assert [len(r) for _, r in plan_runs(by_frame, 36, rects, 512 * 512, workers)] == [64] * 36
+    # A smaller batch cuts frames; a job too small to feed every worker four times is cut finer.
+    assert [len(r) for _, r in plan_runs(by_frame, 36, rects, 128 * 128, 2)] == [4] * 36 * 16
+    assert [len(r) for _, r in plan_runs({0: list(range(64))}, 1, rects, 512 * 512, 2)] == [8] * 8
 
 
 def test_batch_runs_keeps_tile_order():

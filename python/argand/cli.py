@@ -290,14 +290,18 @@ def bench_farm_cmd(
     smoke: bool = typer.Option(False, "--smoke", help="3 frames of 192x192, for CI."),
     exr_compression: str = typer.Option(None, "--exr-compression",
                                         help="The farms' EXR compression (none, rle, zip, zips, piz); default: the farm's."),
+    repeat: int = typer.Option(None, "--repeat", help="Runs of each configuration (the median is kept); default 3, smoke 1."),
 ) -> None:
     """One job of 36 frames at 512x512 on 1 and 2 workers, tile sizes 32/64/128/frame."""
     from argand.bench.farm import bench_farm
 
+    if repeat is not None and repeat < 1:
+        fail(f"--repeat must be at least 1, got {repeat}")
     if exr_compression is not None and exr_compression not in ("none", "rle", "zip", "zips", "piz"):
         fail(f"--exr-compression must be one of none, rle, zip, zips, piz; got {exr_compression!r}")
     with console.status("benchmarking the farm") as status:
-        report = bench_farm(out_dir=out, smoke=smoke, progress=lambda m: status.update(m), exr_compression=exr_compression)
+        report = bench_farm(out_dir=out, smoke=smoke, progress=lambda m: status.update(m), exr_compression=exr_compression,
+                            repeat=repeat)
     table = Table(title=f"farm: {report['frames']} frames of {report['size']}x{report['size']}", title_justify="left")
     for col in ("workers", "tile", "seconds", "frames/s", "first frame s", "encoding", "dispatch", "overhead"):
         table.add_column(col, justify="right")
