@@ -193,14 +193,14 @@ def chart(report: dict, path: Path) -> None:
         disp = [100 * runs[l]["dispatch_share"] for l in labels]
         b.bar(pos, enc, width=0.4, color=color, alpha=0.45, label=f"{workers} worker(s): encoding the files")
         b.bar(pos, disp, width=0.4, bottom=enc, color=color, label=f"{workers} worker(s): dispatch and the rest")
-    b.axhline(10, color="k", lw=0.8, ls="--")
+    b.axhline(10, color="k", lw=0.8, ls="--", label="10% (the target for dispatch)")
     for ax, title, ylabel in ((a, "throughput", "frames per second"),
                               (b, "worker time besides rendering", "% of render time")):
         ax.set_xticks(xs, labels)
         ax.set_xlabel("tile size (pixels)")
         ax.set_ylabel(ylabel)
         ax.set_title(title)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=7, loc="lower right" if ax is a else "center right")
         ax.grid(True, axis="y", alpha=0.3)
     fig.suptitle(f"argand bench farm — {report['frames']} frames of {report['size']}x{report['size']} (Bicube)")
     fig.tight_layout()
