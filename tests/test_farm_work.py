@@ -125,3 +125,70 @@ def test_a_database_from_an_earlier_version_is_brought_up_to_date(tmp_path):
     assert migrate(eng) == []  # a second time: nothing to do
     with create_engine(url).connect() as c:  # the old rows are untouched
         assert c.execute(text("select count(*) from tiles where status = 'done'")).scalar() == 6
+
+
+@pytest.fixture
+def farm_parts(tmp_path, monkeypatch):
+    """A real embedded Redis and a SQLite file, no worker: the tests call the
+    task's body directly."""
+    from argand.api.settings import Settings
+    from argand.worker.broker import EmbeddedRedis
+
+    redis_server = EmbeddedRedis(tmp_path / "redis" / "redis.sock").start()
+    settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, max_tile_attempts=2)
+    yield settings, redis_server
+    redis_server.stop()
+
+
+def queued_messages(redis_server) -> int:
+    import redis
+
+    client = redis.Redis(unix_socket_path=str(redis_server.socket_path))
+    return sum(client.llen(k) for k in client.keys("argand*") if client.type(k) == b"list")
+
+
+def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts, monkeypatch):
+    from argand.api.db import Frame, Job, Tile, session_scope
+    from argand.render import frames as frames_module
+    from argand.scene import load_scene
+    from argand.worker import farm
+
+    settings, redis_server = farm_parts
+    job_id = farm.create_job(settings, "steiner", load_scene("steiner").to_dict(), 0.0, [0.0], 64, 64, 16, 5)
+    sent = queued_messages(redis_server)
+    assert sent >= 1
+    real = frames_module.render_tile_into
+    calls = []
+
+    def failing(plan, rect, out, ox=0, oy=0):
+        calls.append(rect)
+        if len(calls) == 6:
+            raise RuntimeError("the renderer broke")
+        return real(plan, rect, out, ox, oy)
+
+    monkeypatch.setattr(frames_module, "render_tile_into", failing)
+    monkeypatch.setattr(farm, "COMMIT_INTERVAL_S", 1e9)  # one commit, at the end or on the error
+    with pytest.raises(RuntimeError, match="renderer broke"):
+        farm.run_tiles(settings, job_id, 0, list(range(16)), "w-test")
+    with session_scope(settings.sqlalchemy_url) as s:
+        tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
+        assert [i for i, t in sorted(tiles.items()) if t.status == "done"] == [0, 1, 2, 3, 4]
+        assert all(t.status == "queued" and t.worker is None for i, t in tiles.items() if i >= 5)
+        assert tiles[5].attempts == 1 and s.query(Frame).filter(Frame.job_id == job_id).one().tiles_done == 5
+        assert s.get(Job, job_id).status == "running"
+    assert queued_messages(redis_server) == sent + 1  # the rest was sent again
+    # The same tile fails again: with max_tile_attempts=2 the job fails, saying which tile.
+    # (this run starts at tile 5: tiles 5..9 render, the sixth call, tile 10, breaks)
+    calls.clear()
+    with pytest.raises(RuntimeError):
+        farm.run_tiles(settings, job_id, 0, list(range(5, 16)), "w-test")
+    with session_scope(settings.sqlalchemy_url) as s:
+        job = s.get(Job, job_id)
+        tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
+        assert tiles[10].attempts == 2 and tiles[10].status == "failed"
+        assert job.status == "failed" and job.error == "tile 0/10 failed 2 times"
+    # Nothing more runs for a failed job, and what was rendered is kept.
+    monkeypatch.setattr(frames_module, "render_tile_into", real)
+    assert farm.run_tiles(settings, job_id, 0, list(range(11, 16)), "w-test") == "failed"
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.query(Frame).filter(Frame.job_id == job_id).one().tiles_done == 10
