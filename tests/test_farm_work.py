@@ -192,3 +192,52 @@ def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts,
     assert farm.run_tiles(settings, job_id, 0, list(range(11, 16)), "w-test") == "failed"
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.query(Frame).filter(Frame.job_id == job_id).one().tiles_done == 10
+
+
+def test_a_pause_stops_a_run_between_tiles_and_resume_sends_the_rest(farm_parts, monkeypatch):
+    import time
+
+    from argand.api.db import Frame, Job, Tile, session_scope
+    from argand.render import frames as frames_module
+    from argand.scene import load_scene
+    from argand.worker import farm
+
+    settings, redis_server = farm_parts
+    job_id = farm.create_job(settings, "whitney", load_scene("whitney").to_dict(), 0.0, [0.0], 64, 64, 16, 5)
+    sent = queued_messages(redis_server)
+    real = frames_module.render_tile_into
+    calls = []
+
+    def pausing(plan, rect, out, ox=0, oy=0):
+        calls.append(rect)
+        if len(calls) == 3:  # someone pauses the job while the third tile renders
+            farm.set_job_status(settings, job_id, "pause")
+            time.sleep(2 * farm.STOP_CHECK_S)
+        return real(plan, rect, out, ox, oy)
+
+    monkeypatch.setattr(frames_module, "render_tile_into", pausing)
+    assert farm.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "paused"
+    assert len(calls) == 3  # not one tile more
+    with session_scope(settings.sqlalchemy_url) as s:
+        tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
+        assert [i for i, t in sorted(tiles.items()) if t.status == "done"] == [0, 1, 2]
+        assert all(t.status == "queued" and t.worker is None for i, t in tiles.items() if i >= 3)
+        assert s.query(Frame).filter(Frame.job_id == job_id).one().status == "rendering"
+    assert queued_messages(redis_server) == sent  # a pause sends nothing
+    assert farm.set_job_status(settings, job_id, "resume") == "running"
+    assert queued_messages(redis_server) > sent
+    monkeypatch.setattr(frames_module, "render_tile_into", real)
+    assert farm.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
+        frame = s.query(Frame).filter(Frame.job_id == job_id).one()
+        assert frame.status == "done" and frame.tiles_done == 16
+        assert {t.renders for t in s.query(Tile).filter(Tile.job_id == job_id)} == {1}
+    # The frame was assembled from the first run's chunk file and the second run's memory.
+    from argand.render import FrameParams, render_frame
+    from argand.render.output import read_exr
+
+    names, px = read_exr(settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr")
+    local = render_frame(load_scene("whitney"), FrameParams(width=64, height=64), workers=1)
+    assert np.array_equal(px[..., names.index("A")], local.rgba[..., 3])
+    assert np.array_equal(px[..., names.index("status")], local.aovs["status"].astype(np.float32))
