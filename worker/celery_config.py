@@ -22,7 +22,7 @@ def celery_config(settings: Settings) -> dict:
         "task_time_limit": settings.tile_hard_time_limit_s,
         "broker_connection_retry_on_startup": True,
         "broker_transport_options": {
-            # Above the longest tile (the hard time limit) so a slow tile is
+            # Above the longest message (a run of tiles; the hard time limit) so it is
             # not redelivered while it still runs; crashed workers are caught
             # sooner by the heartbeat reaper.
             "visibility_timeout": settings.tile_hard_time_limit_s * 2,
