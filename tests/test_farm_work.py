@@ -241,3 +241,45 @@ def test_a_pause_stops_a_run_between_tiles_and_resume_sends_the_rest(farm_parts,
     local = render_frame(load_scene("whitney"), FrameParams(width=64, height=64), workers=1)
     assert np.array_equal(px[..., names.index("A")], local.rgba[..., 3])
     assert np.array_equal(px[..., names.index("status")], local.aovs["status"].astype(np.float32))
+
+
+def test_the_reaper_finishes_what_a_worker_dying_at_the_wrong_moment_left(farm_parts, monkeypatch):
+    """A worker killed right after its last completion (before assembling),
+    or right after the last frame (before the animation): the reaper notices
+    in two rounds and finishes the frame, then the job."""
+    from argand.api.db import Frame, Job, session_scope
+    from argand.scene import load_scene
+    from argand.worker import farm
+
+    settings, _ = farm_parts
+    job_id = farm.create_job(settings, "plucker", load_scene("plucker").to_dict(), 0.0, [0.0, 0.1], 32, 32, 16, 5)
+    real_assemble, real_finish = farm.maybe_assemble, farm._finish_job_if_last
+    monkeypatch.setattr(farm, "maybe_assemble", lambda *a, **k: False)  # "dies" before assembling
+    assert farm.run_tiles(settings, job_id, 0, [0, 1], "w-test") == "rendered"
+    assert farm.run_tiles(settings, job_id, 0, [2, 3], "w-test") == "rendered"
+    monkeypatch.setattr(farm, "maybe_assemble", real_assemble)
+    monkeypatch.setattr(farm, "_finish_job_if_last", lambda *a, **k: None)  # "dies" before the animation
+    assert farm.run_tiles(settings, job_id, 1, [0, 1, 2, 3], "w-test") == "rendered"  # whole frame: assembled
+    monkeypatch.setattr(farm, "_finish_job_if_last", real_finish)
+
+    def states():
+        with session_scope(settings.sqlalchemy_url) as s:
+            return s.get(Job, job_id).status, [f.status for f in s.query(Frame).filter(Frame.job_id == job_id).order_by(Frame.index)]
+
+    assert states() == ("running", ["rendering", "done"])
+    farm.reap(settings)
+    assert states() == ("running", ["rendering", "done"])  # one round: it may be a live worker's moment
+    farm.reap(settings)
+    assert states() == ("done", ["done", "done"])
+    assert (settings.data_path / "store" / "jobs" / job_id / "animation.gif").exists()
+    assert (settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr").exists()
+
+    # The same for a job whose last frame was assembled but not finished.
+    job2 = farm.create_job(settings, "plucker", load_scene("plucker").to_dict(), 0.0, [0.0], 32, 32, 16, 5)
+    monkeypatch.setattr(farm, "_finish_job_if_last", lambda *a, **k: None)
+    farm.run_tiles(settings, job2, 0, [0, 1, 2, 3], "w-test")
+    monkeypatch.setattr(farm, "_finish_job_if_last", real_finish)
+    farm.reap(settings)
+    farm.reap(settings)
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job2).status == "done"

@@ -585,6 +585,9 @@ def heartbeat(settings: Settings, name: str, pid: int, current_tile: str | None 
             w.tiles_done = tiles_done
 
 
+_stuck_seen: dict[str, set] = {"frames": set(), "jobs": set()}
+
+
 def reap(settings: Settings) -> int:
     """Re-enqueues the work of workers that stopped sending heartbeats (a
     crashed or killed worker): the tile it was rendering, and, since it may
@@ -613,8 +616,21 @@ def reap(settings: Settings) -> int:
             if f.assembler in dead_names or (f.assembling_since and now - f.assembling_since > settings.tile_hard_time_limit_s):
                 f.status = "rendering"
                 orphans.append((f.job_id, f.index))
+        # A worker that died between its last completion and the assembly (or
+        # between the last frame and the animation) left a frame with every
+        # tile done but nobody assembling it (or a job with every frame done
+        # but not finished). Seen so in two rounds in a row (so that a live
+        # worker about to do it is not raced), they are finished here.
+        active = select(Job.id).where(Job.status.in_(("queued", "running")))
+        stuck_frames = {tuple(r) for r in s.execute(select(Frame.job_id, Frame.index).where(
+            Frame.status.in_(("queued", "rendering")), Frame.tiles_done >= Frame.tiles_total, Frame.job_id.in_(active)))}
+        unfinished = select(Frame.job_id).where(Frame.status != "done")
+        stuck_jobs = set(s.scalars(select(Job.id).where(Job.status.in_(("queued", "running")), Job.id.not_in(unfinished),
+                                                       Job.id.in_(select(Frame.job_id)))))
+        orphans += sorted(stuck_frames & _stuck_seen["frames"])
+        finish = sorted(stuck_jobs & _stuck_seen["jobs"])
+        _stuck_seen["frames"], _stuck_seen["jobs"] = stuck_frames, stuck_jobs
         if dead:
-            active = select(Job.id).where(Job.status.in_(("queued", "running")))
             requeue = [tuple(r) for r in s.execute(
                 select(Tile.job_id, Tile.frame_index, Tile.tile_index).where(Tile.status == "queued", Tile.job_id.in_(active))
             ).all()]
@@ -622,6 +638,8 @@ def reap(settings: Settings) -> int:
                 s.delete(w)
     for job_id, index in orphans:
         maybe_assemble(settings, job_id, index)  # idempotent
+    for job_id in finish:
+        _finish_job_if_last(settings, job_id)
     if requeue:
         from argand.worker.app import get_app
 
