@@ -211,27 +211,36 @@ def test_killed_worker_loses_no_tile_and_renders_none_twice(tmp_path):
 
 
 def _killed_worker(farm: Farm) -> None:
-    r = farm.post("/api/jobs", {"scene": "bicube", "deltas": {"start": 0, "stop": "pi/9", "count": 8}, "width": 96, "height": 96, "tile": 16})
+    # A scene heavy enough (a refracting sphere around Whitney's umbrella)
+    # that the kill lands in the middle of the job, which is checked.
+    n = 24
+    r = farm.post("/api/jobs", {"scene": "whitney-in-sphere", "deltas": {"start": 0, "stop": "pi/9", "count": n},
+                                "width": 160, "height": 160, "tile": 16})
     job_id = r.json()["id"]
-    farm.wait_for(lambda: farm.get(f"/api/jobs/{job_id}")["tiles_done"] >= 20, 60)
+    deadline = time.monotonic() + 60
+    while (seen := farm.get(f"/api/jobs/{job_id}"))["tiles_done"] < 20 and time.monotonic() < deadline:
+        time.sleep(0.02)
     victim = farm.get("/api/workers")[0]
     os.kill(victim["pid"], signal.SIGKILL)
+    assert seen["status"] == "running" and 20 <= seen["tiles_done"] < n * 100, seen["tiles_done"]
+    assert farm.get(f"/api/jobs/{job_id}")["status"] == "running"  # the kill came before the end
     job = farm.wait_job(job_id, 240)
-    assert job["status"] == "done" and job["tiles_done"] == job["tiles_total"] == 8 * 36
+    assert job["status"] == "done" and job["tiles_done"] == job["tiles_total"] == n * 100
     renders = tile_renders(farm, job_id)
-    assert len(renders) == 8 * 36 and set(renders) == {1}
-    check_frames_against_local(farm, job, "bicube")
+    assert len(renders) == n * 100 and set(renders) == {1}
+    check_frames_against_local(farm, job, "whitney-in-sphere")
 
 
 def test_cancel_stops_rendering(farm):
-    r = farm.post("/api/jobs", {"scene": "mitchell", "deltas": {"start": 0, "stop": "pi/9", "count": 24}, "width": 128, "height": 128, "tile": 16})
+    r = farm.post("/api/jobs", {"scene": "whitney-in-sphere", "deltas": {"start": 0, "stop": "pi/9", "count": 48},
+                                "width": 160, "height": 160, "tile": 16})
     job_id = r.json()["id"]
     farm.wait_for(lambda: farm.get(f"/api/jobs/{job_id}")["tiles_done"] >= 5, 60)
     assert farm.post(f"/api/jobs/{job_id}/cancel").json()["status"] == "canceled"
-    time.sleep(2)  # a tile in flight may finish
+    time.sleep(1)  # a run in flight stops at its next tile
     done = farm.get(f"/api/jobs/{job_id}")["tiles_done"]
     time.sleep(2)
-    assert farm.get(f"/api/jobs/{job_id}")["tiles_done"] == done < 24 * 64
+    assert farm.get(f"/api/jobs/{job_id}")["tiles_done"] == done < 48 * 100
 
 
 def test_restart_keeps_jobs_and_resumes_queued_work(tmp_path):
@@ -258,13 +267,14 @@ def test_restart_keeps_jobs_and_resumes_queued_work(tmp_path):
 
 
 def test_pause_resume_priority_events_delete(farm):
-    r = farm.post("/api/jobs", {"scene": "plucker", "deltas": {"start": 0, "stop": "pi/9", "count": 12}, "width": 96, "height": 96, "tile": 16, "priority": 3})
+    r = farm.post("/api/jobs", {"scene": "whitney-in-sphere", "deltas": {"start": 0, "stop": "pi/9", "count": 12},
+                                "width": 192, "height": 192, "tile": 16, "priority": 3})
     job_id = r.json()["id"]
     assert farm.post(f"/api/jobs/{job_id}/pause").json()["status"] == "paused"
     time.sleep(1.5)  # a tile in flight may finish
     held = farm.get(f"/api/jobs/{job_id}")["tiles_done"]
     time.sleep(1.5)
-    assert farm.get(f"/api/jobs/{job_id}")["tiles_done"] == held < 12 * 36
+    assert farm.get(f"/api/jobs/{job_id}")["tiles_done"] == held < 12 * 144
     patched = httpx.patch(farm.url + f"/api/jobs/{job_id}", json={"priority": 8})
     assert patched.status_code == 200 and patched.json()["priority"] == 8
     assert httpx.patch(farm.url + f"/api/jobs/{job_id}", json={"priority": 11}).status_code == 422
@@ -279,7 +289,7 @@ def test_pause_resume_priority_events_delete(farm):
                 break
     assert events[0] == "progress" and events[-1] == "end" and events.count("progress") >= 2
     job = farm.get(f"/api/jobs/{job_id}")
-    assert job["status"] == "done" and job["tiles_done"] == 12 * 36
+    assert job["status"] == "done" and job["tiles_done"] == 12 * 144
     assert farm.get("/api/jobs?status=done")["total"] == 1
     assert farm.get("/api/jobs?status=failed")["total"] == 0
     assert [p["name"] for p in farm.get("/api/presets")][:2] == ["whitney", "plucker"]
