@@ -175,3 +175,26 @@ def test_agrees_with_the_slow_reference(name, delta):
                     assert min(abs(got - best), abs(got - best.conjugate())) <= 1e-5 * (1 + abs(best)), (x, y, got, best)
     assert clear_pixels > 0
     assert certified_clear >= 0.99 * clear_pixels
+
+
+def test_srgb_table_matches_the_formula_but_at_rounding_boundaries():
+    """to_srgb8 goes through a 65536-entry table; against the exact sRGB
+    formula in float64 it may differ by one 8-bit step, and only where the
+    exact value lies within 0.03 steps of a rounding boundary."""
+    from argand.render.output import to_srgb8
+
+    rng = np.random.default_rng(11)
+    v = np.concatenate([rng.random(1_000_000), rng.random(100_000) * 0.01, [0.0, 1.0, 0.0031308]]).astype(np.float32)
+    rgba = np.zeros((v.size, 1, 4), np.float32)
+    rgba[:, 0, :3] = v[:, None]
+    got = to_srgb8(rgba)[:, 0, 0].astype(int)
+    x = v.astype(np.float64)
+    exact = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055) * 255.0 + 0.5
+    want = np.floor(exact).astype(int)
+    diff = got - want
+    assert np.abs(diff).max() <= 1
+    off = diff != 0
+    assert np.all(np.abs(exact[off] - np.round(exact[off])) < 0.03)
+    assert off.mean() < 0.01
+    # Out-of-range light is clipped, as before.
+    assert list(to_srgb8(np.array([[[-1.0, 2.0, 0.5, 1.0]]], np.float32))[0, 0]) == [0, 255, 188]

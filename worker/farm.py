@@ -19,7 +19,6 @@ job -> frames (one per (sigma, delta)) -> tiles.
 
 from __future__ import annotations
 
-import math
 import socket
 import time
 import uuid
@@ -303,12 +302,11 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
     # buffer (the EXR's layout); otherwise each tile gets a block of its own.
     whole = len(claimed) == total
     frame_px = np.empty((fplan.height, fplan.width, len(INTERLEAVED_CHANNELS)), np.float32) if whole else None
-    local: dict[int, Any] = {}  # tile -> (pixels, escalations, root calls), for this process's own assembly
+    local: dict[int, Any] = {}  # tile -> (pixels, escalations, root calls, stats): for this process's own assembly
     pending: dict[int, float] = {}
     done = 0
     last_check = last_commit = time.monotonic()
     stopped = None
-    i = -1
     try:
         for i in claimed:
             if time.monotonic() - last_check > STOP_CHECK_S:
@@ -667,7 +665,3 @@ def frames_of(deltas_spec: Any) -> list[float]:
             return [start]
         return [start + (stop - start) * i / (count - 1) for i in range(count)]
     return [float(d) for d in deltas_spec]
-
-
-def _isfinite(values: list[float]) -> bool:
-    return all(math.isfinite(v) for v in values)

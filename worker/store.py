@@ -1,9 +1,10 @@
 """The frame store: one small interface over fsspec (a folder by default; an
 S3 bucket later by URL). Every write is atomic (temporary name + rename).
 
-Tiles are stored raw (a short JSON header, then the arrays' bytes): a tile
-is written once and read once, so neither compression nor zip containers
-pay for themselves, and on a local folder the write is a few system calls.
+Tiles are stored raw, several to a file (a "chunk": a short JSON header,
+then the arrays' bytes): a tile is written once and read once, so neither
+compression nor zip containers pay for themselves, and on a local folder a
+chunk is one open, one write and one rename.
 """
 
 from __future__ import annotations
@@ -67,9 +68,6 @@ class FrameStore:
     def tile_dir(self, job_id: str, frame: int) -> str:
         return self.path("jobs", job_id, "tiles", f"{frame:04d}")
 
-    def tile_key(self, job_id: str, frame: int, tile: int) -> str:
-        return f"{self.tile_dir(job_id, frame)}/{tile:05d}.tile"
-
     def _makedirs(self, parent: str) -> None:
         if parent not in self._dirs:
             self.fs.makedirs(parent, exist_ok=True)
@@ -106,12 +104,6 @@ class FrameStore:
         with self.fs.open(key, "rb") as f:
             return f.read()
 
-    def write_tile(self, job_id: str, frame: int, tile: int, arrays: dict[str, np.ndarray]) -> None:
-        self.write_bytes_atomic(self.tile_key(job_id, frame, tile), pack_arrays(arrays))
-
-    def read_tile(self, job_id: str, frame: int, tile: int) -> dict[str, np.ndarray]:
-        return unpack_arrays(self.read_bytes(self.tile_key(job_id, frame, tile)))
-
     def chunk_key(self, job_id: str, frame: int, name: str) -> str:
         return f"{self.tile_dir(job_id, frame)}/{name}.chunk"
 
@@ -137,11 +129,6 @@ class FrameStore:
 
     def exists(self, key: str) -> bool:
         return self.fs.exists(key)
-
-    def local_path(self, key: str) -> str:
-        """For the local filesystem, the OS path of a key (used to write
-        images with OpenImageIO and to serve them)."""
-        return key if os.path.isabs(key) else os.path.abspath(key)
 
     def remove_job(self, job_id: str) -> None:
         self._dirs = {d for d in self._dirs if not d.startswith(self.job_dir(job_id))}
