@@ -9,6 +9,8 @@ from pathlib import Path
 from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from argand.render.output import EXR_COMPRESSION, EXR_COMPRESSIONS
+
 
 class Settings(BaseSettings):
     model_config = SettingsConfigDict(env_prefix="ARGAND_", extra="ignore")
@@ -32,8 +34,8 @@ class Settings(BaseSettings):
     #: redo; the message is the unit of dispatch, so small tiles do not pay
     #: a broker round trip each).
     batch_pixels: int = Field(512 * 512, ge=1)
-    #: OpenEXR compression of the frames: zip (default), none, rle, zips, piz.
-    exr_compression: str = "zip"
+    #: OpenEXR compression of the frames (argand.render.output.EXR_COMPRESSIONS).
+    exr_compression: str = EXR_COMPRESSION
 
     # Work model.
     tile_soft_time_limit_s: int = Field(120, ge=1)
@@ -45,9 +47,8 @@ class Settings(BaseSettings):
     @field_validator("exr_compression")
     @classmethod
     def _compression(cls, v: str) -> str:
-        allowed = ("none", "rle", "zip", "zips", "piz")
-        if v not in allowed:
-            raise ValueError(f"exr_compression must be one of {', '.join(allowed)}, got {v!r}")
+        if v not in EXR_COMPRESSIONS:
+            raise ValueError(f"exr_compression must be one of {', '.join(EXR_COMPRESSIONS)}, got {v!r}")
         return v
 
     @field_validator("tile_hard_time_limit_s")

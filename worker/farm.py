@@ -210,33 +210,35 @@ def _tile_key(job_id: str, frame_index: int):
 
 
 def _complete(settings: Settings, job_id: str, frame_index: int, worker_name: str, seconds: dict[int, float],
-              local: dict[int, Any]) -> tuple[int, int, int]:
+              local: dict[int, Any]) -> tuple[int, int]:
     """Writes the rendered tiles to the store (one chunk file), then marks
     them done (only those this worker still holds: a tile the reaper gave
     to another worker is theirs to count) and adds them to the frame's
-    counter, in one transaction. Returns (won, frame's tiles done, frame's
-    tiles in all)."""
+    counter, in one transaction. Returns (frame's tiles done, frame's tiles
+    in all)."""
     chunk = f"{min(seconds):05d}-{uuid.uuid4().hex[:10]}"
     store_for(settings).write_chunk(job_id, frame_index, chunk, {i: _tile_arrays(local[i]) for i in seconds})
     with engine_for(settings.sqlalchemy_url).begin() as c:
-        won = c.execute(
-            update(Tile)
-            .where(*_tile_key(job_id, frame_index), Tile.tile_index.in_(list(seconds)), Tile.status == "running",
-                   Tile.worker == worker_name)
-            .values(status="done", seconds=_mean(seconds), renders=Tile.renders + 1, chunk=chunk)
-            .returning(Tile.tile_index)
-        ).scalars().all()
+        won = _mark_done(c, job_id, frame_index, worker_name, seconds, chunk)
         q = update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index)
         done, total = c.execute(q.values(tiles_done=Frame.tiles_done + len(won))
                                 .returning(Frame.tiles_done, Frame.tiles_total)).one()
-    return len(won), done, total
+    ACTIVITY["done"] += len(won)
+    return done, total
 
 
-def _mean(seconds: dict[int, float]) -> float:
-    """A tile's recorded render time is its run's mean (one value for the
-    whole statement, so it compiles once however many tiles; the frame's
-    sum is the same)."""
-    return sum(seconds.values()) / max(1, len(seconds))
+def _mark_done(c, job_id: str, frame_index: int, worker_name: str, seconds: dict[int, float], chunk: str) -> list[int]:
+    """In the caller's transaction: the tiles of ``seconds`` that this worker
+    still holds become done, stored in ``chunk``. Returns them. A tile's
+    recorded render time is its run's mean (one value for the statement, so
+    it compiles once however many tiles; the frame's sum is the same)."""
+    return c.execute(
+        update(Tile)
+        .where(*_tile_key(job_id, frame_index), Tile.tile_index.in_(list(seconds)), Tile.status == "running",
+               Tile.worker == worker_name)
+        .values(status="done", seconds=sum(seconds.values()) / len(seconds), renders=Tile.renders + 1, chunk=chunk)
+        .returning(Tile.tile_index)
+    ).scalars().all()
 
 
 def _tile_arrays(t: tuple[np.ndarray, int, int, np.ndarray]) -> dict[str, np.ndarray]:
@@ -327,14 +329,12 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
             pending[i] = time.perf_counter() - start
             local[i] = (block[y0:y1, x0:x1] if frame_px is not None else block, esc, calls, stats)
             if time.monotonic() - last_commit > COMMIT_INTERVAL_S:
-                won, done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
-                ACTIVITY["done"] += won
+                done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
                 pending, last_commit = {}, time.monotonic()
     except BaseException:
         # A time limit or an error: keep what is written, give back the rest.
         if pending:
-            won, done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
-            ACTIVITY["done"] += won
+            done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
         _release(settings, job_id, frame_index, worker_name, [t for t in claimed if t not in local], resend=True)
         ACTIVITY["tile"] = None
         raise
@@ -345,8 +345,7 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
         if _finish_whole_frame(settings, job_id, frame_index, worker_name, pending, local, frame_px):
             return "rendered"
     if pending:
-        won, done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
-        ACTIVITY["done"] += won
+        done, total = _complete(settings, job_id, frame_index, worker_name, pending, local)
     ACTIVITY["tile"] = None
     if stopped:
         _release(settings, job_id, frame_index, worker_name, [t for t in claimed if t not in local], resend=False)
@@ -371,13 +370,7 @@ def _finish_whole_frame(settings: Settings, job_id: str, frame_index: int, worke
                              frame_px=frame_px)
     try:
         with engine_for(settings.sqlalchemy_url).begin() as c:
-            won = c.execute(
-                update(Tile)
-                .where(*_tile_key(job_id, frame_index), Tile.tile_index.in_(list(seconds)), Tile.status == "running",
-                       Tile.worker == worker_name)
-                .values(status="done", seconds=_mean(seconds), renders=Tile.renders + 1, chunk="frame")
-                .returning(Tile.tile_index)
-            ).scalars().all()
+            won = _mark_done(c, job_id, frame_index, worker_name, seconds, "frame")
             if len(won) < len(seconds):
                 raise _Lost
             n = c.execute(update(Frame).where(

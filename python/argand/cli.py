@@ -297,8 +297,10 @@ def bench_farm_cmd(
 
     if repeat is not None and repeat < 1:
         fail(f"--repeat must be at least 1, got {repeat}")
-    if exr_compression is not None and exr_compression not in ("none", "rle", "zip", "zips", "piz"):
-        fail(f"--exr-compression must be one of none, rle, zip, zips, piz; got {exr_compression!r}")
+    from argand.render.output import EXR_COMPRESSIONS
+
+    if exr_compression is not None and exr_compression not in EXR_COMPRESSIONS:
+        fail(f"--exr-compression must be one of {', '.join(EXR_COMPRESSIONS)}; got {exr_compression!r}")
     with console.status("benchmarking the farm") as status:
         report = bench_farm(out_dir=out, smoke=smoke, progress=lambda m: status.update(m), exr_compression=exr_compression,
                             repeat=repeat)

@@ -101,7 +101,8 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
     from argand.api.settings import Settings
 
     env = {"ARGAND_EXR_COMPRESSION": exr_compression} if exr_compression else {}
-    compression = exr_compression or Settings().exr_compression
+    defaults = Settings()
+    compression = exr_compression or defaults.exr_compression
     frames, size = (3, 192) if smoke else (36, 512)
     repeat = repeat or (1 if smoke else 3)
     tiles = (32, 64, 128, size)
@@ -140,7 +141,7 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
         "size": size,
         "runs": rows,
         "scaling_2_vs_1": {str(t): by[(1, t)]["wall_s"] / by[(2, t)]["wall_s"] for t in (32, 64, 128, "frame")},
-        "default_tile": 64,
+        "default_tile": defaults.default_tile,
         "exr_compression": compression,
         "repeat": repeat,
         "measures": {

@@ -45,8 +45,10 @@ def exr_pixels(result: FrameResult) -> np.ndarray:
     return np.ascontiguousarray(np.stack(planes, axis=-1).astype(np.float32))
 
 
-#: EXR compression: "zip" keeps files about 3.6 times smaller than "none" for
-#: about twice the encoding time (docs/bench/farm.md).
+#: EXR compressions offered (lossless ones), and the default: "zip" keeps
+#: files about 3.6 times smaller than "none" for about twice the encoding
+#: time (docs/bench/farm.md).
+EXR_COMPRESSIONS = ("none", "rle", "zip", "zips", "piz")
 EXR_COMPRESSION = "zip"
 #: PNG previews: zlib level 1 (level 6 makes files 1.5 times smaller and
 #: takes 2.6 times longer).
