@@ -283,3 +283,46 @@ def test_the_reaper_finishes_what_a_worker_dying_at_the_wrong_moment_left(farm_p
     farm.reap(settings)
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.get(Job, job2).status == "done"
+
+
+def test_work_left_by_an_earlier_version_is_finished(farm_parts):
+    """A job upgraded in the middle: one tile done by the earlier version
+    (its own .npz, one array per AOV, no chunk), one message of the older
+    one-tile shape, the rest as runs. The frame equals the local render."""
+    import io
+
+    from sqlalchemy import update
+
+    from argand.api.db import Frame, Job, Tile, engine_for, session_scope
+    from argand.render import FrameParams, TileRect, render_frame, render_tile
+    from argand.render.output import read_exr
+    from argand.scene import load_scene
+    from argand.worker import farm
+
+    settings, _ = farm_parts
+    scene = load_scene("mitchell")
+    job_id = farm.create_job(settings, "mitchell", scene.to_dict(), 0.0, [0.1], 32, 32, 16, 5)
+    old = render_tile(scene, FrameParams(delta=0.1, width=32, height=32), TileRect(0, 0, 16, 16))
+    buf = io.BytesIO()  # the earlier version's tile file
+    np.savez(buf, rgba=old.rgba, **old.aovs, meta=np.array([old.escalations, old.root_calls], np.int64))
+    folder = settings.data_path / "store" / "jobs" / job_id / "tiles" / "0000"
+    folder.mkdir(parents=True)
+    (folder / "00000.npz").write_bytes(buf.getvalue())
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        c.execute(update(Tile).where(Tile.job_id == job_id, Tile.tile_index == 0).values(status="done", renders=1))
+        c.execute(update(Frame).where(Frame.job_id == job_id).values(tiles_done=1, status="rendering"))
+    assert farm.run_tile(settings, job_id, 0, 1, "w-old") == "rendered"  # the older message shape
+    assert farm.run_tiles(settings, job_id, 0, [0, 1, 2, 3], "w-new") == "rendered"  # 0 and 1 are skipped
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
+        chunks = {t.tile_index: t.chunk for t in s.query(Tile).filter(Tile.job_id == job_id)}
+        assert chunks[0] is None and None not in (chunks[1], chunks[2], chunks[3])
+        figures = s.query(Frame).filter(Frame.job_id == job_id).one().figures
+    names, px = read_exr(settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr")
+    local = render_frame(scene, FrameParams(delta=0.1, width=32, height=32), workers=1)
+    for i, c in enumerate("RGBA"):
+        assert np.array_equal(px[..., names.index(c)], local.rgba[..., i])
+    for aov in ("Z", "arg", "re", "im", "count", "status"):
+        assert np.array_equal(px[..., names.index(aov)], local.aovs[aov].astype(np.float32))
+    for key in ("certified_share", "status_shares", "hit_share", "escalations", "root_calls"):
+        assert figures[key] == local.figures[key], key

@@ -198,3 +198,26 @@ def test_srgb_table_matches_the_formula_but_at_rounding_boundaries():
     assert off.mean() < 0.01
     # Out-of-range light is clipped, as before.
     assert list(to_srgb8(np.array([[[-1.0, 2.0, 0.5, 1.0]]], np.float32))[0, 0]) == [0, 255, 188]
+
+
+def test_render_tile_into_writes_in_place_or_refuses():
+    """The farm's path writes into the caller's buffer; an array it would
+    have to convert (a copy, then thrown away) or a tile outside the frame
+    is refused, not silently dropped."""
+    from argand.render.convert import to_core_scene
+    from argand.render.frames import INTERLEAVED_CHANNELS, TileRect, plan, render_tile_into
+
+    params = FrameParams(delta=0.2, width=40, height=30)
+    fplan = plan(to_core_scene(load_scene("steiner")), params)
+    out = np.full((30, 40, len(INTERLEAVED_CHANNELS)), -7.0, np.float32)
+    esc, calls, stats = render_tile_into(fplan, TileRect(8, 4, 24, 20), out, 8, 4)
+    assert stats.sum() - stats[4] == 16 * 16 and calls > 0 and esc >= 0
+    assert (out[:4] == -7).all() and (out[20:] == -7).all() and (out[4:20, :8] == -7).all()
+    assert (out[4:20, 8:24, 3] >= 0).all() and not (out[4:20, 8:24] == -7).any()
+    for bad in (out.astype(np.float64), np.asfortranarray(out), out[:, ::2]):
+        with pytest.raises(TypeError):
+            render_tile_into(fplan, TileRect(0, 0, 8, 8), bad)
+    with pytest.raises(ValueError, match="not inside"):
+        render_tile_into(fplan, TileRect(32, 0, 48, 8), out)
+    with pytest.raises(ValueError, match="does not fit"):
+        render_tile_into(fplan, TileRect(0, 0, 16, 16), out, 30, 20)

@@ -134,6 +134,8 @@ void init_render(py::module_& m) {
            int oy) {
             // The farm's layout: the EXR's interleaved channels, written in
             // place (no per-AOV arrays to allocate and stitch in Python).
+            // `out` is taken without conversion: a converted copy would take
+            // the pixels and be thrown away.
             const int W = plan.params.width, H = plan.params.height;
             if (!(0 <= x0 && x0 < x1 && x1 <= W && 0 <= y0 && y0 < y1 && y1 <= H))
                 throw py::value_error("tile [" + std::to_string(x0) + ", " + std::to_string(x1) + ") x [" +
@@ -172,7 +174,7 @@ void init_render(py::module_& m) {
         "Renders the tile [x0, x1) x [y0, y1) into out[oy:, ox:] as 10 interleaved float32 channels (R, G, B, A, "
         "Z, arg, re, im, count, status: the EXR's layout). Returns (escalations, root_calls, pixels per status "
         "code 0..3, pixels that hit a surface).",
-        py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("out"), py::arg("ox") = 0,
+        py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("out").noconvert(), py::arg("ox") = 0,
         py::arg("oy") = 0);
     m.def(
         "ray_polynomial",
