@@ -69,6 +69,8 @@ def test_roots_at_infinity_and_constants():
         (["render", "bicube", "--deltas", "0:pi/9"], "START:STOP:COUNT"),
         (["render", "bicube", "--delta", "pi/"], "cannot read"),
         (["render", "bicube", "--size", "big"], "--size must look like"),
+        (["render", "bicube", "--exr-compression", "lzma"], "--exr-compression: EXR compression must be one of"),
+        (["render", "bicube", "--exr-compression", "zip:10"], "1..9"),
     ],
 )
 def test_bad_input_exits_2_with_a_message(args, message):
@@ -110,6 +112,16 @@ def test_render_writes_frames_aovs_and_animation(tmp_path):
         n += 1
     inp.close()
     assert n == 3
+
+
+def test_render_uses_the_exr_compression_asked_for(tmp_path):
+    import OpenImageIO as oiio
+
+    r = run("render", "steiner", "--size", "16x16", "--exr-compression", "rle", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    inp = oiio.ImageInput.open(str(tmp_path / "frame_0000.exr"))
+    assert inp.spec().get_string_attribute("compression") == "rle"
+    inp.close()
 
 
 def _finite_positive(value) -> bool:

@@ -47,12 +47,56 @@ def exr_pixels(result: FrameResult) -> np.ndarray:
 
 #: EXR compressions offered (lossless ones), and the default: "zip" keeps
 #: files about 3.6 times smaller than "none" for about twice the encoding
-#: time (docs/bench/farm.md).
+#: time, and every OpenEXR reader opens it (docs/bench/farm.md).
 EXR_COMPRESSIONS = ("none", "rle", "zip", "zips", "piz")
 EXR_COMPRESSION = "zip"
+#: Zstandard: about half the size and, at level 1 ("zstd:1"), about half the
+#: encoding time of "zip" for Argand's frames, but only OpenEXR 3.5 (2025)
+#: and later can read it, so it is offered, not the default.
+EXR_ZSTD_OPENEXR = (3, 5)
+#: Compression levels that ``name:level`` accepts.
+_EXR_LEVELS = {"zip": range(1, 10), "zips": range(1, 10), "zstd": range(1, 23)}
 #: PNG previews: zlib level 1 (level 6 makes files 1.5 times smaller and
-#: takes 2.6 times longer).
+#: takes 2.6 times longer) and the "sub" filter alone: libpng's adaptive
+#: choice among all five filters takes twice as long for files within a few
+#: percent of the same size (filter "none" is faster still, but shaded and
+#: hue-coloured frames grow by up to 40%).
 PNG_LEVEL = 1
+PNG_FILTER_SUB = 16  # PNG_FILTER_SUB in png.h, OpenImageIO's "png:filter"
+
+
+def openexr_version() -> tuple[int, ...]:
+    """The OpenEXR version inside OpenImageIO, e.g. (3, 5, 2); () if unknown."""
+    import re
+
+    m = re.search(r"openexr:OpenEXR (\d+)\.(\d+)(?:\.(\d+))?", _oiio().get_string_attribute("library_list"))
+    return tuple(int(g) for g in m.groups() if g is not None) if m else ()
+
+
+def exr_compressions() -> tuple[str, ...]:
+    """The compressions this installation writes: EXR_COMPRESSIONS, and
+    "zstd" where OpenImageIO's OpenEXR has it (an older one would silently
+    write "zip" instead)."""
+    return EXR_COMPRESSIONS + (("zstd",) if openexr_version() >= EXR_ZSTD_OPENEXR else ())
+
+
+def check_exr_compression(value: str) -> str:
+    """``value`` ("zip", "zstd:1", ...) if this installation writes it, else
+    a ValueError that names what it accepts."""
+    name, sep, level = value.partition(":")
+    offered = exr_compressions()
+    if name not in offered:
+        extra = "" if "zstd" in offered or name != "zstd" else (
+            f" (zstd needs OpenEXR {'.'.join(map(str, EXR_ZSTD_OPENEXR))} in OpenImageIO; "
+            f"this one has {'.'.join(map(str, openexr_version())) or 'an unknown version'})")
+        raise ValueError(f"EXR compression must be one of {', '.join(offered)}, got {value!r}{extra}")
+    if sep:
+        levels = _EXR_LEVELS.get(name)
+        if levels is None:
+            raise ValueError(f"EXR compression {name!r} takes no level, got {value!r}")
+        if not (level.isdigit() and int(level) in levels):
+            raise ValueError(f"EXR compression level of {name!r} must be {levels.start}..{levels.stop - 1}, got {value!r}")
+    return value
 
 
 def write_exr(result: FrameResult, path: Path, pixels: np.ndarray | None = None,
@@ -77,6 +121,7 @@ def write_png(pixels: np.ndarray, path: Path, level: int = PNG_LEVEL) -> None:
     h, w = pixels.shape[:2]
     spec = oiio.ImageSpec(w, h, pixels.shape[2], "uint8")
     spec.attribute("png:compressionLevel", int(level))
+    spec.attribute("png:filter", PNG_FILTER_SUB)
     _write(oiio, path, spec, pixels)
 
 
