@@ -194,7 +194,7 @@ def chart(report: dict, path: Path) -> None:
         disp = [100 * runs[l]["dispatch_share"] for l in labels]
         b.bar(pos, enc, width=0.4, color=color, alpha=0.45, label=f"{workers} worker(s): encoding the files")
         b.bar(pos, disp, width=0.4, bottom=enc, color=color, label=f"{workers} worker(s): dispatch and the rest")
-    b.axhline(10, color="k", lw=0.8, ls="--", label="10% (the target for dispatch)")
+    b.axhline(10, color="k", lw=0.8, ls="--", label="10% (the overhead target)")
     for ax, title, ylabel in ((a, "throughput", "frames per second"),
                               (b, "worker time besides rendering", "% of render time")):
         ax.set_xticks(xs, labels)
