@@ -147,9 +147,11 @@ def _send(settings: Settings, job_id: str, runs: list[tuple[int, list[int]]], pr
         app.send_task(TASK_NAME, args=[job_id, f, run], priority=level)
 
 
-def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] = ("queued",)) -> int:
+def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] = ("queued",),
+                 priority: int | None = None) -> int:
     """Sends messages for every tile of the job in one of the given states
-    (see plan_runs). Returns the number of tiles sent."""
+    (see plan_runs), at the job's priority unless ``priority`` is given.
+    Returns the number of tiles sent."""
     with engine_for(settings.sqlalchemy_url).connect() as c:
         job = c.execute(select(Job.priority, Job.width, Job.height, Job.tile).where(Job.id == job_id)).first()
         if job is None:
@@ -162,7 +164,7 @@ def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] =
         by_frame.setdefault(f, []).append(t)
     runs = plan_runs(by_frame, n_frames, tile_rects(job.width, job.height, job.tile), settings.batch_pixels,
                      max(1, alive_workers(settings)))
-    _send(settings, job_id, runs, job.priority)
+    _send(settings, job_id, runs, job.priority if priority is None else priority)
     return len(rows)
 
 
@@ -432,13 +434,12 @@ def _legacy_tile(store: FrameStore, job_id: str, frame_index: int, tile: int) ->
     AOV), in the interleaved layout."""
     import io
 
-    from argand.render.frames import AOV_CHANNELS
+    from argand.render.frames import interleave
 
     with np.load(io.BytesIO(store.read_bytes(f"{store.tile_dir(job_id, frame_index)}/{tile:05d}.npz"))) as z:
-        planes = [z["rgba"][..., c] for c in range(4)] + [z[name].astype(np.float32) for name in AOV_CHANNELS]
         counts = np.bincount(z["status"].astype(np.intp).ravel(), minlength=4)[:4]
         meta = np.array([*z["meta"][:2], *counts, int(np.count_nonzero(z["rgba"][..., 3] > 0))], np.int64)
-        return {"px": np.stack(planes, axis=-1).astype(np.float32), "meta": meta}
+        return {"px": interleave(z["rgba"], z), "meta": meta}
 
 
 def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dict[int, Any] | None = None,
@@ -451,7 +452,7 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     from pathlib import Path
 
     from argand.render import gif
-    from argand.render.frames import AOV_CHANNELS, FrameParams, FrameResult, frame_figures
+    from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, FrameParams, FrameResult, frame_figures
     from argand.render.output import to_srgb8, write_frame, write_png
 
     t_start = time.perf_counter()
@@ -468,7 +469,7 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     for name in {chunks[i] for i in chunks if i not in local and chunks[i]}:
         stored.update(store.read_chunk(job_id, frame_index, name))
     w, h = job.width, job.height
-    px = frame_px if frame_px is not None else np.empty((h, w, 4 + len(AOV_CHANNELS)), np.float32)
+    px = frame_px if frame_px is not None else np.empty((h, w, len(INTERLEAVED_CHANNELS)), np.float32)
     escalations = calls = 0
     stats = np.zeros(5, np.int64)
     for i, (x0, y0, x1, y1) in enumerate(tile_rects(w, h, job.tile)):
@@ -587,7 +588,7 @@ def reap(settings: Settings) -> int:
     messages are no-ops: a tile is claimed by compare-and-set). A tile that
     failed too often fails its job."""
     now = time.time()
-    requeue: list[tuple[str, int, int]] = []
+    requeue: list[str] = []
     with session_scope(settings.sqlalchemy_url) as s:
         dead = [w for w in s.scalars(select(Worker)) if now - w.heartbeat > settings.heartbeat_timeout_s]
         dead_names = {w.name for w in dead}
@@ -622,26 +623,15 @@ def reap(settings: Settings) -> int:
         finish = sorted(stuck_jobs & _stuck_seen["jobs"])
         _stuck_seen["frames"], _stuck_seen["jobs"] = stuck_frames, stuck_jobs
         if dead:
-            requeue = [tuple(r) for r in s.execute(
-                select(Tile.job_id, Tile.frame_index, Tile.tile_index).where(Tile.status == "queued", Tile.job_id.in_(active))
-            ).all()]
+            requeue = list(s.scalars(select(Tile.job_id).where(Tile.status == "queued", Tile.job_id.in_(active)).distinct()))
             for w in dead:
                 s.delete(w)
     for job_id, index in orphans:
         maybe_assemble(settings, job_id, index)  # idempotent
     for job_id in finish:
         _finish_job_if_last(settings, job_id)
-    if requeue:
-        from argand.worker.app import get_app
-
-        app = get_app(settings)
-        runs: dict[tuple[str, int], list[int]] = {}
-        for job_id, f, i in requeue:
-            runs.setdefault((job_id, f), []).append(i)
-        for (job_id, f), tiles in runs.items():
-            for k in range(0, len(tiles), 64):
-                app.send_task(TASK_NAME, args=[job_id, f, tiles[k:k + 64]], priority=0)
-    return len(requeue)
+    # Work given back goes ahead of everything (the highest priority).
+    return sum(dispatch_job(settings, job_id, priority=9) for job_id in requeue)
 
 
 def eta_seconds(job: Job, done: int, total: int) -> float | None:

@@ -127,6 +127,13 @@ def render_tile_planned(frame_plan: Any, rect: TileRect) -> TileAOVs:
 INTERLEAVED_CHANNELS = ("R", "G", "B", "A") + AOV_CHANNELS
 
 
+def interleave(rgba: np.ndarray, aovs: Any) -> np.ndarray:
+    """(h, w, 4) RGBA and the AOV planes (a mapping by name) -> one
+    C-contiguous (h, w, 10) float32 array in the order of INTERLEAVED_CHANNELS."""
+    planes = [rgba[..., c] for c in range(4)] + [np.asarray(aovs[name], np.float32) for name in AOV_CHANNELS]
+    return np.stack(planes, axis=-1).astype(np.float32, copy=False)
+
+
 def render_tile_into(frame_plan: Any, rect: TileRect, out: np.ndarray, ox: int = 0,
                      oy: int = 0) -> tuple[int, int, np.ndarray]:
     """Renders ``rect`` into ``out[oy:, ox:]``, a C-contiguous (h, w, 10)

@@ -7,9 +7,9 @@ import json
 from pathlib import Path
 import numpy as np
 
-from argand.render.frames import AOV_CHANNELS, FrameResult
+from argand.render.frames import INTERLEAVED_CHANNELS, FrameResult, interleave
 
-EXR_CHANNELS = ("R", "G", "B", "A") + AOV_CHANNELS
+EXR_CHANNELS = INTERLEAVED_CHANNELS
 
 
 def _oiio():
@@ -41,8 +41,7 @@ def to_srgb8(rgba: np.ndarray) -> np.ndarray:
 
 def exr_pixels(result: FrameResult) -> np.ndarray:
     """(h, w, 10) float32: R, G, B, A, Z, arg, re, im, count, status."""
-    planes = [result.rgba[..., i] for i in range(4)] + [result.aovs[name].astype(np.float32) for name in AOV_CHANNELS]
-    return np.ascontiguousarray(np.stack(planes, axis=-1).astype(np.float32))
+    return interleave(result.rgba, result.aovs)
 
 
 #: EXR compressions offered (lossless ones), and the default: "zip" keeps
@@ -86,10 +85,11 @@ def check_exr_compression(value: str) -> str:
     name, sep, level = value.partition(":")
     offered = exr_compressions()
     if name not in offered:
-        extra = "" if "zstd" in offered or name != "zstd" else (
-            f" (zstd needs OpenEXR {'.'.join(map(str, EXR_ZSTD_OPENEXR))} in OpenImageIO; "
-            f"this one has {'.'.join(map(str, openexr_version())) or 'an unknown version'})")
-        raise ValueError(f"EXR compression must be one of {', '.join(offered)}, got {value!r}{extra}")
+        why = ""
+        if name == "zstd":  # a real compression this installation's OpenEXR lacks
+            why = (f" (zstd needs OpenEXR {'.'.join(map(str, EXR_ZSTD_OPENEXR))} in OpenImageIO; "
+                   f"this one has {'.'.join(map(str, openexr_version())) or 'an unknown version'})")
+        raise ValueError(f"EXR compression must be one of {', '.join(offered)}, got {value!r}{why}")
     if sep:
         levels = _EXR_LEVELS.get(name)
         if levels is None:
