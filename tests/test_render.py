@@ -272,3 +272,35 @@ def test_exr_compression_names_and_levels_are_checked():
     else:
         with pytest.raises(ValueError, match="needs OpenEXR 3.5"):
             check_exr_compression("zstd")
+
+
+def test_render_sweep_writes_each_frame_as_rendered_and_restores_oiio_threads(tmp_path):
+    """argand render's loop: every frame's EXR holds exactly what
+    render_frame gives for it, the animation has one image per frame, and
+    OpenImageIO encodes on the threads asked for, then gets its own
+    settings back."""
+    import OpenImageIO as oiio
+
+    from argand.render.output import EXR_CHANNELS, exr_pixels, read_exr
+    from argand.render.sweep import render_sweep
+
+    scene = load_scene("steiner")
+    params = [FrameParams(delta=d, width=40, height=32) for d in (0.0, math.pi / 9, math.pi / 4)]
+    before = {k: oiio.get_int_attribute(k) for k in ("threads", "exr_threads")}
+    seen = []
+    figures = render_sweep(scene, params, tmp_path, tile=16, workers=1,
+                           on_frame=lambda i, p: seen.append((i, p.delta, oiio.get_int_attribute("threads"))))
+    assert seen == [(i, p.delta, 1) for i, p in enumerate(params)]
+    assert {k: oiio.get_int_attribute(k) for k in before} == before
+    assert [f["delta"] for f in figures] == [p.delta for p in params]
+    for i, p in enumerate(params):
+        names, got = read_exr(tmp_path / f"frame_{i:04d}.exr")
+        want = exr_pixels(render_frame(scene, p, tile=16, workers=1))
+        assert np.array_equal(got[..., [names.index(n) for n in EXR_CHANNELS]].view(np.uint32), want.view(np.uint32))
+        assert (tmp_path / f"frame_{i:04d}.png").exists() and (tmp_path / f"frame_{i:04d}.json").exists()
+    inp = oiio.ImageInput.open(str(tmp_path / "animation.gif"))
+    count = 0
+    while inp.seek_subimage(count, 0):
+        count += 1
+    inp.close()
+    assert count == len(params)

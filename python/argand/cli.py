@@ -117,9 +117,9 @@ def render(
                                         help="none, rle, zip, zips, piz, zstd (OpenEXR 3.5+ readers only); zip:N, zstd:N for a level."),
 ) -> None:
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, and animation.gif."""
-    from argand.render import FrameParams, delta_sweep, parse_angle, parse_sweep, render_frame
-    from argand.render import gif
-    from argand.render.output import check_exr_compression, to_srgb8, write_frame
+    from argand.render import FrameParams, delta_sweep, parse_angle, parse_sweep
+    from argand.render.output import check_exr_compression
+    from argand.render.sweep import render_sweep
     from argand.scene import load_scene
 
     if delta is not None and deltas is not None:
@@ -150,33 +150,24 @@ def render(
     except ValueError as exc:
         fail(str(exc))
     tiles_per_frame = math.ceil(width / tile) * math.ceil(height / tile)
-    previews = []
-    summary = []
     with Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("tiles"),
         TimeElapsedColumn(), TimeRemainingColumn(), console=err,
     ) as progress:
         task = progress.add_task("rendering", total=tiles_per_frame * len(params))
-        for index, p in enumerate(params):
-            progress.update(task, description=f"frame {index + 1}/{len(params)} (delta={p.delta:.4g})")
-            try:
-                result = render_frame(loaded, p, tile=tile, workers=workers or None, on_tile=lambda t: progress.advance(task))
-            except ValueError as exc:
-                fail(str(exc))
-            write_frame(result, out, index, compression=exr_compression)
-            if len(params) > 1:
-                previews.append(gif.encode_frame(to_srgb8(result.rgba)))
-            summary.append(result.figures)
-    if previews:
-        tmp = out / "animation.gif.tmp"
-        tmp.write_bytes(gif.splice(previews, fps=fps))
-        tmp.replace(out / "animation.gif")
+        try:
+            summary = render_sweep(
+                loaded, params, out, tile=tile, workers=workers or None, compression=exr_compression, fps=fps,
+                on_frame=lambda i, p: progress.update(task, description=f"frame {i + 1}/{len(params)} (delta={p.delta:.4g})"),
+                on_tile=lambda t: progress.advance(task))
+        except ValueError as exc:
+            fail(str(exc))
     for f in summary:
         console.print(
             f"delta={f['delta']:.5g}: {f['seconds'] * 1000:.0f} ms, {f['ns_per_pixel']:.0f} ns/pixel, "
             f"certified {100 * f['certified_share']:.3f}%, escalated {100 * f['escalated_share']:.3f}%"
         )
-    console.print(f"wrote {len(params)} frame(s) to {out}/" + (" and animation.gif" if previews else ""))
+    console.print(f"wrote {len(params)} frame(s) to {out}/" + (" and animation.gif" if len(params) > 1 else ""))
 
 
 @app.command()
@@ -314,16 +305,19 @@ def bench_farm_cmd(
         report = bench_farm(out_dir=out, smoke=smoke, progress=lambda m: status.update(m), exr_compression=exr_compression,
                             repeat=repeat)
     table = Table(title=f"farm: {report['frames']} frames of {report['size']}x{report['size']}", title_justify="left")
-    for col in ("workers", "tile", "seconds", "frames/s", "first frame s", "encoding", "dispatch", "overhead"):
+    for col in ("workers", "tile", "seconds", "frames/s", "first frame s", "encoding", "dispatch", "overhead", "vs render"):
         table.add_column(col, justify="right")
     for r in report["runs"]:
         table.add_row(str(r["workers"]), str(r["tile"]), f"{r['wall_s']:.2f}", f"{r['fps']:.2f}",
                       f"{r['first_frame_s']:.2f}", f"{100 * r['encode_share']:.1f}%",
-                      f"{100 * r['dispatch_share']:.1f}%", f"{100 * r['overhead_share']:.1f}%")
+                      f"{100 * r['dispatch_share']:.1f}%", f"{100 * r['overhead_share']:.1f}%",
+                      f"{100 * (r['vs_local'] - 1):+.1f}%")
     console.print(table)
     console.print("scaling 2 workers / 1 worker: " + ", ".join(f"tile {k}: {v:.2f}x" for k, v in report["scaling_2_vs_1"].items()))
+    console.print("argand render of the same frames: " + ", ".join(
+        f"{r['threads']} thread(s) {r['wall_s']:.2f} s" for r in report["local"]))
     console.print("shares are of the render time; encoding: the frames' files, as a local render writes them; "
-                  "dispatch: what the farm adds")
+                  "dispatch: what the farm adds; vs render: a farm's time over argand render on as many threads")
     console.print(f"wrote {out / 'farm.json'}, {out / 'farm.md'} and {out / 'farm.png'}")
 
 
