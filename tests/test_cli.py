@@ -202,6 +202,13 @@ def test_bench_farm_smoke(tmp_path):
         assert math.isclose(x["overhead_share"], x["encode_share"] + x["dispatch_share"], rel_tol=1e-9, abs_tol=1e-9) \
             or x["dispatch_share"] == 0
     assert set(report["scaling_2_vs_1"]) == {"32", "64", "128", "frame"}
+    # the alternative in the same run: argand render of the same frames
+    assert [(x["threads"], x["tile"]) for x in report["local"]] == [(1, 64), (2, 64)]
+    for x in report["local"]:
+        assert x["wall_s"] > 0 and x["render_s"] > 0
+    local = {x["threads"]: x["wall_s"] for x in report["local"]}
+    for x in report["runs"]:
+        assert math.isclose(x["vs_local"], x["wall_s"] / local[x["workers"]])
     assert report["exr_compression"] == "zip"
     assert (tmp_path / "farm.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "| 2 | 64 |" in (tmp_path / "farm.md").read_text()

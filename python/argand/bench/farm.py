@@ -8,6 +8,11 @@ workers' time went besides rendering, as shares of the render time:
 * dispatch: everything else the farm adds (messages, claims and
   completions, tile files, stitching, animation, idle workers).
 
+The alternative runs in the same rounds: the same frames rendered and
+written by `argand render` on this machine (``render_sweep``) on 1 and on 2
+threads at the default tile size. A farm's time over it is what the farm
+costs beyond the work itself.
+
 Times come from the server's own clocks (job created -> finished, each
 frame's finish), so the benchmark's polling does not blur them."""
 
@@ -107,10 +112,15 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
     repeat = repeat or (1 if smoke else 3)
     tiles = (32, 64, 128, size)
     samples: dict[tuple[int, object], list[dict]] = {}
+    local_samples: dict[int, list[dict]] = {}
     with tempfile.TemporaryDirectory(prefix="argand-bench-farm-") as tmp:
         progress("starting farms of 1 and 2 workers")
         with LocalFarm(Path(tmp) / "w1", 1, env) as one, LocalFarm(Path(tmp) / "w2", 2, env) as two:
             for rep in range(repeat):
+                for threads in (1, 2):
+                    progress(f"round {rep + 1}/{repeat}: argand render on {threads} thread(s): {frames} frames of {size}x{size}")
+                    local_samples.setdefault(threads, []).append(
+                        _local_render(Path(tmp) / f"local{threads}", frames, size, defaults.default_tile, threads, compression))
                 for tile in tiles:
                     for workers, farm in ((1, one), (2, two)):
                         progress(f"round {rep + 1}/{repeat}: {workers} worker(s), tile {tile}: {frames} frames of {size}x{size}")
@@ -132,6 +142,14 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
         row = dict(runs[len(runs) // 2])
         row["wall_s_all"] = [r["wall_s"] for r in samples[key]]
         rows.append(row)
+    local = []
+    for threads, runs in sorted(local_samples.items()):
+        runs = sorted(runs, key=lambda r: r["wall_s"])
+        local.append(dict(runs[len(runs) // 2], wall_s_all=[r["wall_s"] for r in local_samples[threads]]))
+    local_s = {r["threads"]: r["wall_s"] for r in local}
+    for r in rows:
+        # > 1: the farm takes longer than argand render on as many threads
+        r["vs_local"] = r["wall_s"] / local_s[r["workers"]]
     by = {(r["workers"], r["tile"]): r for r in rows}
     report = {
         "benchmark": "farm",
@@ -141,6 +159,7 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
         "size": size,
         "runs": rows,
         "scaling_2_vs_1": {str(t): by[(1, t)]["wall_s"] / by[(2, t)]["wall_s"] for t in (32, 64, 128, "frame")},
+        "local": local,
         "default_tile": defaults.default_tile,
         "exr_compression": compression,
         "repeat": repeat,
@@ -151,6 +170,10 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
             "overhead_share": "(wall_s * workers - render_s) / render_s: all worker time that is not rendering",
             "encode_share": "encoding the frames' files (EXR, PNG, thumbnail, GIF fragment) / render_s",
             "dispatch_share": "the rest (messages, claims, tile files, stitching, animation, idle) / render_s",
+            "local": "argand render of the same frames and files in one process (render_sweep), 1 and 2 threads, "
+                     "default tile; the median of `repeat` runs",
+            "vs_local": "wall_s / the local wall_s on as many threads (1 worker vs 1 thread, 2 vs 2): "
+                        "above 1, the farm's cost beyond the work itself",
         },
     }
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -160,19 +183,41 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
     return report
 
 
+def _local_render(out: Path, frames: int, size: int, tile: int, threads: int, compression: str) -> dict:
+    """The alternative: `argand render` of the job's frames, in this process."""
+    import math
+
+    from argand.render.frames import FrameParams, delta_sweep
+    from argand.render.sweep import render_sweep
+    from argand.scene import load_scene
+
+    scene = load_scene("bicube")
+    params = [FrameParams(sigma=0.0, delta=d, width=size, height=size) for d in delta_sweep(0.0, math.pi / 9, frames)]
+    start = time.perf_counter()
+    figures = render_sweep(scene, params, out, tile=tile, workers=threads, compression=compression)
+    wall = time.perf_counter() - start
+    return {"threads": threads, "tile": tile, "wall_s": wall, "fps": frames / wall,
+            "render_s": sum(f["seconds"] for f in figures)}
+
+
 def markdown(report: dict) -> str:
     lines = [
         f"{report['frames']} frames of {report['size']}×{report['size']} ({report['scene']}), EXR compression "
         f"`{report['exr_compression']}`, median of {report['repeat']} alternating runs; shares are of the render time.",
         "",
-        "| workers | tile | seconds | frames / s | first frame (s) | encoding | dispatch | overhead (all) |",
-        "|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| workers | tile | seconds | frames / s | first frame (s) | encoding | dispatch | overhead (all) | vs `argand render` |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in report["runs"]:
         lines.append(f"| {r['workers']} | {r['tile']} | {r['wall_s']:.2f} | {r['fps']:.2f} | {r['first_frame_s']:.2f} | "
-                     f"{100 * r['encode_share']:.0f}% | {100 * r['dispatch_share']:.0f}% | {100 * r['overhead_share']:.0f}% |")
+                     f"{100 * r['encode_share']:.0f}% | {100 * r['dispatch_share']:.0f}% | {100 * r['overhead_share']:.0f}% | "
+                     f"{100 * (r['vs_local'] - 1):+.0f}% |")
     lines += ["", "Scaling from 1 to 2 workers: " + ", ".join(
-        f"tile {k}: {v:.2f}×" for k, v in report["scaling_2_vs_1"].items()) + ".", ""]
+        f"tile {k}: {v:.2f}×" for k, v in report["scaling_2_vs_1"].items()) + ".", "",
+        "The same frames and files by `argand render` in one process (tile "
+        f"{report['local'][0]['tile']}): " + ", ".join(
+            f"{r['threads']} thread(s) {r['wall_s']:.2f} s ({r['fps']:.2f} frames / s)" for r in report["local"])
+        + "; the last column is a farm's time over it on as many workers as threads.", ""]
     return "\n".join(lines)
 
 
@@ -190,13 +235,18 @@ def chart(report: dict, path: Path) -> None:
         offset = -0.2 if workers == 1 else 0.2
         pos = [x + offset for x in xs]
         a.bar(pos, [runs[l]["fps"] for l in labels], width=0.4, color=color, label=f"{workers} worker(s)")
+        local = next(r for r in report["local"] if r["threads"] == workers)
+        a.axhline(local["fps"], color=color, lw=1, ls="--", label=f"argand render, {workers} thread(s)")
         enc = [100 * runs[l]["encode_share"] for l in labels]
         disp = [100 * runs[l]["dispatch_share"] for l in labels]
-        b.bar(pos, enc, width=0.4, color=color, alpha=0.45, label=f"{workers} worker(s): encoding the files")
+        b.bar(pos, enc, width=0.4, color=color, alpha=0.45, label=f"{workers} worker(s): encoding the files (% of render time)")
         b.bar(pos, disp, width=0.4, bottom=enc, color=color, label=f"{workers} worker(s): dispatch and the rest")
+        b.plot(pos, [100 * (runs[l]["vs_local"] - 1) for l in labels], "D", color="k" if workers == 1 else "0.45",
+               ms=5, label=f"{workers} worker(s): time over argand render, {workers} thread(s) (% of its time)")
     b.axhline(10, color="k", lw=0.8, ls="--", label="10% (the overhead target)")
+    b.axhline(0, color="k", lw=0.5)
     for ax, title, ylabel in ((a, "throughput", "frames per second"),
-                              (b, "worker time besides rendering", "% of render time")):
+                              (b, "worker time besides rendering; the farm over argand render", "%")):
         ax.set_xticks(xs, labels)
         ax.set_xlabel("tile size (pixels)")
         ax.set_ylabel(ylabel)
