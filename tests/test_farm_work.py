@@ -194,6 +194,39 @@ def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts,
         assert s.query(Frame).filter(Frame.job_id == job_id).one().tiles_done == 10
 
 
+def test_a_whole_frame_run_that_commits_on_the_way_assembles_the_same_frame(farm_parts, monkeypatch):
+    """A run holding a whole frame that takes longer than the commit
+    interval (a large frame) writes chunk files for the progress it reports
+    on the way; the frame it assembles still equals the local render, bit
+    for bit, and its tile files are gone after."""
+    from argand.api.db import Frame, Job, Tile, session_scope
+    from argand.render import FrameParams, render_frame
+    from argand.render.output import EXR_CHANNELS, exr_pixels, read_exr
+    from argand.scene import load_scene
+    from argand.worker import farm
+
+    settings, _ = farm_parts
+    job_id = farm.create_job(settings, "steiner", load_scene("steiner").to_dict(), 0.0, [0.3], 48, 40, 16, 5)
+    chunks = []
+    real_complete = farm._complete
+    monkeypatch.setattr(farm, "_complete", lambda *a, **k: (chunks.append(len(a[4])), real_complete(*a, **k))[1])
+    real_assemble, buffers = farm.assemble_frame, []
+    monkeypatch.setattr(farm, "assemble_frame", lambda *a, **k: (buffers.append(k.get("frame_px")), real_assemble(*a, **k))[1])
+    monkeypatch.setattr(farm, "COMMIT_INTERVAL_S", 0.0)  # commit after every tile
+    assert farm.run_tiles(settings, job_id, 0, list(range(9)), "w-test") == "rendered"  # 3 x 3 tiles
+    assert chunks == [1] * 9  # one commit per tile, the last one included
+    assert len(buffers) == 1 and buffers[0] is not None  # assembled from the run's own buffer, not copied again
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
+        assert s.query(Frame).filter(Frame.job_id == job_id).one().status == "done"
+        assert {t.status for t in s.query(Tile).filter(Tile.job_id == job_id)} == {"done"}
+    names, px = read_exr(settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr")
+    want = exr_pixels(render_frame(load_scene("steiner"), FrameParams(delta=0.3, width=48, height=40), tile=16, workers=1))
+    assert np.array_equal(px[..., [names.index(n) for n in EXR_CHANNELS]].view(np.uint32), want.view(np.uint32))
+    assert not (settings.data_path / "store" / "jobs" / job_id / "tiles").exists() or not any(
+        (settings.data_path / "store" / "jobs" / job_id / "tiles").rglob("*.chunk"))
+
+
 def test_a_pause_stops_a_run_between_tiles_and_resume_sends_the_rest(farm_parts, monkeypatch):
     import time
 

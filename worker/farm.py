@@ -352,8 +352,9 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
     if stopped:
         _release(settings, job_id, frame_index, worker_name, [t for t in claimed if t not in local], resend=False)
         return stopped
-    if done >= total:
-        maybe_assemble(settings, job_id, frame_index, worker_name, local)
+    if done >= total:  # a whole frame with commits on the way still assembles from its own buffer
+        maybe_assemble(settings, job_id, frame_index, worker_name, local,
+                       frame_px if frame_px is not None and len(local) == total else None)
     return "rendered"
 
 
@@ -399,10 +400,11 @@ def run_tile(settings: Settings, job_id: str, frame_index: int, tile_index: int,
 
 
 def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler: str = "api",
-                   local: dict[int, Any] | None = None) -> bool:
+                   local: dict[int, Any] | None = None, frame_px: np.ndarray | None = None) -> bool:
     """Assembles the frame if all its tiles are done and nobody else is at
     it (compare-and-set on the frame's state); the last frame also makes the
-    animation and finishes the job."""
+    animation and finishes the job. ``frame_px``: the whole frame, rendered
+    in place by this process (every tile in ``local``)."""
     url = settings.sqlalchemy_url
     with engine_for(url).begin() as c:
         won = c.execute(update(Frame).where(
@@ -411,7 +413,7 @@ def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler:
         ).values(status="assembling", assembler=assembler, assembling_since=time.time())).rowcount
     if not won:
         return False
-    assemble_frame(settings, job_id, frame_index, local)
+    assemble_frame(settings, job_id, frame_index, local, frame_px=frame_px)
     _finish_job_if_last(settings, job_id)
     return True
 
