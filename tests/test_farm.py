@@ -231,16 +231,51 @@ def _killed_worker(farm: Farm) -> None:
     check_frames_against_local(farm, job, "whitney-in-sphere")
 
 
-def test_cancel_stops_rendering(farm):
+def test_cancel_stops_rendering_and_retry_finishes_the_job(farm):
     r = farm.post("/api/jobs", {"scene": "whitney-in-sphere", "deltas": {"start": 0, "stop": "pi/9", "count": 48},
                                 "width": 160, "height": 160, "tile": 16})
     job_id = r.json()["id"]
     farm.wait_for(lambda: farm.get(f"/api/jobs/{job_id}")["tiles_done"] >= 5, 60)
+    running = farm.get(f"/api/jobs/{job_id}")
+    assert running["status"] == "running" and 0 < running["progress"] < 1
+    assert running["eta_s"] is None or running["eta_s"] > 0
     assert farm.post(f"/api/jobs/{job_id}/cancel").json()["status"] == "canceled"
     time.sleep(1)  # a run in flight stops at its next tile
     done = farm.get(f"/api/jobs/{job_id}")["tiles_done"]
     time.sleep(2)
     assert farm.get(f"/api/jobs/{job_id}")["tiles_done"] == done < 48 * 100
+    # Retry takes a cancelled job up where it stopped: nothing is lost, nothing rendered twice.
+    assert farm.post(f"/api/jobs/{job_id}/retry").json()["status"] == "running"
+    job = farm.wait_job(job_id)
+    assert job["status"] == "done" and job["tiles_done"] == 48 * 100 and job["eta_s"] in (None, 0, 0.0)
+    assert sorted(set(tile_renders(farm, job_id))) == [1]
+    assert farm.post(f"/api/jobs/{job_id}/retry").json()["status"] == "done"  # nothing to retry
+    # Downloads: the EXR as stored, the thumbnail a small copy of the PNG.
+    import OpenImageIO as oiio
+
+    frame = job["frames"][7]
+    exr = httpx.get(farm.url + frame["exr_url"])
+    assert exr.status_code == 200 and exr.headers["content-type"] == "image/x-exr"
+    assert exr.content == (farm.data / "store" / "jobs" / job_id / "frame_0007.exr").read_bytes()
+    png, thumb = (httpx.get(farm.url + frame[k]) for k in ("png_url", "thumbnail_url"))
+    assert thumb.status_code == 200 and thumb.headers["content-type"] == "image/png"
+    (farm.data / "p.png").write_bytes(png.content)
+    (farm.data / "t.png").write_bytes(thumb.content)
+    full = oiio.ImageBuf(str(farm.data / "p.png")).get_pixels(oiio.UINT8)
+    small = oiio.ImageBuf(str(farm.data / "t.png")).get_pixels(oiio.UINT8)
+    step = max(1, 160 // 160)  # the thumbnail keeps every step-th pixel, step = max(w, h) // 160
+    assert np.array_equal(small, full[::step, ::step])
+    assert httpx.get(farm.url + f"/api/jobs/{job_id}/frames/99/thumbnail.png").status_code == 404
+    # The job list is paged; the API describes itself.
+    for n in range(2):
+        farm.post("/api/jobs", {"scene": "plucker", "deltas": [0.0], "width": 16, "height": 16})
+    first, second = farm.get("/api/jobs?per_page=2&page=1"), farm.get("/api/jobs?per_page=2&page=2")
+    assert first["total"] == second["total"] == 3 and len(first["jobs"]) == 2 and len(second["jobs"]) == 1
+    assert second["jobs"][0]["id"] == job_id  # newest first
+    assert httpx.get(farm.url + "/api/jobs?per_page=500").status_code == 422
+    paths = farm.get("/openapi.json")["paths"]
+    assert {"/api/jobs", "/api/jobs/{job_id}", "/api/jobs/{job_id}/events", "/api/workers", "/metrics"} <= set(paths)
+    assert httpx.get(farm.url + "/docs").status_code == 200
 
 
 def test_restart_keeps_jobs_and_resumes_queued_work(tmp_path):

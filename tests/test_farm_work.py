@@ -192,6 +192,25 @@ def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts,
     assert farm.run_tiles(settings, job_id, 0, list(range(11, 16)), "w-test") == "failed"
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.query(Frame).filter(Frame.job_id == job_id).one().tiles_done == 10
+    # Retry: the failed tile gets its attempts back and the rest is sent again; the frame then
+    # equals the local render, the ten tiles done before kept as they were.
+    sent = queued_messages(redis_server)
+    assert farm.set_job_status(settings, job_id, "retry") == "running"
+    assert queued_messages(redis_server) > sent
+    with session_scope(settings.sqlalchemy_url) as s:
+        tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
+        assert tiles[10].status == "queued" and tiles[10].attempts == 0 and s.get(Job, job_id).error is None
+        assert [i for i, t in sorted(tiles.items()) if t.status == "done"] == list(range(10))
+    assert farm.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
+        assert {t.renders for t in s.query(Tile).filter(Tile.job_id == job_id)} == {1}
+    from argand.render import FrameParams, render_frame
+    from argand.render.output import read_exr
+
+    names, px = read_exr(settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr")
+    local = render_frame(load_scene("steiner"), FrameParams(width=64, height=64), tile=16, workers=1)
+    assert np.array_equal(px[..., names.index("Z")], local.aovs["Z"]) and np.array_equal(px[..., names.index("A")], local.rgba[..., 3])
 
 
 def test_a_whole_frame_run_that_commits_on_the_way_assembles_the_same_frame(farm_parts, monkeypatch):
