@@ -378,3 +378,16 @@ def test_work_left_by_an_earlier_version_is_finished(farm_parts):
         assert np.array_equal(px[..., names.index(aov)], local.aovs[aov].astype(np.float32))
     for key in ("certified_share", "status_shares", "hit_share", "escalations", "root_calls"):
         assert figures[key] == local.figures[key], key
+
+
+def test_a_jobs_sweep_is_argand_renders_sweep_to_the_last_bit():
+    """The same sweep over HTTP and on the command line gives the same
+    deltas, so a farm's frame and `argand render`'s are the same frame
+    (an earlier formula differed in the last bit for 13 of 36 frames)."""
+    from argand.api.main import DeltaRange
+    from argand.render import delta_sweep, parse_sweep
+    from argand.worker.farm import frames_of
+
+    for count in (1, 2, 5, 12, 24, 36, 48, 100):
+        spec = DeltaRange(start="pi/36", stop="pi/9", count=count).model_dump()
+        assert frames_of(spec) == delta_sweep(*parse_sweep(f"pi/36:pi/9:{count}")), count

@@ -644,9 +644,10 @@ def eta_seconds(job: Job, done: int, total: int) -> float | None:
 
 
 def frames_of(deltas_spec: Any) -> list[float]:
+    """A job's deltas: a list, or {start, stop, count} swept as `argand
+    render --deltas` sweeps it (the same values to the last bit)."""
+    from argand.render.frames import delta_sweep
+
     if isinstance(deltas_spec, dict):
-        start, stop, count = float(deltas_spec["start"]), float(deltas_spec["stop"]), int(deltas_spec["count"])
-        if count == 1:
-            return [start]
-        return [start + (stop - start) * i / (count - 1) for i in range(count)]
+        return delta_sweep(float(deltas_spec["start"]), float(deltas_spec["stop"]), int(deltas_spec["count"]))
     return [float(d) for d in deltas_spec]
