@@ -65,7 +65,11 @@ def preview_order(n_frames: int, stride: int = 4) -> list[int]:
 
 
 def tile_rects(width: int, height: int, tile: int) -> list[tuple[int, int, int, int]]:
-    return [(x, y, min(x + tile, width), min(y + tile, height)) for y in range(0, height, tile) for x in range(0, width, tile)]
+    """The renderer's tiles (argand.render.frames.tiles, whose order gives
+    the tile indices) as (x0, y0, x1, y1)."""
+    from argand.render.frames import tiles
+
+    return [(r.x0, r.y0, r.x1, r.y1) for r in tiles(width, height, tile)]
 
 
 def create_job(settings: Settings, scene_name: str, scene: dict, sigma: float, deltas: list[float], width: int,
