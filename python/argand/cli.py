@@ -100,6 +100,10 @@ def _parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
+#: The EXR compressions (argand.render.output.exr_compressions, which checks them).
+EXR_COMPRESSION_HELP = "none, rle, zip, zips, piz, zstd (OpenEXR 3.5+ readers only); zip:N, zstd:N for a level."
+
+
 @app.command()
 def render(
     scene: str = typer.Argument(..., help="A preset name (argand presets) or a scene file (.yaml/.json)."),
@@ -114,7 +118,7 @@ def render(
     hue: bool = typer.Option(False, "--hue", help="Colour complex roots by their argument."),
     fps: float = typer.Option(8.0, "--fps", help="Frames per second of the animation."),
     exr_compression: str = typer.Option("zip", "--exr-compression",
-                                        help="none, rle, zip, zips, piz, zstd (OpenEXR 3.5+ readers only); zip:N, zstd:N for a level."),
+                                        help=EXR_COMPRESSION_HELP),
 ) -> None:
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, and animation.gif."""
     from argand.render import FrameParams, delta_sweep, parse_angle, parse_sweep
@@ -286,7 +290,7 @@ def bench_farm_cmd(
     out: Path = typer.Option(Path("docs/bench"), "--out"),
     smoke: bool = typer.Option(False, "--smoke", help="3 frames of 192x192, for CI."),
     exr_compression: str = typer.Option(None, "--exr-compression",
-                                        help="The farms' EXR compression (none, rle, zip, zips, piz, zstd; zip:N, zstd:N for a level); default: the farm's."),
+                                        help=f"The farms' EXR compression: {EXR_COMPRESSION_HELP} Default: the farm's."),
     repeat: int = typer.Option(None, "--repeat", help="Runs of each configuration (the median is kept); default 3, smoke 1."),
 ) -> None:
     """One job of 36 frames at 512x512 on 1 and 2 workers, tile sizes 32/64/128/frame."""

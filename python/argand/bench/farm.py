@@ -97,6 +97,17 @@ class LocalFarm:
         }
 
 
+#: The job: SCENE, deltas from 0 to SWEEP_STOP (the same on the farms and in
+#: the local baseline).
+SCENE, SWEEP_STOP = "bicube", "pi/9"
+
+
+def _median(runs: list[dict]) -> dict:
+    """The run with the median wall time, and every run's wall time."""
+    middle = sorted(runs, key=lambda r: r["wall_s"])[len(runs) // 2]
+    return dict(middle, wall_s_all=[r["wall_s"] for r in runs])
+
+
 def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress: Callable[[str], None] = lambda m: None,
                exr_compression: str | None = None, repeat: int | None = None) -> dict:
     """Both farms run side by side (an idle farm costs nothing), and the
@@ -124,7 +135,7 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
                 for tile in tiles:
                     for workers, farm in ((1, one), (2, two)):
                         progress(f"round {rep + 1}/{repeat}: {workers} worker(s), tile {tile}: {frames} frames of {size}x{size}")
-                        body = {"scene": "bicube", "deltas": {"start": 0, "stop": "pi/9", "count": frames},
+                        body = {"scene": SCENE, "deltas": {"start": 0, "stop": SWEEP_STOP, "count": frames},
                                 "width": size, "height": size, "tile": tile}
                         r = farm.run_job(body)
                         busy = r["wall_s"] * workers  # worker-seconds
@@ -136,16 +147,8 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
                                  encode_share=r["encode_s"] / render,
                                  dispatch_share=max(0.0, (busy - r["render_s"] - r["encode_s"]) / render))
                         samples.setdefault((workers, r["tile"]), []).append(r)
-    rows = []
-    for key in sorted(samples, key=lambda k: (k[0], tiles.index(size if k[1] == "frame" else k[1]))):
-        runs = sorted(samples[key], key=lambda r: r["wall_s"])
-        row = dict(runs[len(runs) // 2])
-        row["wall_s_all"] = [r["wall_s"] for r in samples[key]]
-        rows.append(row)
-    local = []
-    for threads, runs in sorted(local_samples.items()):
-        runs = sorted(runs, key=lambda r: r["wall_s"])
-        local.append(dict(runs[len(runs) // 2], wall_s_all=[r["wall_s"] for r in local_samples[threads]]))
+    rows = [_median(samples[key]) for key in sorted(samples, key=lambda k: (k[0], tiles.index(size if k[1] == "frame" else k[1])))]
+    local = [_median(runs) for _, runs in sorted(local_samples.items())]
     local_s = {r["threads"]: r["wall_s"] for r in local}
     for r in rows:
         # > 1: the farm takes longer than argand render on as many threads
@@ -154,7 +157,7 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
     report = {
         "benchmark": "farm",
         "machine": machine_info(),
-        "scene": "bicube",
+        "scene": SCENE,
         "frames": frames,
         "size": size,
         "runs": rows,
@@ -185,14 +188,13 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
 
 def _local_render(out: Path, frames: int, size: int, tile: int, threads: int, compression: str) -> dict:
     """The alternative: `argand render` of the job's frames, in this process."""
-    import math
-
-    from argand.render.frames import FrameParams, delta_sweep
+    from argand.render import FrameParams, delta_sweep, parse_angle
     from argand.render.sweep import render_sweep
     from argand.scene import load_scene
 
-    scene = load_scene("bicube")
-    params = [FrameParams(sigma=0.0, delta=d, width=size, height=size) for d in delta_sweep(0.0, math.pi / 9, frames)]
+    scene = load_scene(SCENE)
+    params = [FrameParams(sigma=0.0, delta=d, width=size, height=size)
+              for d in delta_sweep(0.0, parse_angle(SWEEP_STOP), frames)]
     start = time.perf_counter()
     figures = render_sweep(scene, params, out, tile=tile, workers=threads, compression=compression)
     wall = time.perf_counter() - start
@@ -253,7 +255,7 @@ def chart(report: dict, path: Path) -> None:
         ax.set_title(title)
         ax.legend(fontsize=7, loc="lower right" if ax is a else "center right")
         ax.grid(True, axis="y", alpha=0.3)
-    fig.suptitle(f"argand bench farm — {report['frames']} frames of {report['size']}x{report['size']} (Bicube)")
+    fig.suptitle(f"argand bench farm — {report['frames']} frames of {report['size']}x{report['size']} ({report['scene']})")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
