@@ -1,0 +1,204 @@
+// pixel_decision.cpp: band, clipping sphere, realness, ordering and the
+// double-double refinement, all outward-rounded through arith.h/interval.h.
+#include "pixel_decision.h"
+
+#include <cmath>
+
+#include "solver.h"
+
+namespace argand::detail {
+namespace {
+
+constexpr double kU = kUnitRoundoff;
+
+/// The C library's sin and cos are assumed within this of the exact value
+/// for arguments in [0, pi] (glibc documents < 1 ulp, i.e. <= 2^-53 here;
+/// core/tests/render_test.cpp checks the assumption against long double).
+constexpr double kTrigAbsError = 0x1p-50;
+
+/// Bounds of s(z) = Im(z e^{-i alpha}) = y cos(alpha) - x sin(alpha) over
+/// the disc D((x, y), r), for the edge alpha enclosed by e.
+void edge_range(const FramePlan::BandEdge& e, double x, double y, double r, double& lo, double& hi) {
+    const double s = y * e.cos_mid - x * e.sin_mid;
+    // |y C - x S - s| <= err (|x| + |y|) + 2u (|y C'| + |x S'|) (two roundings
+    // and the products'), plus underflow.
+    const double mag = std::fabs(y) * std::fabs(e.cos_mid) + std::fabs(x) * std::fabs(e.sin_mid);
+    const double err = add_up(add_up(mul_up(mag, 4.0 * kU), mul_up(e.err, add_up(std::fabs(x), std::fabs(y)))),
+                              8.0 * kDenormMin);
+    lo = add_down(add_down(s, -err), -r);
+    hi = add_up(add_up(s, err), r);
+}
+
+}  // namespace
+
+FramePlan::BandEdge band_edge(double a, double b) {
+    FramePlan::BandEdge e;
+    double s = a + b;
+    const double rounding = add_error(a, b, s);
+    e.cos_mid = std::cos(s);
+    e.sin_mid = std::sin(s);
+    // cos and sin are 1-Lipschitz: the exact angle is within `rounding` of s.
+    e.err = add_up0(kTrigAbsError, rounding);
+    return e;
+}
+
+double modulus_down(const RootDisc& d) {
+    const double m = mag_down(Complex<double>(d.re, d.im));
+    return std::fmax(0.0, add_down(m, -d.radius));
+}
+double modulus_up(const RootDisc& d) { return add_up0(mag_up(Complex<double>(d.re, d.im)), d.radius); }
+
+namespace {
+/// True unless D(a) and D(b)'s mirror image are proven disjoint.
+bool may_meet_mirror(const RootDisc& a, const RootDisc& b) {
+    return !(dist_down(a.re, a.im, b.re, -b.im) > add_up(a.radius, b.radius));
+}
+}  // namespace
+
+bool proven_real(const RootDisc* all, int n_all, int self, bool all_verified) {
+    const RootDisc& d = all[self];
+    if (!d.verified || d.count != 1) return false;
+    if (d.real) return true;
+    if (!all_verified || !may_meet_mirror(d, d)) return false;
+    for (int j = 0; j < n_all; ++j)
+        if (j != self && may_meet_mirror(all[j], d)) return false;
+    return true;
+}
+
+bool is_mirror_twin(const RootDisc& b, const RootDisc& j, const RootDisc* all, int n_all, bool all_verified) {
+    if (!all_verified || !b.verified || b.count != 1 || !j.verified || j.count != 1) return false;
+    if (!may_meet_mirror(j, b)) return false;
+    int meeting = 0;
+    for (int k = 0; k < n_all; ++k)
+        if (may_meet_mirror(all[k], b)) ++meeting;
+    return meeting == 1;
+}
+
+Verdict band_membership(const RootDisc& d, bool real, const FramePlan& plan, bool complex_space) {
+    const double r = d.radius;
+    // Points of the disc on the half-line [0, inf)? (A real object's band.)
+    const bool misses_positive_axis = add_down(std::fabs(d.im), -r) > 0.0 || add_up(d.re, r) < 0.0;
+    const bool misses_zero = modulus_down(d) > 0.0;
+    if (!complex_space || (plan.params.sigma == 0.0 && plan.params.delta == 0.0)) {
+        // The band is the positive real axis (arg t = 0 exactly).
+        if (real && misses_zero) return d.re > 0.0 ? Verdict::Yes : Verdict::No;
+        if (misses_positive_axis) return Verdict::No;
+        return Verdict::Unknown;
+    }
+    if (!misses_zero) return Verdict::Unknown;
+    const double sigma = plan.params.sigma;
+    if (real) {
+        // arg t = 0 (in the band iff sigma == 0) or pi (never: sigma + delta
+        // <= pi, and the exact sum of two doubles is never pi).
+        if (d.re > 0.0) return sigma == 0.0 ? Verdict::Yes : Verdict::No;
+        return Verdict::No;
+    }
+    // |arg z| over the disc equals arg z over the disc reflected into the
+    // upper half-plane (centre (x, |y|)); there arg z <= alpha iff
+    // s(z) <= 0, and arg z >= alpha iff s(z) >= 0 (alpha in (0, pi)).
+    const double x = d.re, y = std::fabs(d.im);
+    bool above_lower = true, below_lower = false;  // all >= sigma / all < sigma
+    if (sigma > 0.0) {
+        double lo, hi;
+        edge_range(plan.lower_edge, x, y, r, lo, hi);
+        above_lower = lo >= 0.0;
+        below_lower = hi < 0.0;
+    }
+    double lo, hi;
+    edge_range(plan.upper_edge, x, y, r, lo, hi);
+    const bool below_upper = hi <= 0.0, above_upper = lo > 0.0;
+    if (above_lower && below_upper) return Verdict::Yes;
+    if (below_lower || above_upper) return Verdict::No;
+    return Verdict::Unknown;
+}
+
+Verdict inside_clip(const ObjectRay& ray, double mod_lo, double mod_hi, double radius) {
+    // |o' + s d'|^2 over s in [mod_lo, mod_hi], per axis in intervals.
+    Interval q{0.0, 0.0};
+    for (int a = 0; a < 3; ++a) {
+        const Interval p = to_interval(ray.origin[a]) + scale_nonnegative(to_interval(ray.direction[a]), mod_lo, mod_hi);
+        q = q + square(p);
+    }
+    if (q.hi <= mul_down(radius, radius)) return Verdict::Yes;
+    if (q.lo > mul_up(radius, radius)) return Verdict::No;
+    return Verdict::Unknown;
+}
+
+namespace {
+
+/// Horner in double-double with a running error bound, as eval_bound
+/// (solver.h) but with double-double coefficients: |p(x) - value| <= err
+/// for the exact dd coefficients c and the exact dd point x.
+bool eval_dd(const DoubleDouble* c, int n, Complex<DoubleDouble> x, Complex<DoubleDouble>& value, double& err) {
+    using E = ErrorModel<DoubleDouble>;
+    const double ax = mag_up(x);
+    Complex<DoubleDouble> y(c[n]);
+    double ay = abs_up(c[n]);
+    double e = 0.0;
+    for (int k = n - 1; k >= 0; --k) {
+        const Complex<DoubleDouble> next = add_real(y * x, c[k]);
+        const double a_next = mag_up(next);
+        e = add_up(add_up(mul_up(e, ax), mul_up(E::mul_rel, mul_up(ay, ax))), add_up(mul_up(E::add_rel, a_next), 2.0 * E::abs_err));
+        y = next;
+        ay = a_next;
+    }
+    value = y;
+    err = e;
+    return std::isfinite(e) && is_finite(y);
+}
+
+/// sum_k r_k a^k, rounded up.
+double radius_sum(const double* r, int n, double a) {
+    double s = r[n];
+    for (int k = n - 1; k >= 0; --k) s = add_up0(mul_up0(s, a), r[k]);
+    return s;
+}
+
+}  // namespace
+
+bool refine_disc_dd(const RayCoefficients<DoubleDouble>& p, bool real, RootDisc& d) {
+    if (!p.finite || !d.verified || d.count != 1) return false;
+    int n = p.n;
+    while (n > 0 && is_zero(p.c[n]) && p.r[n] == 0.0) --n;  // exact roots at infinity
+    if (n < 1) return false;
+    // Derivative coefficients as balls: (k + 1) c_{k+1}.
+    DoubleDouble dc[kMaxDegree];
+    double dr[kMaxDegree];
+    for (int k = 0; k < n; ++k) {
+        dc[k] = DoubleDouble(static_cast<double>(k + 1)) * p.c[k + 1];
+        dr[k] = add_up0(mul_up0(static_cast<double>(k + 1), p.r[k + 1]),
+                        is_zero(dc[k]) ? 0.0 : add_up(mul_up(kDoubleDoubleRel, abs_up(dc[k])), kDoubleDoubleAbs));
+    }
+    Complex<DoubleDouble> x(DoubleDouble(d.re), DoubleDouble(real ? 0.0 : d.im));
+    for (int it = 0; it < 6; ++it) {
+        Complex<DoubleDouble> v, dv;
+        double e1, e2;
+        if (!eval_dd(p.c, n, x, v, e1) || !eval_dd(dc, n - 1, x, dv, e2)) return false;
+        if (mag_approx(dv) == 0.0) break;
+        const Complex<DoubleDouble> step = v / dv;
+        if (!is_finite(step)) break;
+        x = x - step;
+        if (real) x.im = DoubleDouble(0.0);
+        if (mag_approx(step) <= 0x1p-100 * mag_approx(x)) break;
+    }
+    Complex<DoubleDouble> v, dv;
+    double e1, e2;
+    if (!eval_dd(p.c, n, x, v, e1) || !eval_dd(dc, n - 1, x, dv, e2)) return false;
+    const double ax = mag_up(x);
+    const double num = add_up(add_up(mag_up(v), e1), radius_sum(p.r, n, ax));
+    const double den = add_down(add_down(mag_down(dv), -e2), -radius_sum(dr, n - 1, ax));
+    if (!(den > 0.0) || !std::isfinite(num)) return false;
+    // The centre as doubles; the distance to the dd point is its low parts.
+    const double cre = x.re.hi, cim = x.im.hi;
+    const double gap = hypot_up(std::fabs(x.re.lo), std::fabs(x.im.lo));
+    const double rho = add_up(mul_up(static_cast<double>(n), div_up(num, den)), gap);
+    if (!std::isfinite(rho) || !(rho < d.radius)) return false;
+    // Inside d (then it holds d's single root).
+    if (!(add_up(dist_up(cre, cim, d.re, d.im), rho) <= d.radius)) return false;
+    d.re = cre;
+    d.im = cim;
+    d.radius = rho;
+    return true;
+}
+
+}  // namespace argand::detail

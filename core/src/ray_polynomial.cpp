@@ -1,0 +1,339 @@
+// ray_polynomial.cpp: ray polynomials with proven coefficient errors.
+//
+// Per frame (plan_object): o' = linear (eye - translate) and the Taylor
+// coefficients G_a of F(o' + v) in ball arithmetic (interval.h), in double
+// and in double-double.
+//
+// Per pixel (primary_ray_polynomial): p_k = sum_{|a| = k} G_a d'^a with
+// d' = linear d, in round-to-nearest, plus a running bound. Let A_c >= |d'_c|
+// (exact) with |d'_c - computed| <= eps_d A_c (eps_d = 0 when linear is a
+// signed permutation, else 5u), and let W_k = sum |g_a| A^a and
+// R_k = sum rad(G_a) A^a (computed). Each monomial d'^a passes through at
+// most k + 2 roundings, each term and the sum of the N_k terms through
+// N_k + 1 more, so
+//   |p_k - c_k| <= (phi_k + (N_k + 1) u)(1 + O(u)) W_k + (1 + O(u)) R_k,
+//   phi_k = (1 + eps_d)^k (1 + u)^(k + 2) - 1 ~ k eps_d + (k + 2) u,
+// which the factors weight_factor_k = 2 (k eps_d + (k + N_k + 6) u) and
+// radius_factor_k = 1 + weight_factor_k cover (the factor 2 absorbs every
+// second-order term for k, N_k <= 10^4). With u replaced by 2^-100 (a
+// double-double operation's relative error, interval.h) the same argument
+// bounds the double-double coefficients. This holds when no product
+// underflows: every nonzero factor is then large enough that each nonzero
+// product stays above 2^-900 (no_underflow_threshold); otherwise an
+// absolute slack of 2^-1018 per operation, carried through the remaining
+// factors, is added.
+#include "ray_polynomial.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace argand::detail {
+namespace {
+
+constexpr double kU = kUnitRoundoff;
+constexpr double kProductFloor = 0x1p-900;  // nonzero products stay above this without slack
+constexpr double kSlackPerOp = 0x1p-1018;
+
+/// Exact binomial coefficients C(n, k), n <= kMaxDegree (C(64, 32) < 2^61).
+const std::uint64_t* binomial_row(int n) {
+    struct Table {
+        std::uint64_t c[kMaxDegree + 1][kMaxDegree + 1] = {};
+        Table() {
+            for (int i = 0; i <= kMaxDegree; ++i) {
+                c[i][0] = 1;
+                for (int k = 1; k <= i; ++k) c[i][k] = c[i - 1][k - 1] + (k <= i - 1 ? c[i - 1][k] : 0);
+            }
+        }
+    };
+    static const Table table;
+    return table.c[n];
+}
+
+/// The object-space direction d' = linear d: its computed value, a bound
+/// A_c >= |d'_c| and A_c-relative error eps_d (see the file comment). A_c is
+/// 0 only when d'_c is exactly 0; otherwise A_c >= 2^-900, so the absolute
+/// part of the rounding error is below 2^-97 A_c.
+template <class T>
+void object_direction(const SurfaceSpec& s, bool exact, const double d[3], T mid[3], double mag[3], double rad[3]) {
+    for (int r = 0; r < 3; ++r) {
+        const double* L = s.linear + 3 * r;
+        if (exact) {
+            T v(0.0);
+            for (int c = 0; c < 3; ++c)
+                if (L[c] != 0.0) v = T(L[c] == 1.0 ? d[c] : -d[c]);
+            mid[r] = v;
+            mag[r] = std::fabs(to_double(v));
+            rad[r] = 0.0;
+            continue;
+        }
+        T v(0.0);
+        double sum_abs = 0.0;
+        bool all_zero = true;
+        for (int c = 0; c < 3; ++c) {
+            v = v + T(L[c]) * T(d[c]);
+            sum_abs += std::fabs(L[c]) * std::fabs(d[c]);
+            if (L[c] != 0.0 && d[c] != 0.0) all_zero = false;
+        }
+        mid[r] = v;
+        if (all_zero) {
+            mag[r] = rad[r] = 0.0;
+            continue;
+        }
+        // sum_abs is within a factor (1 + u)^3 of the exact sum, up to 3
+        // underflow losses: inflate and floor (see above).
+        mag[r] = std::fmax(kProductFloor, next_up(next_up(sum_abs * (1.0 + 8.0 * kU)) + 4.0 * kDenormMin));
+        rad[r] = mul_up(5.0 * kU, mag[r]);
+    }
+}
+
+inline bool linear_is_signed_permutation(const double* L) {
+    for (int r = 0; r < 3; ++r) {
+        int nonzero = 0;
+        for (int c = 0; c < 3; ++c) {
+            const double v = L[3 * r + c];
+            if (v == 0.0) continue;
+            if (v != 1.0 && v != -1.0) return false;
+            ++nonzero;
+        }
+        if (nonzero != 1) return false;
+    }
+    return true;
+}
+
+/// The per-pixel sum for T = double or DoubleDouble (see the file comment).
+template <class T>
+void primary_impl(const FramePlan::ObjectPlan& op, int n, const T* g, const double* g_rad, const double* weight_factor,
+                  const double* radius_factor, const T dir[3], const double mag[3], RayCoefficients<T>& out) {
+    T px[kMaxDegree + 1], py[kMaxDegree + 1], pz[kMaxDegree + 1];
+    double ax[kMaxDegree + 1], ay[kMaxDegree + 1], az[kMaxDegree + 1];
+    px[0] = py[0] = pz[0] = T(1.0);
+    ax[0] = ay[0] = az[0] = 1.0;
+    for (int k = 1; k <= n; ++k) {
+        px[k] = px[k - 1] * dir[0];
+        py[k] = py[k - 1] * dir[1];
+        pz[k] = pz[k - 1] * dir[2];
+        ax[k] = ax[k - 1] * mag[0];
+        ay[k] = ay[k - 1] * mag[1];
+        az[k] = az[k - 1] * mag[2];
+    }
+    out.n = n;
+    bool finite = true;
+    for (int k = 0; k <= n; ++k) {
+        T sum(0.0);
+        double weight = 0.0, radius = 0.0;
+        for (int i = op.k_begin[k]; i < op.k_begin[k + 1]; ++i) {
+            const T mono = px[op.ex[i]] * py[op.ey[i]] * pz[op.ez[i]];
+            sum = sum + g[i] * mono;
+            const double mono_mag = ax[op.ex[i]] * ay[op.ey[i]] * az[op.ez[i]];
+            weight += std::fabs(to_double(g[i])) * mono_mag;
+            radius += g_rad[i] * mono_mag;
+        }
+        out.c[k] = sum;
+        out.r[k] = (weight == 0.0 && radius == 0.0)
+                       ? 0.0
+                       : next_up(next_up(weight_factor[k] * weight) + next_up(radius_factor[k] * radius));
+        finite = finite && is_finite(sum) && std::isfinite(out.r[k]);
+    }
+    // Underflow slack (rare: a direction component below the threshold).
+    double amin = 1.0, amax = 1.0;
+    for (int a = 0; a < 3; ++a)
+        if (mag[a] > 0.0) {
+            amin = std::fmin(amin, mag[a]);
+            amax = std::fmax(amax, mag[a]);
+        }
+    if (amin < op.no_underflow_threshold) {
+        double grow = 1.0;
+        for (int k = 0; k <= n; ++k) {
+            const int terms = op.k_begin[k + 1] - op.k_begin[k];
+            if (terms > 0) {
+                const double slack = mul_up(mul_up(static_cast<double>(k + terms + 6) * kSlackPerOp, op.magnitude[k]), grow);
+                out.r[k] = add_up(out.r[k], slack);
+            }
+            grow = mul_up(grow, amax);
+        }
+    }
+    out.finite = finite;
+}
+
+}  // namespace
+
+void plan_object(const SurfaceSpec& s, const double eye[3], FramePlan::ObjectPlan& op) {
+    const int n = s.degree;
+    // o' = linear (eye - translate), enclosed.
+    for (int r = 0; r < 3; ++r) {
+        Ball acc(0.0);
+        BallDD acc_dd(0.0);
+        for (int c = 0; c < 3; ++c) {
+            acc += Ball(s.linear[3 * r + c]) * (Ball(eye[c]) - Ball(s.translate[c]));
+            acc_dd += BallDD(s.linear[3 * r + c]) * (BallDD(eye[c]) + (-BallDD(s.translate[c])));
+        }
+        op.origin[r] = acc;
+        op.origin_dd[r] = acc_dd;
+    }
+    op.direction_exact = linear_is_signed_permutation(s.linear);
+    // Powers of o'.
+    std::vector<Ball> pw(3 * (n + 1));
+    std::vector<BallDD> pw_dd(3 * (n + 1));
+    for (int a = 0; a < 3; ++a) {
+        pw[a * (n + 1)] = Ball(1.0);
+        pw_dd[a * (n + 1)] = BallDD(1.0);
+        for (int k = 1; k <= n; ++k) {
+            pw[a * (n + 1) + k] = pw[a * (n + 1) + k - 1] * op.origin[a];
+            pw_dd[a * (n + 1) + k] = pw_dd[a * (n + 1) + k - 1] * op.origin_dd[a];
+        }
+    }
+    // Taylor coefficients of F(o' + v): binomial expansion of each term, into
+    // a dense (a, b, c) table, a, b, c <= n.
+    const int side = n + 1;
+    std::vector<Ball> dense(static_cast<std::size_t>(side) * side * side, Ball(0.0));
+    std::vector<BallDD> dense_dd(static_cast<std::size_t>(side) * side * side, BallDD(0.0));
+    Ball factor[3][kMaxDegree + 1];
+    BallDD factor_dd[3][kMaxDegree + 1];
+    for (const Term& t : s.terms) {
+        if (t.ex < 0 || t.ey < 0 || t.ez < 0 || t.ex + t.ey + t.ez > n)
+            throw std::invalid_argument("a term exceeds the declared degree");
+        const int e[3] = {t.ex, t.ey, t.ez};
+        for (int axis = 0; axis < 3; ++axis) {
+            const std::uint64_t* row = binomial_row(e[axis]);
+            for (int a = 0; a <= e[axis]; ++a) {
+                factor[axis][a] = ball_from_integer(row[a]) * pw[axis * (n + 1) + e[axis] - a];
+                factor_dd[axis][a] = ball_dd_from_integer(row[a]) * pw_dd[axis * (n + 1) + e[axis] - a];
+            }
+        }
+        const Ball coeff(t.coeff);
+        const BallDD coeff_dd(t.coeff);
+        for (int a = 0; a <= t.ex; ++a)
+            for (int b = 0; b <= t.ey; ++b) {
+                const Ball xy = coeff * factor[0][a] * factor[1][b];
+                const BallDD xy_dd = coeff_dd * factor_dd[0][a] * factor_dd[1][b];
+                for (int c = 0; c <= t.ez; ++c) {
+                    const std::size_t idx = (static_cast<std::size_t>(a) * side + b) * side + c;
+                    dense[idx] += xy * factor[2][c];
+                    dense_dd[idx] += xy_dd * factor_dd[2][c];
+                }
+            }
+    }
+    // Group by total degree, dropping exact zeros.
+    const double eps_d = op.direction_exact ? 0.0 : 5.0 * kU;
+    const double eps_d_dd = op.direction_exact ? 0.0 : 0x1p-97;
+    op.k_begin.assign(n + 2, 0);
+    op.weight_factor.assign(n + 1, 0.0);
+    op.radius_factor.assign(n + 1, 0.0);
+    op.weight_factor_dd.assign(n + 1, 0.0);
+    op.radius_factor_dd.assign(n + 1, 0.0);
+    op.magnitude.assign(n + 1, 0.0);
+    double lowest = INFINITY;  // smallest nonzero magnitude of any g or radius
+    auto note = [&](double v) {
+        if (v != 0.0) lowest = std::fmin(lowest, std::fabs(v));
+    };
+    for (int k = 0; k <= n; ++k) {
+        op.k_begin[k] = static_cast<int>(op.g.size());
+        for (int a = 0; a <= k; ++a)
+            for (int b = 0; a + b <= k; ++b) {
+                const int c = k - a - b;
+                const std::size_t idx = (static_cast<std::size_t>(a) * side + b) * side + c;
+                const Ball& v = dense[idx];
+                const BallDD& w = dense_dd[idx];
+                if (v.mid == 0.0 && v.rad == 0.0 && is_zero(w.mid) && w.rad == 0.0) continue;
+                if (!is_finite(v) || !is_finite(w))
+                    throw std::invalid_argument("the surface's Taylor expansion at the camera overflows binary64");
+                op.ex.push_back(a);
+                op.ey.push_back(b);
+                op.ez.push_back(c);
+                op.g.push_back(v.mid);
+                op.g_rad.push_back(v.rad);
+                op.g_dd.push_back(w.mid);
+                op.g_dd_rad.push_back(w.rad);
+                note(v.mid);
+                note(v.rad);
+                note(w.mid.hi);
+                note(w.rad);
+                op.magnitude[k] = std::fmax(op.magnitude[k], add_up(abs_up(v), 1.0));
+            }
+        const double terms = static_cast<double>(op.g.size()) - op.k_begin[k];
+        op.weight_factor[k] = mul_up(2.0, add_up(mul_up(k, eps_d), mul_up(k + terms + 6.0, kU)));
+        op.radius_factor[k] = add_up(1.0, op.weight_factor[k]);
+        op.weight_factor_dd[k] = mul_up(2.0, add_up(mul_up(k, eps_d_dd), mul_up(k + terms + 6.0, kDoubleDoubleRel)));
+        op.radius_factor_dd[k] = add_up(1.0, op.weight_factor_dd[k]);
+    }
+    op.k_begin[n + 1] = static_cast<int>(op.g.size());
+    // lowest * amin^n >= 2^-900 for amin >= threshold (amin clamped to <= 1).
+    if (!(lowest < INFINITY)) {
+        op.no_underflow_threshold = 0.0;
+    } else if (lowest < kProductFloor) {
+        op.no_underflow_threshold = INFINITY;
+    } else {
+        const double t = std::exp2((-900.0 - std::log2(lowest)) / n) * 1.01;
+        op.no_underflow_threshold = t <= 1.0 ? t : INFINITY;
+    }
+}
+
+void primary_ray_polynomial(const SurfaceSpec& s, const FramePlan::ObjectPlan& op, const double d[3],
+                            RayCoefficients<double>& out, ObjectRay& ray) {
+    double dir[3], mag[3], rad[3];
+    object_direction(s, op.direction_exact, d, dir, mag, rad);
+    primary_impl(op, s.degree, op.g.data(), op.g_rad.data(), op.weight_factor.data(), op.radius_factor.data(), dir, mag,
+                 out);
+    for (int a = 0; a < 3; ++a) {
+        ray.origin[a] = op.origin[a];
+        ray.direction[a] = Ball(dir[a], rad[a]);
+    }
+}
+
+void primary_ray_polynomial_dd(const SurfaceSpec& s, const FramePlan::ObjectPlan& op, const double d[3],
+                               RayCoefficients<DoubleDouble>& out) {
+    DoubleDouble dir[3];
+    double mag[3], rad[3];
+    object_direction(s, op.direction_exact, d, dir, mag, rad);
+    primary_impl(op, s.degree, op.g_dd.data(), op.g_dd_rad.data(), op.weight_factor_dd.data(),
+                 op.radius_factor_dd.data(), dir, mag, out);
+}
+
+void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const double d[3], RayCoefficients<double>& out,
+                            ObjectRay& ray) {
+    const int n = s.degree;
+    for (int r = 0; r < 3; ++r) {
+        Ball acc_o(0.0), acc_d(0.0);
+        for (int c = 0; c < 3; ++c) {
+            acc_o += Ball(s.linear[3 * r + c]) * (Ball(o[c]) - Ball(s.translate[c]));
+            acc_d += Ball(s.linear[3 * r + c]) * Ball(d[c]);
+        }
+        ray.origin[r] = acc_o;
+        ray.direction[r] = acc_d;
+    }
+    // Powers (o'_i + t d'_i)^a as polynomials in t, for a = 0..n.
+    static thread_local Ball pw[3][kMaxDegree + 1][kMaxDegree + 1];
+    for (int axis = 0; axis < 3; ++axis) {
+        pw[axis][0][0] = Ball(1.0);
+        for (int k = 1; k <= n; ++k) pw[axis][0][k] = Ball(0.0);
+        for (int a = 1; a <= n; ++a) {
+            pw[axis][a][0] = pw[axis][a - 1][0] * ray.origin[axis];
+            for (int k = 1; k <= a; ++k)
+                pw[axis][a][k] = pw[axis][a - 1][k] * ray.origin[axis] + pw[axis][a - 1][k - 1] * ray.direction[axis];
+            for (int k = a + 1; k <= n; ++k) pw[axis][a][k] = Ball(0.0);
+        }
+    }
+    Ball sum[kMaxDegree + 1], tmp[kMaxDegree + 1];
+    for (int k = 0; k <= n; ++k) sum[k] = Ball(0.0);
+    for (const Term& term : s.terms) {
+        for (int k = 0; k <= n; ++k) tmp[k] = Ball(0.0);
+        for (int i = 0; i <= term.ex; ++i)
+            for (int j = 0; j <= term.ey; ++j) {
+                const Ball xy = pw[0][term.ex][i] * pw[1][term.ey][j];
+                if (xy.mid == 0.0 && xy.rad == 0.0) continue;
+                for (int l = 0; l <= term.ez; ++l) tmp[i + j + l] += xy * pw[2][term.ez][l];
+            }
+        for (int k = 0; k <= n; ++k) sum[k] += Ball(term.coeff) * tmp[k];
+    }
+    out.n = n;
+    out.finite = true;
+    for (int k = 0; k <= n; ++k) {
+        out.c[k] = sum[k].mid;
+        out.r[k] = sum[k].rad;
+        out.finite = out.finite && is_finite(sum[k]);
+    }
+}
+
+}  // namespace argand::detail
