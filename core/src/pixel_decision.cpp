@@ -119,8 +119,8 @@ Verdict inside_clip(const ObjectRay& ray, double mod_lo, double mod_hi, double r
         const Interval p = to_interval(ray.origin[a]) + scale_nonnegative(to_interval(ray.direction[a]), mod_lo, mod_hi);
         q = q + square(p);
     }
-    if (q.hi <= mul_down(radius, radius)) return Verdict::Yes;
-    if (q.lo > mul_up(radius, radius)) return Verdict::No;
+    if (q.hi <= product_down(radius, radius)) return Verdict::Yes;
+    if (q.lo > product_up(radius, radius)) return Verdict::No;
     return Verdict::Unknown;
 }
 

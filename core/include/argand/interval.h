@@ -103,36 +103,62 @@ struct Interval {
     double hi = 0.0;
 };
 
+// Directed sums and products that step outward only when rounding happened
+// (an exact result stays exact: a point exactly on the clipping sphere is
+// decided, not left straddling).
+inline double sum_down(double a, double b) {
+    const double s = a + b;
+    return add_error(a, b, s) == 0.0 ? s : next_down(s);
+}
+inline double sum_up(double a, double b) {
+    const double s = a + b;
+    return add_error(a, b, s) == 0.0 ? s : next_up(s);
+}
+inline double product_down(double a, double b) {
+    const double p = a * b;
+    return mul_error(a, b, p) == 0.0 ? p : next_down(p);
+}
+inline double product_up(double a, double b) {
+    const double p = a * b;
+    return mul_error(a, b, p) == 0.0 ? p : next_up(p);
+}
+
 inline Interval to_interval(const Ball& b) {
     if (b.rad == 0.0) return {b.mid, b.mid};
     return {add_down(b.mid, -b.rad), add_up(b.mid, b.rad)};
 }
-inline Interval operator+(const Interval& a, const Interval& b) { return {add_down(a.lo, b.lo), add_up(a.hi, b.hi)}; }
+inline Interval operator+(const Interval& a, const Interval& b) { return {sum_down(a.lo, b.lo), sum_up(a.hi, b.hi)}; }
 /// Product with a nonnegative scalar interval s = [slo, shi], slo >= 0.
 inline Interval scale_nonnegative(const Interval& a, double slo, double shi) {
-    const double c1 = a.lo >= 0 ? mul_down(a.lo, slo) : mul_down(a.lo, shi);
-    const double c2 = a.hi >= 0 ? mul_up(a.hi, shi) : mul_up(a.hi, slo);
+    const double c1 = a.lo >= 0 ? product_down(a.lo, slo) : product_down(a.lo, shi);
+    const double c2 = a.hi >= 0 ? product_up(a.hi, shi) : product_up(a.hi, slo);
     return {c1, c2};
 }
 /// {x^2 : x in a}.
 inline Interval square(const Interval& a) {
-    if (a.lo >= 0) return {mul_down(a.lo, a.lo) > 0 ? mul_down(a.lo, a.lo) : 0.0, mul_up(a.hi, a.hi)};
-    if (a.hi <= 0) return {mul_down(a.hi, a.hi) > 0 ? mul_down(a.hi, a.hi) : 0.0, mul_up(a.lo, a.lo)};
-    return {0.0, mul_up(std::fmax(-a.lo, a.hi), std::fmax(-a.lo, a.hi))};
+    if (a.lo >= 0) return {std::fmax(0.0, product_down(a.lo, a.lo)), product_up(a.hi, a.hi)};
+    if (a.hi <= 0) return {std::fmax(0.0, product_down(a.hi, a.hi)), product_up(a.lo, a.lo)};
+    const double m = std::fmax(-a.lo, a.hi);
+    return {0.0, product_up(m, m)};
 }
 
 // ---------------------------------------------------------------------------
 // Balls with a double-double midpoint, for the renderer's double-double
 // tier. Bounds from Joldes, Muller, Popescu (2017), as in arith.h: a dd sum
 // is within 3u^2 and a dd product within 7u^2 of the exact result (u =
-// 2^-53), relative, as long as nothing underflows; we charge 2^-100 of the
-// computed magnitude (> 7u^2 / (1 - 7u^2)) plus an absolute 2^-1020 for
-// gradual underflow, and nothing when the result is exact by construction
-// (a product by an exact zero, a sum of exact zeros).
+// 2^-53), relative, as long as nothing underflows. We charge 2^-100 of the
+// computed magnitude (> 7u^2 / (1 - 7u^2); the surplus, at least 2^-102 of
+// a result >= 2^-900, covers the few absolute 2^-1075 losses of a low part
+// that underflows), plus an absolute 2^-1020 when the result is below
+// 2^-900, and nothing when the result is exact by construction (a product
+// by an exact zero, a sum with an exact zero, an exact cancellation: a dd
+// sum of two dd numbers is 0 only when they are exactly opposite, or when
+// it is below 2^-900 and charged the absolute term).
 // ---------------------------------------------------------------------------
 
 constexpr double kDoubleDoubleRel = 0x1p-100;
 constexpr double kDoubleDoubleAbs = 0x1p-1020;
+constexpr double kDoubleDoubleTiny = 0x1p-900;
 
 struct BallDD {
     DoubleDouble mid{0.0};
@@ -143,8 +169,11 @@ struct BallDD {
 };
 
 inline bool is_zero(DoubleDouble x) { return x.hi == 0.0 && x.lo == 0.0; }
+/// Upper bound of |x| that is 0 for an exact zero (arith.h's abs_up steps
+/// 0 up to the smallest subnormal).
+inline double abs_up0(DoubleDouble x) { return is_zero(x) ? 0.0 : abs_up(x); }
 inline bool is_finite(const BallDD& b) { return is_finite(b.mid) && std::isfinite(b.rad); }
-inline double abs_up(const BallDD& b) { return add_up0(abs_up(b.mid), b.rad); }
+inline double abs_up(const BallDD& b) { return add_up0(abs_up0(b.mid), b.rad); }
 
 /// The exact integer v (v < 2^63) as an exact double-double.
 inline BallDD ball_dd_from_integer(std::uint64_t v) {
@@ -153,20 +182,31 @@ inline BallDD ball_dd_from_integer(std::uint64_t v) {
     return BallDD(DoubleDouble(hi, lo), 0.0);
 }
 
+/// The rounding charge of a dd operation whose result is v (see above).
+inline double dd_rounding(DoubleDouble v) {
+    const double m = abs_up(v);
+    const double rel = mul_up(kDoubleDoubleRel, m);
+    return m < kDoubleDoubleTiny ? add_up(rel, kDoubleDoubleAbs) : rel;
+}
+
 inline BallDD operator+(const BallDD& a, const BallDD& b) {
     const DoubleDouble s = a.mid + b.mid;
     double r = add_up0(a.rad, b.rad);
-    if (!(is_zero(a.mid) && is_zero(b.mid)))
-        r = add_up0(r, add_up(mul_up(kDoubleDoubleRel, abs_up(s)), kDoubleDoubleAbs));
+    const bool exact = is_zero(a.mid) || is_zero(b.mid);
+    if (!exact) {
+        const double m = std::fmin(abs_up(a.mid), abs_up(b.mid));
+        // An exact cancellation of operands that are not tiny gives an exact 0.
+        if (!(is_zero(s) && m >= kDoubleDoubleTiny)) r = add_up0(r, dd_rounding(s));
+    }
     return BallDD(s, r);
 }
 inline BallDD operator-(const BallDD& a) { return BallDD(-a.mid, a.rad); }
 inline BallDD operator*(const BallDD& a, const BallDD& b) {
     const DoubleDouble p = a.mid * b.mid;
     double r = 0.0;
-    if (!is_zero(a.mid) && !is_zero(b.mid)) r = add_up(mul_up(kDoubleDoubleRel, abs_up(p)), kDoubleDoubleAbs);
-    r = add_up0(r, mul_up0(abs_up(a.mid), b.rad));
-    r = add_up0(r, mul_up0(a.rad, abs_up(b.mid)));
+    if (!is_zero(a.mid) && !is_zero(b.mid)) r = dd_rounding(p);
+    r = add_up0(r, mul_up0(abs_up0(a.mid), b.rad));
+    r = add_up0(r, mul_up0(a.rad, abs_up0(b.mid)));
     r = add_up0(r, mul_up0(a.rad, b.rad));
     return BallDD(p, r);
 }
