@@ -237,7 +237,7 @@ void init_render(py::module_& m) {
                 polys.append(d);
             }
             out["polynomials"] = polys;
-            static const char* verdict[] = {"yes", "no", "unknown"};
+            static const char* verdict[] = {"yes", "no", "unknown", "not needed"};
             py::list discs;
             for (const auto& d : e.discs) {
                 py::dict o;

@@ -21,12 +21,14 @@ constexpr double kTrigAbsError = 0x1p-50;
 void edge_range(const FramePlan::BandEdge& e, double x, double y, double r, double& lo, double& hi) {
     const double s = y * e.cos_mid - x * e.sin_mid;
     // |y C - x S - s| <= err (|x| + |y|) + 2u (|y C'| + |x S'|) (two roundings
-    // and the products'), plus underflow.
+    // and the products'), plus underflow. The bound itself is computed in
+    // round-to-nearest from nonnegative terms (at most six roundings, each
+    // within a factor 1 + u) and inflated by 1 + 8u, then rounded up.
     const double mag = std::fabs(y) * std::fabs(e.cos_mid) + std::fabs(x) * std::fabs(e.sin_mid);
-    const double err = add_up(add_up(mul_up(mag, 4.0 * kU), mul_up(e.err, add_up(std::fabs(x), std::fabs(y)))),
-                              8.0 * kDenormMin);
-    lo = add_down(add_down(s, -err), -r);
-    hi = add_up(add_up(s, err), r);
+    const double err = next_up((mag * (4.0 * kU) + e.err * (std::fabs(x) + std::fabs(y))) * (1.0 + 8.0 * kU) +
+                               8.0 * kDenormMin);
+    lo = next_down(next_down(s - err) - r);
+    hi = next_up(next_up(s + err) + r);
 }
 
 }  // namespace
@@ -42,11 +44,26 @@ FramePlan::BandEdge band_edge(double a, double b) {
     return e;
 }
 
+namespace {
+/// |c| = sqrt(re^2 + im^2) computed in round-to-nearest is within a factor
+/// (1 +- 3u) of the exact modulus when nothing underflows or overflows
+/// (two squares, a sum, a square root: (1 + u)^2.5 < 1 + 3u), which holds
+/// for moduli in [2^-500, 2^500]; outside, arith.h's directed mag_* are used.
+constexpr double kModulusLow = 1.0 - 4.0 * kU, kModulusHigh = 1.0 + 4.0 * kU;
+inline bool modulus_in_safe_range(double m) { return m >= 0x1p-500 && m <= 0x1p500; }
+}  // namespace
+
 double modulus_down(const RootDisc& d) {
-    const double m = mag_down(Complex<double>(d.re, d.im));
-    return std::fmax(0.0, add_down(m, -d.radius));
+    const double m = std::sqrt(d.re * d.re + d.im * d.im);
+    const double lo = modulus_in_safe_range(m) ? next_down(next_down(m * kModulusLow) - d.radius)
+                                               : add_down(mag_down(Complex<double>(d.re, d.im)), -d.radius);
+    return lo > 0.0 ? lo : 0.0;
 }
-double modulus_up(const RootDisc& d) { return add_up0(mag_up(Complex<double>(d.re, d.im)), d.radius); }
+double modulus_up(const RootDisc& d) {
+    const double m = std::sqrt(d.re * d.re + d.im * d.im);
+    if (modulus_in_safe_range(m)) return next_up(next_up(m * kModulusHigh) + d.radius);
+    return add_up0(mag_up(Complex<double>(d.re, d.im)), d.radius);
+}
 
 namespace {
 /// True unless D(a) and D(b)'s mirror image are proven disjoint.
@@ -59,7 +76,8 @@ bool proven_real(const RootDisc* all, int n_all, int self, bool all_verified) {
     const RootDisc& d = all[self];
     if (!d.verified || d.count != 1) return false;
     if (d.real) return true;
-    if (!all_verified || !may_meet_mirror(d, d)) return false;
+    // d meets its mirror image iff |im| <= radius (exact comparison).
+    if (!all_verified || !(std::fabs(d.im) <= d.radius)) return false;
     for (int j = 0; j < n_all; ++j)
         if (j != self && may_meet_mirror(all[j], d)) return false;
     return true;
@@ -76,13 +94,13 @@ bool is_mirror_twin(const RootDisc& b, const RootDisc& j, const RootDisc* all, i
 
 Verdict band_membership(const RootDisc& d, bool real, const FramePlan& plan, bool complex_space) {
     const double r = d.radius;
-    // Points of the disc on the half-line [0, inf)? (A real object's band.)
-    const bool misses_positive_axis = add_down(std::fabs(d.im), -r) > 0.0 || add_up(d.re, r) < 0.0;
-    const bool misses_zero = modulus_down(d) > 0.0;
+    // 0 is outside the disc (a sufficient test first, then the modulus).
+    const bool misses_zero = std::fabs(d.re) > r || std::fabs(d.im) > r || modulus_down(d) > 0.0;
     if (!complex_space || (plan.params.sigma == 0.0 && plan.params.delta == 0.0)) {
         // The band is the positive real axis (arg t = 0 exactly).
         if (real && misses_zero) return d.re > 0.0 ? Verdict::Yes : Verdict::No;
-        if (misses_positive_axis) return Verdict::No;
+        // Points of the disc on the half-line [0, inf)?
+        if (add_down(std::fabs(d.im), -r) > 0.0 || add_up(d.re, r) < 0.0) return Verdict::No;
         return Verdict::Unknown;
     }
     if (!misses_zero) return Verdict::Unknown;
@@ -112,16 +130,86 @@ Verdict band_membership(const RootDisc& d, bool real, const FramePlan& plan, boo
     return Verdict::Unknown;
 }
 
-Verdict inside_clip(const ObjectRay& ray, double mod_lo, double mod_hi, double radius) {
-    // |o' + s d'|^2 over s in [mod_lo, mod_hi], per axis in intervals.
-    Interval q{0.0, 0.0};
+namespace {
+
+/// |o' + s d'|^2 over s in [mod_lo, mod_hi], per axis in intervals. Exact:
+/// step outward only after a rounding (slower; decides points exactly on
+/// the sphere); otherwise always step.
+/// |o' + s d'|^2 over s in [mod_lo, mod_hi], per axis in intervals, exact
+/// (outward steps only after a rounding: decides points exactly on the
+/// sphere).
+Verdict clip_verdict_exact(const ObjectRay& ray, double mod_lo, double mod_hi, double radius) {
+    double qlo = 0.0, qhi = 0.0;
     for (int a = 0; a < 3; ++a) {
-        const Interval p = to_interval(ray.origin[a]) + scale_nonnegative(to_interval(ray.direction[a]), mod_lo, mod_hi);
-        q = q + square(p);
+        const Interval o = to_interval(ray.origin[a]), d = to_interval(ray.direction[a]);
+        // d * [mod_lo, mod_hi] with mod_lo >= 0, then + o.
+        const double dlo = d.lo >= 0 ? product_down(d.lo, mod_lo) : product_down(d.lo, mod_hi);
+        const double dhi = d.hi >= 0 ? product_up(d.hi, mod_hi) : product_up(d.hi, mod_lo);
+        const double plo = sum_down(o.lo, dlo), phi = sum_up(o.hi, dhi);
+        double slo, shi;
+        if (plo >= 0) {
+            slo = product_down(plo, plo);
+            shi = product_up(phi, phi);
+        } else if (phi <= 0) {
+            slo = product_down(phi, phi);
+            shi = product_up(plo, plo);
+        } else {
+            const double m = -plo > phi ? -plo : phi;
+            slo = 0.0;
+            shi = product_up(m, m);
+        }
+        qlo = sum_down(qlo, slo > 0.0 ? slo : 0.0);
+        qhi = sum_up(qhi, shi);
     }
-    if (q.hi <= product_down(radius, radius)) return Verdict::Yes;
-    if (q.lo > product_up(radius, radius)) return Verdict::No;
+    if (qhi <= product_down(radius, radius)) return Verdict::Yes;
+    if (qlo > product_up(radius, radius)) return Verdict::No;
     return Verdict::Unknown;
+}
+
+/// The same interval evaluation in round-to-nearest, with one error bound
+/// for all its roundings: every intermediate is bounded in magnitude by
+/// M_a = |o_a| + rad(o_a) + mod_hi (|d_a| + rad(d_a)) per axis (its square by
+/// M_a^2), each of the at most 12 roundings on a path costs at most u of
+/// such a magnitude, so |computed - exact| <= 16 u sum M_a^2 (+ underflow).
+Verdict clip_verdict_fast(const ObjectRay& ray, double mod_lo, double mod_hi, double radius) {
+    double qlo = 0.0, qhi = 0.0, mag = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        const double om = ray.origin[a].mid, orad = ray.origin[a].rad;
+        const double dm = ray.direction[a].mid, drad = ray.direction[a].rad;
+        const double dlo_v = dm - drad, dhi_v = dm + drad;
+        const double dlo = dlo_v >= 0 ? dlo_v * mod_lo : dlo_v * mod_hi;
+        const double dhi = dhi_v >= 0 ? dhi_v * mod_hi : dhi_v * mod_lo;
+        const double plo = om - orad + dlo, phi = om + orad + dhi;
+        double slo, shi;
+        if (plo >= 0) {
+            slo = plo * plo;
+            shi = phi * phi;
+        } else if (phi <= 0) {
+            slo = phi * phi;
+            shi = plo * plo;
+        } else {
+            const double m = -plo > phi ? -plo : phi;
+            slo = 0.0;
+            shi = m * m;
+        }
+        qlo += slo;
+        qhi += shi;
+        const double m = std::fabs(om) + orad + mod_hi * (std::fabs(dm) + drad);
+        mag += m * m;
+    }
+    const double err = next_up(mag * (32.0 * kU) + 64.0 * kDenormMin);
+    if (!(err < INFINITY)) return Verdict::Unknown;
+    const double r2 = radius * radius;  // within u r2
+    if (next_up(qhi + err) <= r2 * (1.0 - 4.0 * kU)) return Verdict::Yes;
+    if (next_down(qlo - err) > r2 * (1.0 + 4.0 * kU)) return Verdict::No;
+    return Verdict::Unknown;
+}
+
+}  // namespace
+
+Verdict inside_clip(const ObjectRay& ray, double mod_lo, double mod_hi, double radius) {
+    const Verdict v = clip_verdict_fast(ray, mod_lo, mod_hi, radius);
+    return v != Verdict::Unknown ? v : clip_verdict_exact(ray, mod_lo, mod_hi, radius);
 }
 
 namespace {

@@ -106,6 +106,7 @@ inline bool linear_is_signed_permutation(const double* L) {
 template <class T>
 void primary_impl(const FramePlan::ObjectPlan& op, int n, const T* g, const double* g_rad, const double* weight_factor,
                   const double* radius_factor, const T dir[3], const double mag[3], RayCoefficients<T>& out) {
+    const bool exact_direction = op.direction_exact;
     T px[kMaxDegree + 1], py[kMaxDegree + 1], pz[kMaxDegree + 1];
     double ax[kMaxDegree + 1], ay[kMaxDegree + 1], az[kMaxDegree + 1];
     px[0] = py[0] = pz[0] = T(1.0);
@@ -114,21 +115,39 @@ void primary_impl(const FramePlan::ObjectPlan& op, int n, const T* g, const doub
         px[k] = px[k - 1] * dir[0];
         py[k] = py[k - 1] * dir[1];
         pz[k] = pz[k - 1] * dir[2];
-        ax[k] = ax[k - 1] * mag[0];
-        ay[k] = ay[k - 1] * mag[1];
-        az[k] = az[k - 1] * mag[2];
+        if (!exact_direction) {
+            ax[k] = ax[k - 1] * mag[0];
+            ay[k] = ay[k - 1] * mag[1];
+            az[k] = az[k - 1] * mag[2];
+        }
     }
     out.n = n;
     bool finite = true;
+    const int* ex = op.ex.data();
+    const int* ey = op.ey.data();
+    const int* ez = op.ez.data();
     for (int k = 0; k <= n; ++k) {
         T sum(0.0);
         double weight = 0.0, radius = 0.0;
-        for (int i = op.k_begin[k]; i < op.k_begin[k + 1]; ++i) {
-            const T mono = px[op.ex[i]] * py[op.ey[i]] * pz[op.ez[i]];
-            sum = sum + g[i] * mono;
-            const double mono_mag = ax[op.ex[i]] * ay[op.ey[i]] * az[op.ez[i]];
-            weight += std::fabs(to_double(g[i])) * mono_mag;
-            radius += g_rad[i] * mono_mag;
+        const int end = op.k_begin[k + 1];
+        if (exact_direction) {
+            // |d'| is exact: the magnitude of a monomial is |computed
+            // monomial| (within its k + 2 roundings) and |g mono| that of the
+            // computed term (within one more), both inside the factors.
+            for (int i = op.k_begin[k]; i < end; ++i) {
+                const T mono = px[ex[i]] * py[ey[i]] * pz[ez[i]];
+                const T term = g[i] * mono;
+                sum = sum + term;
+                weight += std::fabs(to_double(term));
+                radius += g_rad[i] * std::fabs(to_double(mono));
+            }
+        } else {
+            for (int i = op.k_begin[k]; i < end; ++i) {
+                sum = sum + g[i] * (px[ex[i]] * py[ey[i]] * pz[ez[i]]);
+                const double mono_mag = ax[ex[i]] * ay[ey[i]] * az[ez[i]];
+                weight += std::fabs(to_double(g[i])) * mono_mag;
+                radius += g_rad[i] * mono_mag;
+            }
         }
         out.c[k] = sum;
         out.r[k] = (weight == 0.0 && radius == 0.0)
@@ -140,8 +159,8 @@ void primary_impl(const FramePlan::ObjectPlan& op, int n, const T* g, const doub
     double amin = 1.0, amax = 1.0;
     for (int a = 0; a < 3; ++a)
         if (mag[a] > 0.0) {
-            amin = std::fmin(amin, mag[a]);
-            amax = std::fmax(amax, mag[a]);
+            amin = mag[a] < amin ? mag[a] : amin;
+            amax = mag[a] > amax ? mag[a] : amax;
         }
     if (amin < op.no_underflow_threshold) {
         double grow = 1.0;

@@ -361,9 +361,9 @@ private:
                 DiscInfo info{};
                 info.object = obj;
                 info.index = i;
-                info.lo = detail::modulus_down(disc);
-                info.hi = detail::modulus_up(disc);
                 if (!disc.verified) {
+                    info.lo = detail::modulus_down(disc);
+                    info.hi = detail::modulus_up(disc);
                     // Not enclosed: may be anywhere.
                     info.band = info.clip = Verdict::Unknown;
                     info.live = true;
@@ -374,8 +374,16 @@ private:
                 // camera on the surface. Not a root the pixel shows.
                 info.at_origin = disc.re == 0.0 && disc.im == 0.0 && disc.radius == 0.0;
                 info.real = detail::proven_real(r.res.discs, r.res.n_discs, i, r.complete);
-                info.clip = s.clip_radius > 0.0 ? detail::inside_clip(r.ray, info.lo, info.hi, s.clip_radius) : Verdict::Yes;
                 info.band = detail::band_membership(disc, info.real, plan_, s.complex_space);
+                // (Moduli and the sphere only matter for a root that may be in
+                // the band.)
+                if (info.band != Verdict::No) {
+                    info.lo = detail::modulus_down(disc);
+                    info.hi = detail::modulus_up(disc);
+                }
+                info.clip = s.clip_radius <= 0.0 || info.band == Verdict::No
+                                ? Verdict::Yes
+                                : detail::inside_clip(r.ray, info.lo, info.hi, s.clip_radius);
                 info.live = !info.at_origin && info.clip != Verdict::No && info.band != Verdict::No;
                 info.eligible = info.live && info.clip == Verdict::Yes && info.band == Verdict::Yes;
                 infos.push_back(info);
@@ -475,7 +483,8 @@ private:
             e.real = i.real;
             e.at_origin = i.at_origin;
             e.band = static_cast<std::uint8_t>(i.band);
-            e.clip = static_cast<std::uint8_t>(i.clip);
+            // (The sphere is not evaluated for a disc proven out of the band.)
+            e.clip = i.band == Verdict::No ? 3 : static_cast<std::uint8_t>(i.clip);
             e.live = i.live;
             e.eligible = i.eligible;
             t->discs.push_back(e);

@@ -212,7 +212,8 @@ struct ExplainedDisc {
     bool real;               // its single root proven real
     bool at_origin;          // the exact root t = 0 (not shown)
     std::uint8_t band;       // 0 yes, 1 no, 2 unknown (all roots in the band?)
-    std::uint8_t clip;       // 0 inside, 1 outside, 2 straddling (no sphere: 0)
+    std::uint8_t clip;       // 0 inside, 1 outside, 2 straddling (no sphere: 0), 3 not
+                             // evaluated (the disc is out of the band)
     bool live;               // may be the pixel's root
     bool eligible;           // proven in the band and inside
 };
