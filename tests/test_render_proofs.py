@@ -182,9 +182,10 @@ def test_bicube_grazing_pixels_are_right_or_not_certified(look_z):
     assert exact_hit == (look_z == 6.551739800272524)
     if e["status"] == 0:
         assert e["hit"] == exact_hit
-    # Pinned: the two real roots 3e-6 apart and the complex pair of imaginary
-    # part 5.6e-8 are a cluster for the renderer (status 1), not a claim.
-    assert e["status"] == 1
+    # Pinned: the double discs leave a cluster (two real roots 3e-6 apart, or
+    # a complex pair of imaginary part 5.6e-8); the double-double tier
+    # re-isolates the roots and certifies the exact answer.
+    assert e["status"] == 0 and e["escalation"] == 3
 
 
 # ---------------------------------------------------------------------------

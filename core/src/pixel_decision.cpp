@@ -289,4 +289,78 @@ bool refine_disc_dd(const RayCoefficients<DoubleDouble>& p, bool real, RootDisc&
     return true;
 }
 
+bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
+    if (!p.finite) return false;
+    int n = p.n;
+    while (n > 0 && is_zero(p.c[n]) && p.r[n] == 0.0) --n;  // exact roots at infinity
+    if (n < 2 || n != p.n - res.n_infinite) return false;
+    if (is_zero(p.c[0]) && p.r[0] == 0.0) return false;     // an exact root at 0: not here
+    const double lead_lo = add_down(abs_down(p.c[n]), -p.r[n]);
+    if (!(lead_lo > 0.0)) return false;
+    // Starting points: each disc's centre, a cluster's spread on a circle.
+    Complex<DoubleDouble> x[kMaxDegree];
+    int m = 0;
+    for (int i = 0; i < res.n_discs && m < n; ++i) {
+        const RootDisc& d = res.discs[i];
+        for (int k = 0; k < d.count && m < n; ++k) {
+            const double a = 2.0 * 3.14159265358979323846 * k / d.count + 0.4;
+            const double rho = d.count > 1 ? 0.5 * d.radius : 0.0;
+            x[m++] = Complex<DoubleDouble>(DoubleDouble(d.re + rho * std::cos(a)), DoubleDouble(d.im + rho * std::sin(a)));
+        }
+    }
+    if (m != n) return false;
+    // Aberth-Ehrlich in double-double (approximations only).
+    for (int it = 0; it < 60; ++it) {
+        double largest = 0.0;
+        for (int i = 0; i < n; ++i) {
+            Complex<DoubleDouble> v(p.c[n]), dv(DoubleDouble(0.0));
+            for (int k = n - 1; k >= 0; --k) {
+                dv = dv * x[i] + v;
+                v = add_real(v * x[i], p.c[k]);
+            }
+            Complex<DoubleDouble> sum(DoubleDouble(0.0));
+            for (int j = 0; j < n; ++j)
+                if (j != i) sum = sum + reciprocal(x[i] - x[j]);
+            const Complex<DoubleDouble> w = v / (dv - v * sum);
+            if (!is_finite(w)) continue;
+            x[i] = x[i] - w;
+            const double step = mag_approx(w) / (mag_approx(x[i]) + 1e-300);
+            largest = step > largest ? step : largest;
+        }
+        if (largest < 0x1p-100) break;
+    }
+    // Smith's radii over the coefficient balls, outward-rounded.
+    using E = ErrorModel<DoubleDouble>;
+    double cre[kMaxDegree], cim[kMaxDegree], rad[kMaxDegree];
+    for (int i = 0; i < n; ++i) {
+        if (!is_finite(x[i])) return false;
+        Complex<DoubleDouble> v;
+        double e;
+        if (!eval_dd(p.c, n, x[i], v, e)) return false;
+        const double num = add_up(add_up(mag_up(v), e), radius_sum(p.r, n, mag_up(x[i])));
+        double den = lead_lo;
+        for (int j = 0; j < n; ++j) {
+            if (j == i) continue;
+            // |exact difference| >= |computed| (1 - add_rel) - abs_err.
+            const double dist = add_down(mul_down(mag_down(x[i] - x[j]), 1.0 - 2.0 * E::add_rel), -E::abs_err);
+            if (!(dist > 0.0)) return false;
+            den = mul_down(den, dist);
+        }
+        if (!(den > 0.0)) return false;
+        cre[i] = x[i].re.hi;
+        cim[i] = x[i].im.hi;
+        const double gap = hypot_up(std::fabs(x[i].re.lo), std::fabs(x[i].im.lo));
+        rad[i] = add_up(mul_up(static_cast<double>(n), div_up(num, den)), gap);
+        if (!std::isfinite(rad[i])) return false;
+    }
+    for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j)
+            if (!(dist_down(cre[i], cim[i], cre[j], cim[j]) > add_up(rad[i], rad[j]))) return false;
+    // Every disc isolated: Smith's theorem gives one root each.
+    res.n_discs = n;
+    for (int i = 0; i < n; ++i) res.discs[i] = RootDisc{cre[i], cim[i], rad[i], 1, true, false};
+    res.wants_exact = false;
+    return true;
+}
+
 }  // namespace argand::detail

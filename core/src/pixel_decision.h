@@ -52,4 +52,15 @@ bool is_mirror_twin(const RootDisc& b, const RootDisc& j, const RootDisc* all, i
 /// result is smaller.
 bool refine_disc_dd(const RayCoefficients<DoubleDouble>& p, bool real, RootDisc& d);
 
+/// Re-isolates every root of p from scratch in double-double (for a
+/// polynomial whose double discs left a cluster): Aberth-Ehrlich from the
+/// current discs (a cluster's approximations spread inside it), then Smith's
+/// discs with the double-double coefficient balls (each radius bounds the
+/// Smith radius of every polynomial within them, so the counts hold for the
+/// exact one). Replaces res's discs and returns true only when every root
+/// gets its own verified disc, all pairwise disjoint (proven); otherwise
+/// leaves res untouched. Not for polynomials with an exact root at 0 or an
+/// uncertain leading coefficient.
+bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res);
+
 }  // namespace argand::detail

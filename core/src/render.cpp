@@ -315,20 +315,37 @@ private:
         for (int i = 0; i < r.res.n_discs && r.complete; ++i) r.complete = r.res.discs[i].verified;
     }
 
-    /// Level 3: double-double ray coefficients, and every live verified
-    /// count-1 disc shrunk with them. True if any disc changed.
+    /// Level 3: double-double ray coefficients; a polynomial with a live
+    /// cluster is re-isolated from scratch (isolate_dd), and every live
+    /// verified count-1 disc is shrunk. True if any disc changed.
     bool refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos) {
         bool changed = false;
+        auto ensure_dd = [&](int obj) {
+            ObjectRoots& r = roots[obj];
+            if (!r.have_dd) {
+                detail::primary_ray_polynomial_dd(plan_.scene.objects[obj], plan_.objects[obj], current_direction_,
+                                                  r.poly_dd);
+                r.have_dd = true;
+            }
+        };
+        const int n_obj = static_cast<int>(plan_.scene.objects.size());
+        std::vector<bool> isolated(n_obj, false);
         for (const DiscInfo& info : infos) {
-            if (!info.live || info.at_origin) continue;
+            ObjectRoots& r = roots[info.object];
+            if (!info.live || isolated[info.object] || !r.complete) continue;
+            if (r.res.discs[info.index].count < 2) continue;
+            ensure_dd(info.object);
+            if (detail::isolate_dd(r.poly_dd, r.res)) {
+                isolated[info.object] = true;
+                changed = true;
+            }
+        }
+        for (const DiscInfo& info : infos) {
+            if (!info.live || info.at_origin || isolated[info.object]) continue;
             ObjectRoots& r = roots[info.object];
             RootDisc& disc = r.res.discs[info.index];
             if (!r.complete || disc.count != 1) continue;
-            if (!r.have_dd) {
-                detail::primary_ray_polynomial_dd(plan_.scene.objects[info.object], plan_.objects[info.object],
-                                                  current_direction_, r.poly_dd);
-                r.have_dd = true;
-            }
+            ensure_dd(info.object);
             const bool real_before = info.real;
             if (detail::refine_disc_dd(r.poly_dd, real_before, disc)) {
                 // A proven real root stays real: its disc is now centred on

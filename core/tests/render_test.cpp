@@ -280,6 +280,46 @@ static void test_refinement() {
     CHECK(!refine_disc_dd(p, false, cluster));
 }
 
+static void test_isolation() {
+    // (t - 2)(t - 2 - 1e-9)(t + 1) with coefficient radii 1e-30: one double
+    // disc holding both roots near 2 is split into two proven discs.
+    RayCoefficients<DoubleDouble> p;
+    p.n = 3;
+    const long double a = 2, b = 2 + 1e-9L, c = -1;
+    const long double coeffs[4] = {-a * b * c, a * b + a * c + b * c, -(a + b + c), 1};
+    for (int k = 0; k <= 3; ++k) {
+        const double hi = static_cast<double>(coeffs[k]);
+        p.c[k] = DoubleDouble(hi, static_cast<double>(coeffs[k] - hi));
+        p.r[k] = 1e-30;
+    }
+    p.finite = true;
+    RootsResult res;
+    res.n_infinite = 0;
+    res.n_discs = 2;
+    res.discs[0] = RootDisc{2.0, 0.0, 1e-7, 2, true, false};
+    res.discs[1] = RootDisc{-1.0, 0.0, 1e-12, 1, true, true};
+    CHECK(isolate_dd(p, res));
+    CHECK(res.n_discs == 3);
+    int near2 = 0;
+    for (int i = 0; i < res.n_discs; ++i) {
+        const RootDisc& d = res.discs[i];
+        CHECK(d.verified && d.count == 1 && d.radius < 1e-12);
+        const bool holds_a = std::hypot(d.re - 2.0, d.im) <= d.radius;
+        const bool holds_b = std::hypot(d.re - static_cast<double>(b), d.im) <= d.radius + 1e-18;
+        const bool holds_c = std::hypot(d.re + 1.0, d.im) <= d.radius;
+        CHECK(holds_a + holds_b + holds_c == 1);
+        near2 += holds_a || holds_b;
+    }
+    CHECK(near2 == 2);
+    // Radii that blur the two roots together: refused, res untouched.
+    for (int k = 0; k <= 3; ++k) p.r[k] = 1e-12;
+    res.n_discs = 2;
+    res.discs[0] = RootDisc{2.0, 0.0, 1e-5, 2, true, false};
+    res.discs[1] = RootDisc{-1.0, 0.0, 1e-12, 1, true, true};
+    CHECK(!isolate_dd(p, res));
+    CHECK(res.n_discs == 2 && res.discs[0].count == 2);
+}
+
 static void test_tiles_and_limits() {
     // 18 objects (the old 16-entry array overflowed) render, clipped and not.
     for (double clip : {0.0, 1.5}) {
@@ -323,6 +363,7 @@ int main() {
     test_clip();
     test_ray_coefficients();
     test_refinement();
+    test_isolation();
     test_tiles_and_limits();
     if (failures) {
         std::fprintf(stderr, "render_test: %d failure(s)\n", failures);
