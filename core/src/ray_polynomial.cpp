@@ -312,46 +312,107 @@ void primary_ray_polynomial_dd(const SurfaceSpec& s, const FramePlan::ObjectPlan
 
 void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const double d[3], RayCoefficients<double>& out,
                             ObjectRay& ray) {
+    // Direct expansion of each term in round-to-nearest, with a magnitude
+    // expansion beside it (the same recurrences on bounds A of |o'_a|,
+    // |d'_a|): every coefficient's error is at most
+    //   factor * M_k,  factor = 2 (n eps + (2n + 6 + (n + 1)^2 + terms) u),
+    // where M_k is the magnitude expansion's coefficient, eps = 5u the
+    // A-relative error of o' and d' (as object_direction), and the rest
+    // the roundings on any path (powers, the triple products, the sums).
     const int n = s.degree;
+    double om[3], oa[3], orad[3], dm[3], da[3], drad[3];
+    const double diff[3] = {o[0] - s.translate[0], o[1] - s.translate[1], o[2] - s.translate[2]};
+    double diff_abs[3];
+    for (int c = 0; c < 3; ++c) {
+        // |exact o - T| <= |computed| (1 + u) (+ underflow, below the floor).
+        diff_abs[c] = std::fabs(diff[c]) * (1.0 + 2.0 * kU);
+    }
     for (int r = 0; r < 3; ++r) {
-        Ball acc_o(0.0), acc_d(0.0);
+        const double* L = s.linear + 3 * r;
+        double vo = 0.0, vd = 0.0, so = 0.0, sd = 0.0;
+        bool zero_o = true, zero_d = true;
         for (int c = 0; c < 3; ++c) {
-            acc_o += Ball(s.linear[3 * r + c]) * (Ball(o[c]) - Ball(s.translate[c]));
-            acc_d += Ball(s.linear[3 * r + c]) * Ball(d[c]);
+            vo += L[c] * diff[c];
+            vd += L[c] * d[c];
+            so += std::fabs(L[c]) * diff_abs[c];
+            sd += std::fabs(L[c]) * std::fabs(d[c]);
+            if (L[c] != 0.0 && o[c] != s.translate[c]) zero_o = false;
+            if (L[c] != 0.0 && d[c] != 0.0) zero_d = false;
         }
-        ray.origin[r] = acc_o;
-        ray.direction[r] = acc_d;
+        om[r] = vo;
+        dm[r] = vd;
+        oa[r] = zero_o ? 0.0 : std::fmax(kProductFloor, next_up(next_up(so * (1.0 + 8.0 * kU)) + 8.0 * kDenormMin));
+        da[r] = zero_d ? 0.0 : std::fmax(kProductFloor, next_up(next_up(sd * (1.0 + 8.0 * kU)) + 8.0 * kDenormMin));
+        orad[r] = oa[r] == 0.0 ? 0.0 : mul_up(6.0 * kU, oa[r]);
+        drad[r] = da[r] == 0.0 ? 0.0 : mul_up(6.0 * kU, da[r]);
+        ray.origin[r] = Ball(om[r], orad[r]);
+        ray.direction[r] = Ball(dm[r], drad[r]);
     }
-    // Powers (o'_i + t d'_i)^a as polynomials in t, for a = 0..n.
-    static thread_local Ball pw[3][kMaxDegree + 1][kMaxDegree + 1];
+    // Powers (o'_i + t d'_i)^a as polynomials in t, and their magnitudes.
+    // (Thread-local: 200 KB on the stack per secondary ray would be probed
+    // page by page on every call.)
+    static thread_local double pw[3][kMaxDegree + 1][kMaxDegree + 1], pm[3][kMaxDegree + 1][kMaxDegree + 1];
     for (int axis = 0; axis < 3; ++axis) {
-        pw[axis][0][0] = Ball(1.0);
-        for (int k = 1; k <= n; ++k) pw[axis][0][k] = Ball(0.0);
+        pw[axis][0][0] = pm[axis][0][0] = 1.0;
         for (int a = 1; a <= n; ++a) {
-            pw[axis][a][0] = pw[axis][a - 1][0] * ray.origin[axis];
-            for (int k = 1; k <= a; ++k)
-                pw[axis][a][k] = pw[axis][a - 1][k] * ray.origin[axis] + pw[axis][a - 1][k - 1] * ray.direction[axis];
-            for (int k = a + 1; k <= n; ++k) pw[axis][a][k] = Ball(0.0);
+            pw[axis][a][0] = pw[axis][a - 1][0] * om[axis];
+            pm[axis][a][0] = pm[axis][a - 1][0] * oa[axis];
+            for (int k = 1; k < a; ++k) {
+                pw[axis][a][k] = pw[axis][a - 1][k] * om[axis] + pw[axis][a - 1][k - 1] * dm[axis];
+                pm[axis][a][k] = pm[axis][a - 1][k] * oa[axis] + pm[axis][a - 1][k - 1] * da[axis];
+            }
+            pw[axis][a][a] = pw[axis][a - 1][a - 1] * dm[axis];
+            pm[axis][a][a] = pm[axis][a - 1][a - 1] * da[axis];
         }
     }
-    Ball sum[kMaxDegree + 1], tmp[kMaxDegree + 1];
-    for (int k = 0; k <= n; ++k) sum[k] = Ball(0.0);
+    double sum[kMaxDegree + 1], mag[kMaxDegree + 1];
+    for (int k = 0; k <= n; ++k) sum[k] = mag[k] = 0.0;
+    double lowest = INFINITY, highest = 0.0;
     for (const Term& term : s.terms) {
-        for (int k = 0; k <= n; ++k) tmp[k] = Ball(0.0);
+        if (term.coeff == 0.0) continue;
+        lowest = std::fabs(term.coeff) < lowest ? std::fabs(term.coeff) : lowest;
+        highest = std::fabs(term.coeff) > highest ? std::fabs(term.coeff) : highest;
+        const double ac = std::fabs(term.coeff);
         for (int i = 0; i <= term.ex; ++i)
             for (int j = 0; j <= term.ey; ++j) {
-                const Ball xy = pw[0][term.ex][i] * pw[1][term.ey][j];
-                if (xy.mid == 0.0 && xy.rad == 0.0) continue;
-                for (int l = 0; l <= term.ez; ++l) tmp[i + j + l] += xy * pw[2][term.ez][l];
+                const double xy = term.coeff * pw[0][term.ex][i] * pw[1][term.ey][j];
+                const double xym = ac * pm[0][term.ex][i] * pm[1][term.ey][j];
+                if (xym == 0.0) continue;
+                for (int l = 0; l <= term.ez; ++l) {
+                    sum[i + j + l] += xy * pw[2][term.ez][l];
+                    mag[i + j + l] += xym * pm[2][term.ez][l];
+                }
             }
-        for (int k = 0; k <= n; ++k) sum[k] += Ball(term.coeff) * tmp[k];
     }
+    // No product underflows when every nonzero factor is large enough.
+    double amin = 1.0, amax = 1.0;
+    for (int a = 0; a < 3; ++a)
+        for (double v : {oa[a], da[a]})
+            if (v > 0.0) {
+                amin = v < amin ? v : amin;
+                amax = v > amax ? v : amax;
+            }
+    bool slack = !(lowest >= kProductFloor);
+    if (!slack && lowest < INFINITY) {
+        double p = lowest;
+        for (int k = 0; k < n; ++k) p *= amin;
+        slack = !(p >= kProductFloor);
+    }
+    const double terms = static_cast<double>(s.terms.size());
+    const double factor = mul_up(2.0, add_up(mul_up(n, 5.0 * kU), mul_up(2.0 * n + 6.0 + (n + 1.0) * (n + 1.0) + terms, kU)));
+    const double radius_factor = add_up(1.0, factor);
+    double grow = 1.0;
+    for (int k = 0; k <= n; ++k) grow = mul_up(grow, amax);
     out.n = n;
     out.finite = true;
     for (int k = 0; k <= n; ++k) {
-        out.c[k] = sum[k].mid;
-        out.r[k] = sum[k].rad;
-        out.finite = out.finite && is_finite(sum[k]);
+        out.c[k] = sum[k];
+        double r = mag[k] == 0.0 ? 0.0 : next_up(mul_up(radius_factor, mag[k]) * factor);
+        // (An absolute loss in one product is carried by the coefficient and
+        // the remaining factors: at most max(1, |coeff|) max(1, A)^n.)
+        if (slack) r = add_up(r, mul_up(mul_up((3.0 * n + terms + 8.0) * kSlackPerOp, 1.0 + highest), grow));
+        out.r[k] = r;
+        out.finite = out.finite && std::isfinite(sum[k]) && std::isfinite(r);
     }
 }
 

@@ -156,6 +156,7 @@ public:
         std::vector<DiscInfo>& infos = infos_[slot];
         bool any_seeded = false;
         std::uint8_t level = kLevelFirst;
+        recording_ = trace != nullptr;
         for (int obj = 0; obj < n_obj; ++obj) {
             const SurfaceSpec& s = plan_.scene.objects[obj];
             ObjectRoots& r = roots[obj];
@@ -403,7 +404,9 @@ private:
                                 : detail::inside_clip(r.ray, info.lo, info.hi, s.clip_radius);
                 info.live = !info.at_origin && info.clip != Verdict::No && info.band != Verdict::No;
                 info.eligible = info.live && info.clip == Verdict::Yes && info.band == Verdict::Yes;
-                infos.push_back(info);
+                // (A disc proven out plays no further part; kept only for
+                // --explain.)
+                if (info.live || recording_) infos.push_back(info);
             }
         }
         HitInfo h;
@@ -520,6 +523,7 @@ private:
     std::vector<ObjectRoots> scratch_;
     std::vector<std::vector<DiscInfo>> infos_;
     int chosen_ = -1;
+    bool recording_ = false;  // keep every disc's decisions (explain_pixel)
 };
 
 }  // namespace

@@ -224,6 +224,18 @@ static void test_ray_coefficients() {
             long double ref[kMaxDegree + 1];
             reference_coefficients(plan.scene.objects[0], ray.origin, ray.direction, ref);
             CHECK(p.finite && pd.finite);
+            // The secondary-ray expansion from a point off the eye.
+            const double off[3] = {ray.origin[0] + 0.37, ray.origin[1] - 1.1, ray.origin[2] + 0.05};
+            RayCoefficients<double> pg;
+            ObjectRay gray;
+            general_ray_polynomial(plan.scene.objects[0], off, ray.direction, pg, gray);
+            long double gref[kMaxDegree + 1];
+            reference_coefficients(plan.scene.objects[0], off, ray.direction, gref);
+            CHECK(pg.finite);
+            for (int k = 0; k <= 6; ++k) {
+                CHECK(std::fabs(gref[k] - pg.c[k]) <= pg.r[k] + 1e-17L * (1 + std::fabs(gref[k])));
+                CHECK(pg.r[k] < 1e-11 * (1 + std::fabs(static_cast<double>(gref[k]))));
+            }
             for (int k = 0; k <= 6; ++k) {
                 // long double's own error is ~1e-19 relative: allow it on top.
                 const long double slack = 1e-17L * (1 + std::fabs(ref[k]));
