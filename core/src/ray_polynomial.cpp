@@ -123,6 +123,7 @@ void primary_impl(const FramePlan::ObjectPlan& op, int n, const T* g, const doub
     }
     out.n = n;
     bool finite = true;
+    double check = 0.0;
     const int* ex = op.ex.data();
     const int* ey = op.ey.data();
     const int* ez = op.ez.data();
@@ -150,11 +151,14 @@ void primary_impl(const FramePlan::ObjectPlan& op, int n, const T* g, const doub
             }
         }
         out.c[k] = sum;
+        // Two products and a sum of nonnegatives, each within a factor 1 + u:
+        // (1 + u)^4 < 1 + 8u covers them and the product by 1 + 8u.
         out.r[k] = (weight == 0.0 && radius == 0.0)
                        ? 0.0
-                       : next_up(next_up(weight_factor[k] * weight) + next_up(radius_factor[k] * radius));
-        finite = finite && is_finite(sum) && std::isfinite(out.r[k]);
+                       : next_up((weight_factor[k] * weight + radius_factor[k] * radius) * (1.0 + 8.0 * kU));
+        check += std::fabs(to_double(sum)) + out.r[k];
     }
+    finite = std::isfinite(check);  // (an inf or NaN anywhere makes the sum so)
     // Underflow slack (rare: a direction component below the threshold).
     double amin = 1.0, amax = 1.0;
     for (int a = 0; a < 3; ++a)
@@ -169,6 +173,7 @@ void primary_impl(const FramePlan::ObjectPlan& op, int n, const T* g, const doub
             if (terms > 0) {
                 const double slack = mul_up(mul_up(static_cast<double>(k + terms + 6) * kSlackPerOp, op.magnitude[k]), grow);
                 out.r[k] = add_up(out.r[k], slack);
+                finite = finite && std::isfinite(out.r[k]);
             }
             grow = mul_up(grow, amax);
         }
