@@ -198,14 +198,16 @@ def find_roots_batch(matrix: np.ndarray, method: str = "auto") -> BatchRoots:
     return batch
 
 
-#: Work caps of the exact fallback (it runs inside find_roots_batch's loop
-#: and in render workers, so it must be bounded per polynomial): the largest
+#: Work cap of the exact fallback (it runs inside find_roots_batch's loop and
+#: in render workers, so it must be bounded per polynomial): the largest
 #: degree times coefficient bit size (of the integer polynomial after exact
-#: power-of-two scaling) it accepts, and the largest working precision
-#: (bits) of the root isolation. Beyond either, the fallback gives up and the
-#: C++ answer (honestly unverified where it was) stands.
-EXACT_MAX_DEGREE_BITS: int = 64 * 4096
-EXACT_MAX_PREC: int = 8192
+#: power-of-two scaling) it accepts. Arb's isolation doubles its precision
+#: until the roots separate, and the separation of the roots of an integer
+#: polynomial is bounded below in terms of exactly these two numbers, so the
+#: cap bounds the work (measured: at most ~2 s at the cap, on one core).
+#: Beyond it the fallback gives up and the C++ answer (honestly unverified
+#: where it was) stands.
+EXACT_MAX_DEGREE_BITS: int = 1 << 17
 
 
 def _scaled_exact_poly(values: list[float]):
@@ -251,12 +253,11 @@ def _enclosing_radius(center: tuple[float, float], ball) -> float:
 
 def exact_roots(coeffs: np.ndarray) -> Roots | None:
     """The exact fallback: the roots of the exact rational polynomial,
-    isolated by python-flint (square-free factorisation over Q, then Arb's
-    ``acb_poly.roots`` on each factor, each ball proven to hold exactly one
-    root, with the factor's exponent as multiplicity), turned into float64
-    discs. Returns None if the polynomial is constant after removing roots at
-    infinity, or when the work caps (EXACT_MAX_DEGREE_BITS, EXACT_MAX_PREC)
-    are exceeded.
+    isolated by python-flint (``fmpq_poly.complex_roots``: isolating balls
+    with exact multiplicities, real roots with an exactly zero imaginary
+    part), turned into float64 discs. Returns None if the polynomial is
+    constant after removing roots at infinity, or beyond the work cap
+    EXACT_MAX_DEGREE_BITS.
 
     Rounding a ball's centre to a double enlarges its disc, possibly past a
     neighbouring root; so the discs are never trusted one by one. Every root
@@ -268,8 +269,9 @@ def exact_roots(coeffs: np.ndarray) -> Roots | None:
     group of several members is an honest cluster disc (count > 1). A root
     whose centre is not a finite double leaves its group unverified, and the
     verified enclosures are proven to exclude its ball. ``real`` is claimed
-    for a disc centred on the real axis with an odd count (p is real, so its
-    non-real roots pair up inside a symmetric disc).
+    for a disc that holds a root flint proved real, or that is centred on the
+    real axis with an odd count (p is real, so its non-real roots pair up
+    inside a symmetric disc).
     """
     import flint
 
@@ -285,26 +287,12 @@ def exact_roots(coeffs: np.ndarray) -> Roots | None:
     try:
         flint.ctx.prec = 64
         q, e = _scaled_exact_poly(values)
-        bits = max(1, int(q.denom()).bit_length()) + max(int(abs(int(c))).bit_length() for c in (q * q.denom()).coeffs())
+        bits = max(int(abs(int(c))).bit_length() for c in (q * q.denom()).coeffs())
         if q.degree() * bits > EXACT_MAX_DEGREE_BITS:
             return None
-        _, factors = q.factor_squarefree()
+        flint.ctx.prec = 128
         scale = flint.arb(flint.fmpq(2) ** e)
-        balls: list[tuple[object, int]] = []  # (acb ball in t, multiplicity)
-        for f, mult in factors:
-            f = f / f[f.degree()]
-            fbits = max(int(abs(int(c))).bit_length() for c in (f * f.denom()).coeffs()) + int(f.denom()).bit_length()
-            prec, found = 64, None
-            while found is None:
-                prec *= 2
-                if prec > EXACT_MAX_PREC:
-                    return None
-                flint.ctx.prec = max(prec, fbits + 16)  # the coefficients exact in the balls
-                try:
-                    found = flint.acb_poly(f).roots(maxprec=flint.ctx.prec)
-                except ValueError:
-                    found = None
-            balls += [(z * scale, int(mult)) for z in found]
+        balls = [(z * scale, int(mult)) for z, mult in q.complex_roots()]
         flint.ctx.prec = 256
         # Members: each ball's disc around its centre rounded to doubles.
         members = []
@@ -376,7 +364,8 @@ def _group_members(members: list[list]) -> list[list]:
 
             centre = flint.acb(re, im)
             ok = all(abs(m[4] - centre) > flint.arb(r) for m in lost)
-        out.append([complex(re, im), r, count, ok, ok and im == 0.0 and count % 2 == 1])
+        proven_real = any(m[4].imag.is_exact() and m[4].imag.is_zero() for m in g)
+        out.append([complex(re, im), r, count, ok, ok and (proven_real or (im == 0.0 and count % 2 == 1))])
     for m in lost:
         out.append([complex(m[0], m[1]), math.inf, m[3], False, False])
     return out
