@@ -15,7 +15,7 @@ import httpx
 import numpy as np
 import pytest
 
-from argand.render import FrameParams, render_frame
+from argand.render import AOV_CHANNELS, FrameParams, render_frame
 from argand.render.output import read_exr
 from argand.scene import load_scene
 
@@ -105,7 +105,7 @@ def check_frames_against_local(farm: Farm, job: dict, scene_name: str) -> None:
         names, pixels = read_exr(exr)
         for i, c in enumerate("RGBA"):
             assert np.array_equal(pixels[..., names.index(c)], local.rgba[..., i]), (fr["index"], c)
-        for aov in ("Z", "arg", "re", "im", "count", "status"):
+        for aov in AOV_CHANNELS:
             assert np.array_equal(pixels[..., names.index(aov)], local.aovs[aov].astype(np.float32)), (fr["index"], aov)
         r = httpx.get(farm.url + fr["png_url"])
         assert r.status_code == 200 and r.content[:4] == b"\x89PNG"

@@ -1,9 +1,11 @@
-"""One configuration object for the farm: environment variables prefixed
-ARGAND_ (ARGAND_DATA_DIR, ARGAND_REDIS_URL, ARGAND_DATABASE_URL, ...)."""
+"""The farm's one configuration object. Each entry point (``argand serve``,
+``argand api``, ``argand worker``) builds it once, from its options and the
+environment variables prefixed ARGAND_ (ARGAND_DATA_DIR, ARGAND_REDIS_URL,
+ARGAND_DATABASE_URL, ...), and passes it explicitly to everything it calls;
+a child process gets it through :meth:`Settings.environment`."""
 
 from __future__ import annotations
 
-from functools import lru_cache
 from pathlib import Path
 
 from pydantic import Field, field_validator
@@ -74,7 +76,15 @@ class Settings(BaseSettings):
     def sqlalchemy_url(self) -> str:
         return self.database_url or f"sqlite:///{self.data_path / 'argand.db'}"
 
+    @property
+    def store_path(self) -> Path:
+        return self.data_path / "store"
 
-@lru_cache
-def get_settings() -> Settings:
-    return Settings()
+    def environment(self) -> dict[str, str]:
+        """These settings as ARGAND_* variables, for a child process (the
+        broker and database resolved, so the child uses the same ones)."""
+        values = self.model_dump(exclude={"data_dir", "redis_url", "database_url"})
+        env = {f"ARGAND_{k.upper()}": str(v) for k, v in values.items()}
+        env.update(ARGAND_DATA_DIR=str(self.data_path), ARGAND_REDIS_URL=self.broker_url,
+                   ARGAND_DATABASE_URL=self.sqlalchemy_url)
+        return env
