@@ -12,6 +12,7 @@ import time
 from typing import Any
 
 import numpy as np
+import OpenImageIO as oiio
 from sqlalchemy import func, select, update
 
 from argand.farm.database import engine_for
@@ -149,8 +150,6 @@ def build_animation(settings: Settings, job_id: str, fps: float = 8.0) -> None:
 def animation_webp(settings: Settings, job_id: str, n_frames: int, fps: float = 8.0) -> bool:
     """animation.webp from the frames' PNGs, made once and kept (False: this
     installation's Pillow has no WebP)."""
-    import OpenImageIO as oiio
-
     store = store_for(settings)
     layout = store.job(job_id)
     path = layout.animation("webp")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 
+import redis
 from celery import Celery
 
 from argand.farm.settings import Settings
@@ -67,8 +68,6 @@ def send_runs(settings: Settings, job_id: str, runs: list[tuple[int, list[int]]]
 
 def broker_client(settings: Settings):
     """A Redis client on the farm's broker (embedded: its unix socket)."""
-    import redis
-
     url = settings.broker_url
     if url.startswith("redis+socket://"):
         return redis.Redis(unix_socket_path=url.split("://", 1)[1])
