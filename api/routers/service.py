@@ -17,7 +17,7 @@ from argand.farm.database import session_scope
 from argand.farm.models import Job
 from argand.farm.previews import PREVIEW_CHANNELS, STATUS_COLOURS
 from argand.farm.queue import PRIORITIES, broker_client
-from argand.farm.states import ACTIONS, FRAME, JOB
+from argand.farm.states import ACTIONS, ENDED, FRAME, JOB
 from argand.farm.workers import list_workers
 from argand.render import FrameParams, render_frame
 from argand.render.frames import STATUS_NAMES
@@ -35,6 +35,7 @@ def meta(settings: SettingsDep) -> dict:
     fields = JobRequest.model_fields
     return {
         "job_states": list(JOB.states),
+        "ended_states": list(ENDED),
         "frame_states": list(FRAME.states),
         "actions": {action: list(applies_to) for action, (applies_to, _) in ACTIONS.items()},
         "pixel_statuses": [{"code": code, "name": name, "colour": "#%02x%02x%02x" % STATUS_COLOURS[name]}
