@@ -9,6 +9,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from argand.core import METHODS
 from argand.farm.models import Job
+from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.farm.progress import eta_seconds, job_progress
 from argand.farm.queue import PRIORITIES
 from argand.render.angles import parse_angle
@@ -44,7 +45,7 @@ class JobRequest(BaseModel):
     deltas: list[float | str] | DeltaRange = Field(default_factory=lambda: [0.0])
     width: int = Field(256, ge=1)
     height: int = Field(256, ge=1)
-    tile: int | None = Field(None, ge=8, le=4096, description="Tile size in pixels (default: the farm's)")
+    tile: int | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
     priority: int = Priority
     method: Literal[METHODS] = "auto"
 

@@ -322,3 +322,20 @@ def test_a_jobs_sweep_is_argand_renders_sweep_to_the_last_bit():
     for count in (1, 2, 5, 12, 24, 36, 48, 100):
         spec = DeltaRange(start="pi/36", stop="pi/9", count=count).model_dump()
         assert sweep_deltas(spec) == delta_sweep(*parse_sweep(f"pi/36:pi/9:{count}")), count
+
+
+def test_one_worker_at_a_time_holds_the_reapers_lease(farm_parts, monkeypatch):
+    import time
+
+    from argand.farm.queue import broker_client
+    from argand.worker import heartbeat
+
+    settings, _ = farm_parts
+    client = broker_client(settings)
+    monkeypatch.setattr(heartbeat, "REAPER_LEASE_S", 0.3)
+    assert heartbeat.holds_lease(client, "w1") and not heartbeat.holds_lease(client, "w2")
+    assert heartbeat.holds_lease(client, "w1")  # renewed by its holder
+    time.sleep(0.2)
+    assert heartbeat.holds_lease(client, "w1") and not heartbeat.holds_lease(client, "w2")
+    time.sleep(0.4)  # w1 stopped renewing (it died): w2 takes over
+    assert heartbeat.holds_lease(client, "w2") and not heartbeat.holds_lease(client, "w1")

@@ -15,6 +15,7 @@ from argand.api.schemas import JobRequest
 from argand.core import METHODS
 from argand.farm.database import session_scope
 from argand.farm.models import Job
+from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.farm.previews import PREVIEW_CHANNELS, STATUS_COLOURS
 from argand.farm.queue import PRIORITIES, broker_client
 from argand.farm.states import ACTIONS, ENDED, FRAME, JOB
@@ -44,7 +45,7 @@ def meta(settings: SettingsDep) -> dict:
         "methods": list(METHODS),
         "limits": {"max_width": settings.max_width, "max_height": settings.max_height,
                    "max_frames": settings.max_frames, "max_job_pixels": settings.max_job_pixels,
-                   "min_tile": 8, "max_tile": 4096, "priority": [PRIORITIES.start, PRIORITIES.stop - 1],
+                   "min_tile": MIN_TILE, "max_tile": MAX_TILE, "priority": [PRIORITIES.start, PRIORITIES.stop - 1],
                    "max_degree": MAX_DEGREE},
         "defaults": {"width": fields["width"].default, "height": fields["height"].default,
                      "tile": settings.default_tile, "priority": fields["priority"].default,

@@ -7,6 +7,9 @@ from argand.render.frames import tiles
 
 Rect = tuple[int, int, int, int]
 
+#: A job's tile size, in pixels (a side).
+MIN_TILE, MAX_TILE = 8, 4096
+
 
 def preview_order(n_frames: int, stride: int = 4) -> list[int]:
     """Every stride-th frame first, then the gaps: a coarse preview of the

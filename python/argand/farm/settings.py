@@ -11,6 +11,7 @@ from pathlib import Path
 from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.render.output import EXR_COMPRESSION, check_exr_compression
 
 
@@ -30,7 +31,7 @@ class Settings(BaseSettings):
     max_height: int = Field(4096, ge=1)
     max_frames: int = Field(720, ge=1)
     max_job_pixels: int = Field(512 * 512 * 720, ge=1)
-    default_tile: int = Field(64, ge=8)
+    default_tile: int = Field(64, ge=MIN_TILE, le=MAX_TILE)
     #: Most pixels in one message to a worker: a message carries a run of
     #: tiles of one frame (the tile stays the unit of state, storage and
     #: redo; the message is the unit of dispatch, so small tiles do not pay
