@@ -40,7 +40,7 @@ def _requeue_tiles_of(s: Session, settings: Settings, dead: set[str], now: float
                 t.status = TILE.check(t.status, "failed")
                 job = s.get(Job, t.job_id)
                 if JOB.allowed(job.status, "failed"):
-                    job.status = "failed"
+                    job.status = JOB.check(job.status, "failed")
                     job.error = f"tile {t.frame_index}/{t.tile_index} failed {t.attempts} times"
                 continue
             t.status = TILE.check(t.status, "queued")
