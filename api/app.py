@@ -12,6 +12,7 @@ from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Histogram, generate_latest
 
 from argand.api.routers import frames, jobs, service
+from argand.farm.control import NoSuchJob
 from argand.farm.metrics import FarmCollector
 from argand.farm.settings import Settings
 
@@ -60,6 +61,10 @@ def create_app(settings: Settings) -> FastAPI:
     @app.exception_handler(ValueError)
     async def _value_error(_request: Request, exc: ValueError):
         return JSONResponse(status_code=422, content={"detail": str(exc)})
+
+    @app.exception_handler(NoSuchJob)
+    async def _no_such_job(_request: Request, exc: NoSuchJob):
+        return JSONResponse(status_code=404, content={"detail": str(exc)})
 
     _add_metrics(app, settings)
     _add_front_end(app)

@@ -140,12 +140,24 @@ def test_a_wheel_built_from_the_dockerfiles_files_serves_the_front_end(tmp_path)
     zipfile.ZipFile(wheel).extractall(site)
     # -S: no site-packages hooks (this checkout's editable install stays out); the dependencies come after the wheel.
     path = os.pathsep.join([str(site), sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]])
-    check = ("import argand.api.app as a; from fastapi.testclient import TestClient; "
-             "from argand.farm.settings import Settings; "
-             f"assert a.__file__.startswith({str(site)!r}), a.__file__; "
-             f"c = TestClient(a.create_app(Settings(data_dir={str(tmp_path / 'data')!r}))); "
-             "r = c.get('/'); assert r.status_code == 200 and '<script type=\"module\" src=\"/static/app.js\">' in r.text, r.text[:200]; "
-             "assert c.get('/static/app.js').status_code == 200")
+    check = f"""
+import socket, threading, time, urllib.request
+import uvicorn
+import argand.api.app as a
+from argand.farm.settings import Settings
+assert a.__file__.startswith({str(site)!r}), a.__file__
+with socket.socket() as s:
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+server = uvicorn.Server(uvicorn.Config(a.create_app(Settings(data_dir={str(tmp_path / 'data')!r})), port=port, log_level="warning"))
+threading.Thread(target=server.run, daemon=True).start()
+while not server.started:
+    time.sleep(0.05)
+page = urllib.request.urlopen(f"http://127.0.0.1:{{port}}/").read().decode()
+assert '<script type="module" src="/static/app.js">' in page, page[:200]
+assert urllib.request.urlopen(f"http://127.0.0.1:{{port}}/static/app.js").status == 200
+server.should_exit = True
+"""
     r = subprocess.run([sys.executable, "-S", "-c", check], capture_output=True, text=True,
                        env=dict(os.environ, PYTHONPATH=path), cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]

@@ -73,25 +73,25 @@ def list_jobs(
 
 
 @router.get("/{job_id}")
-def get_job(job_id: JobIdDep, settings: SettingsDep) -> JobOut:
+def get_job(job_id: str, settings: SettingsDep) -> JobOut:
     return _job(settings, job_id)
 
 
 @router.post("/{job_id}/{action}")
-def control(job_id: JobIdDep, action: Literal[tuple(ACTIONS)], settings: SettingsDep) -> JobOut:
+def control(job_id: str, action: Literal[tuple(ACTIONS)], settings: SettingsDep) -> JobOut:
     set_job_status(settings, job_id, action)
     return _job(settings, job_id)
 
 
 @router.patch("/{job_id}")
-def patch(job_id: JobIdDep, body: PriorityPatch, settings: SettingsDep) -> JobOut:
+def patch(job_id: str, body: PriorityPatch, settings: SettingsDep) -> JobOut:
     """A new priority, in effect at once for the job's queued tiles."""
     set_priority(settings, job_id, body.priority)
     return _job(settings, job_id)
 
 
 @router.delete("/{job_id}", status_code=204)
-def delete(job_id: JobIdDep, settings: SettingsDep) -> None:
+def delete(job_id: str, settings: SettingsDep) -> None:
     delete_job(settings, job_id)
 
 

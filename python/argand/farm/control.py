@@ -14,8 +14,11 @@ from argand.farm.states import ACTIONS, ACTIVE, JOB, TILE
 from argand.farm.store import store_for
 
 
-class NoSuchJob(KeyError):
-    pass
+class NoSuchJob(LookupError):
+    """The job does not exist (or no longer)."""
+
+    def __init__(self, job_id: str) -> None:
+        super().__init__(f"no job {job_id!r}")
 
 
 def set_job_status(settings: Settings, job_id: str, action: str) -> str:
