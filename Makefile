@@ -8,7 +8,7 @@ PIP     := $(PY) -m pip
 STAMP   := $(VENV)/.argand-deps
 SOURCES := $(shell find core python api worker web -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: setup build run test test-cpp test-py bench bench-render bench-smoke clean
+.PHONY: setup build run test test-cpp test-py bench bench-render bench-smoke load clean
 
 setup: $(VENV)/.argand-built
 
@@ -50,6 +50,13 @@ run: setup
 
 bench-render: setup
 	$(VENV)/bin/argand bench render
+
+# The load test: simulated users (Locust) against argand serve --workers 2 on
+# a free loopback port (its own data folder): ramp, steady, drain, probes.
+# A few minutes; writes docs/bench/load.{json,md,png}. Its smoke version
+# runs in make test (tests/test_load.py).
+load: setup
+	$(VENV)/bin/argand bench load
 
 # C++ unit tests of the arithmetic, with the CMake that setup installed.
 test-cpp: $(STAMP)

@@ -337,6 +337,9 @@ def bench_load_cmd(
     steady_users: Optional[int] = typer.Option(None, "--steady-users", help="Users in the steady phase "
                                                "(default: the sustainable level the ramp found)."),
     profile: bool = typer.Option(False, "--profile", help="Sample the API with py-spy during the steady phase."),
+    probes: Optional[bool] = typer.Option(None, "--probes/--no-probes", help="After the drain, time the list and "
+                                          "status requests under conditions that isolate the causes (default: on, "
+                                          "off with --smoke)."),
     seed: int = typer.Option(1, "--seed", help="Seed of the users' choices."),
 ) -> None:
     """Simulated users (Locust) against a two-worker farm: ramp, steady, drain; latency per endpoint, lost jobs, throughput."""
@@ -357,7 +360,8 @@ def bench_load_cmd(
         fail(f"--steady-users must be at least 1, got {steady_users}")
     with console.status("load test") as status:
         report = bench_load(out_dir=out, url=url, smoke=smoke, ramp_users=ramp, step_s=step_s, steady_s=steady_s,
-                            steady_users=steady_users, seed=seed, profile=profile, progress=lambda m: status.update(m))
+                            steady_users=steady_users, seed=seed, profile=profile, probes=probes,
+                            progress=lambda m: status.update(m))
     from argand.bench.load import markdown
 
     console.print(markdown(report), soft_wrap=True, markup=False, highlight=False)

@@ -415,12 +415,14 @@ FILLER = {"scene": "bicube", "width": 256, "height": 256, "deltas": {"start": 0,
 def bench_load(out_dir: Path = Path("docs/bench"), url: str | None = None, smoke: bool = False,
                ramp_users: tuple[int, ...] | None = None, step_s: float | None = None, steady_s: float | None = None,
                steady_users: int | None = None, drain_timeout_s: float | None = None, seed: int = 1,
-               profile: bool = False, progress: Callable[[str], None] = lambda m: None) -> dict:
+               profile: bool = False, probes: bool | None = None,
+               progress: Callable[[str], None] = lambda m: None) -> dict:
     """Ramp, steady, drain (see the module's text); writes load.json,
     load.md and load.png into ``out_dir`` and returns the report."""
     from argand.bench.farm import LocalFarm
 
     ramp_users = ramp_users or ((1, 4) if smoke else (1, 5, 10, 20, 40, 60))
+    probes = (not smoke) if probes is None else probes
     step_s = step_s or (4.0 if smoke else 20.0)
     steady_s = steady_s or (6.0 if smoke else 90.0)
     drain_timeout_s = drain_timeout_s or (120.0 if smoke else 600.0)
@@ -431,10 +433,11 @@ def bench_load(out_dir: Path = Path("docs/bench"), url: str | None = None, smoke
             progress("starting argand serve --workers 2")
             with LocalFarm(work / "farm", 2) as farm:
                 report = _bench(farm.url, farm.proc.pid, work / "farm" / "argand.db", work, smoke, ramp_users, step_s,
-                                steady_s, steady_users, drain_timeout_s, seed, wait_s, sse_hold_s, profile, progress)
+                                steady_s, steady_users, drain_timeout_s, seed, wait_s, sse_hold_s, profile, probes,
+                                progress)
         else:
             report = _bench(url.rstrip("/"), None, None, work, smoke, ramp_users, step_s, steady_s, steady_users,
-                            drain_timeout_s, seed, wait_s, sse_hold_s, False, progress)
+                            drain_timeout_s, seed, wait_s, sse_hold_s, False, probes, progress)
     out_dir.mkdir(parents=True, exist_ok=True)
     series = report.pop("series")
     if report.get("profile"):  # py-spy's collapsed stacks of the API, for a closer look
@@ -447,7 +450,7 @@ def bench_load(out_dir: Path = Path("docs/bench"), url: str | None = None, smoke
 
 
 def _bench(url, root_pid, database, work, smoke, ramp_users, step_s, steady_s, steady_users, drain_timeout_s, seed,
-           wait_s, sse_hold_s, profile, progress) -> dict:
+           wait_s, sse_hold_s, profile, probes, progress) -> dict:
     client = httpx.Client(base_url=url)
     presets = [p["name"] for p in client.get("/api/presets", timeout=120).json()]
     api_pid = root_pid
@@ -488,6 +491,13 @@ def _bench(url, root_pid, database, work, smoke, ramp_users, step_s, steady_s, s
         frames_loaded = sum(len(f) for _, f in window)
         progress(f"replaying the steady phase's {frames_loaded} frames on the idle farm")
         replayed = replay(client, window, drain_timeout_s) if window else None
+        # 5. Probes for the diagnosis, on the idle farm full of the run's jobs.
+        diagnosis = None
+        if probes:
+            done = [views[j] for j in accepted if views[j]["status"] == "done"] or list(views.values())
+            target = max(done, key=lambda v: len(v.get("frames", [])))["id"]
+            workers = sorted({p["pid"] for p in sampler.processes if p["name"].startswith("worker")})
+            diagnosis = probe(url, api_pid, workers if root_pid else [], target, smoke, progress)
         busy = [m for m in sampler.metrics if t0 <= m["t"] < t1]
         saturated = sum(1 for m in busy if m["tiles_queued"] + m["tiles_running"] >= 2) / max(len(busy), 1)
     finally:
@@ -555,6 +565,7 @@ def _bench(url, root_pid, database, work, smoke, ramp_users, step_s, steady_s, s
         "metrics_ms": percentiles([m["ms"] for m in sampler.metrics]),
         "verdict": verdict,
         "profile": profile_report,
+        "probes": diagnosis,
         "phases_s": {"ramp": [ramp["phases"][0]["t"] - t_start, ramp["phases"][-1]["t"] - t_start],
                      "steady": [t0 - t_start, t1 - t_start], "drain": [t1 - t_start, t_drained - t_start]},
         "series": time_series(rows, sampler.metrics, processes, t_start, 1.0 if smoke else 5.0),
@@ -591,15 +602,14 @@ def _stop_profiler(profiler) -> dict | None:
 
 
 def _thread_kind(frames: list[str]) -> str:
-    """Which of the API's threads a stack is from."""
+    """Which of the API's threads a stack is from (py-spy --threads puts
+    'thread (id): name' first)."""
     stack = ";".join(frames)
     if "_reaper" in stack:
         return "reaper"
-    if "worker_thread" in stack or "anyio" in stack and "to_thread" in stack or "_worker (concurrent" in stack:
+    if "AnyIO worker thread" in frames[0] or "WorkerThread.run" in stack:
         return "threadpool (sync endpoints)"
-    if "run_forever" in stack or "_run_once" in stack:
-        return "event loop"
-    return "other"
+    return "event loop"
 
 
 def _function(frame: str) -> str:
@@ -608,27 +618,176 @@ def _function(frame: str) -> str:
     return f"{name} ({where.split(':')[0].rsplit('/', 1)[-1]})" if where else name
 
 
-def summarize_profile(collapsed: str, top: int = 15) -> dict:
-    """From py-spy's collapsed stacks (active samples only): samples per
-    kind of thread, and per kind the functions on the stack in the most
-    samples (inclusive)."""
-    kinds: dict[str, int] = {}
+#: Leaves where a thread waits (not work): a queue, a lock, the selector.
+IDLE_LEAVES = ("Condition.wait", "Event.wait", "select (", "epoll", "Runner.run", "_run_once", "WorkerThread.run",
+               "Condition.notify", "run_forever")
+#: Functions whose inclusive share of the API's busy samples the diagnosis cites.
+NAMED = ("list_jobs", "get_job", "job_view", "job_progress", "_emit_lazyload", "submit", "create_job", "_send",
+         "control", "set_job_status", "dispatch_job", "patch", "stream", "reap", "_file", "metrics", "validate_scene")
+#: Our own functions worth naming in the summary.
+OWN = ("argand/", "api/main.py", "worker/farm.py", "api/db.py")
+
+
+def summarize_profile(collapsed: str, top: int = 12) -> dict:
+    """From py-spy's collapsed stacks of the API: busy samples (the leaf is
+    not a wait) per kind of thread, and per kind the project's functions on
+    the stack in the most busy samples (inclusive) with their share."""
+    busy: dict[str, int] = {}
     inclusive: dict[str, dict[str, int]] = {}
+    named: dict[str, int] = {}
+    idle = 0
     for line in collapsed.splitlines():
         stack, _, count = line.rpartition(" ")
         if not stack or not count.isdigit():
             continue
         n = int(count)
         frames = stack.split(";")
+        if any(w in frames[-1] for w in IDLE_LEAVES):
+            idle += n
+            continue
         kind = _thread_kind(frames)
-        kinds[kind] = kinds.get(kind, 0) + n
+        busy[kind] = busy.get(kind, 0) + n
+        names = {f.split(" (")[0].rsplit(".", 1)[-1] for f in frames[1:]}
+        for name in NAMED:
+            if name in names:
+                named[name] = named.get(name, 0) + n
         table = inclusive.setdefault(kind, {})
-        for f in {_function(f) for f in frames[1:]}:
+        for f in {_function(f) for f in frames[1:] if any(o in f for o in OWN)}:
             table[f] = table.get(f, 0) + n
-    return {"samples": kinds,
-            "top_inclusive": {kind: [{"function": f, "samples": n, "share": n / kinds[kind]}
-                                     for f, n in sorted(table.items(), key=lambda kv: -kv[1])[:top]]
-                              for kind, table in inclusive.items()}}
+    total = sum(busy.values())
+    return {"busy_samples": busy, "idle_samples": idle, "busy_total": total,
+            "named_share_of_busy": {k: named.get(k, 0) / max(total, 1) for k in NAMED},
+            "top_own_functions": {kind: [{"function": f, "samples": n, "share_of_busy": n / max(total, 1)}
+                                         for f, n in sorted(table.items(), key=lambda kv: -kv[1])[:top]]
+                                  for kind, table in inclusive.items()}}
+
+
+# ---------------------------------------------------------------------------
+# Probes: what a request costs, and what slows it (for the diagnosis)
+# ---------------------------------------------------------------------------
+
+
+def _latencies(url: str, path: str, clients: int, per_client: int) -> tuple[list[float], float]:
+    """``clients`` threads each GET ``path`` ``per_client`` times in a row;
+    returns the latencies (ms) and the wall time."""
+    out: list[float] = []
+    errors: list[str] = []
+
+    def run() -> None:
+        with httpx.Client(base_url=url) as c:
+            for _ in range(per_client):
+                t = time.perf_counter()
+                r = c.get(path, timeout=120)
+                out.append(1000 * (time.perf_counter() - t))
+                if r.status_code != 200:
+                    errors.append(f"{path}: {r.status_code}")
+
+    threads = [threading.Thread(target=run) for _ in range(clients)]
+    start = time.perf_counter()
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    if errors:
+        raise RuntimeError(f"probe failed: {errors[:3]}")
+    return out, time.perf_counter() - start
+
+
+def _process_cpu_s(pid: int | None) -> float | None:
+    if pid is None:
+        return None
+    import psutil
+
+    c = psutil.Process(pid).cpu_times()
+    return c.user + c.system
+
+
+class _EventStreams:
+    """``n`` clients holding a job's SSE stream open (reading it)."""
+
+    def __init__(self, url: str, job_id: str, n: int) -> None:
+        self.url, self.job_id, self.n = url, job_id, n
+        self.stop = threading.Event()
+        self.events = 0
+
+    def _hold(self) -> None:
+        with httpx.Client(base_url=self.url, timeout=None) as c:
+            with c.stream("GET", f"/api/jobs/{self.job_id}/events") as r:
+                for line in r.iter_lines():
+                    self.events += line.startswith("event:")
+                    if self.stop.is_set():
+                        return
+
+    def __enter__(self) -> "_EventStreams":
+        self.threads = [threading.Thread(target=self._hold, daemon=True) for _ in range(self.n)]
+        for t in self.threads:
+            t.start()
+        time.sleep(1.0)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.stop.set()
+
+
+def probe(url: str, api_pid: int | None, worker_pids: list[int], job_id: str, smoke: bool,
+          progress: Callable[[str], None]) -> dict:
+    """Latency of the list (20 jobs a page) and of one job's status, with 1
+    and 8 clients in a row, under conditions that isolate the suspects:
+    the idle farm; both workers rendering; rendering with N clients holding
+    SSE streams; rendering with the workers at a lower CPU priority
+    (nice 10, set from here: an experiment, only on a farm the harness
+    started). Also the API's CPU time per request (one client, idle farm)."""
+    import psutil
+
+    client = httpx.Client(base_url=url)
+    per = 10 if smoke else 40
+    paths = {"list": "/api/jobs?per_page=20", "status": f"/api/jobs/{job_id}"}
+    out: dict = {"conditions": {}, "api_cpu_ms_per_request": {}}
+
+    def measure(condition: str) -> None:
+        rows = {}
+        for what, path in paths.items():
+            for clients in (1, 8):
+                cpu0 = _process_cpu_s(api_pid)
+                ms, wall = _latencies(url, path, clients, per if clients == 1 else per // 2)
+                cpu1 = _process_cpu_s(api_pid)
+                rows[f"{what}, {clients} client(s)"] = {**percentiles(ms), "rps": len(ms) / wall,
+                                                        "api_cores": None if cpu0 is None else (cpu1 - cpu0) / wall}
+                if condition == "idle farm" and clients == 1 and cpu0 is not None:
+                    out["api_cpu_ms_per_request"][what] = 1000 * (cpu1 - cpu0) / len(ms)
+        out["conditions"][condition] = {"load_average_1min": os.getloadavg()[0], "rows": rows}
+
+    progress("probe: the idle farm")
+    measure("idle farm")
+    filler = client.post("/api/jobs", json=dict(FILLER, deltas={"start": 0, "stop": "pi/6", "count": 400}),
+                         timeout=120).json()["id"]
+    try:
+        time.sleep(2.0)
+        progress("probe: both workers rendering")
+        measure("workers rendering")
+        streams = 4 if smoke else 20
+        progress(f"probe: rendering, {streams} SSE streams open")
+        with _EventStreams(url, filler, streams) as held:
+            measure(f"workers rendering, {streams} SSE streams open")
+        out["sse_events_read"] = held.events
+        if worker_pids:
+            progress("probe: rendering, workers at nice 10")
+            procs = [psutil.Process(p) for p in worker_pids]
+            before = [p.nice() for p in procs]
+            for p in procs:
+                p.nice(10)
+            try:
+                measure("workers rendering at nice 10")
+            finally:
+                for p, n in zip(procs, before):
+                    try:
+                        p.nice(n)
+                    except psutil.Error:  # lowering it back needs root; the farm ends soon anyway
+                        pass
+    finally:
+        client.post(f"/api/jobs/{filler}/cancel", timeout=60)
+        client.close()
+    return out
 
 
 # ---------------------------------------------------------------------------
@@ -695,12 +854,40 @@ def markdown(report: dict) -> str:
               "|---|---:|---:|---:|"]
     for name, p in report["processes"].items():
         lines.append(f"| {name} | {p['max_mb']:.0f} | {p['last_mb']:.0f} | {p['mean_cpu_percent_steady']:.0f} |")
+    lines += diagnosis_markdown(report)
     if report["exceptions"]:
         lines += ["", "Exceptions in the users' code: " + "; ".join(f"{e['count']}× {e['msg']}" for e in report["exceptions"])]
     failures = [(n, s["failure_examples"]) for n, s in {**report["ramp"]["endpoints"], **st["endpoints"]}.items() if s["failures"]]
     if failures:
         lines += ["", "Failures: " + "; ".join(f"`{n}`: {' / '.join(ex)}" for n, ex in failures)]
     return "\n".join(lines) + "\n"
+
+
+def diagnosis_markdown(report: dict) -> list[str]:
+    """The probes' table and the profile's shares (the figures the causes in
+    docs/benchmarks.md cite)."""
+    lines: list[str] = []
+    pr = report.get("probes")
+    if pr:
+        lines += ["", "### Probes (after the drain; the farm holds the run's jobs)", "",
+                  "Latency in ms (p50 / p99) of `GET /api/jobs?per_page=20` (list) and of one job's `GET /api/jobs/{id}` "
+                  "(status), one client or 8 clients sending in a row; the machine's 1-minute load average beside.", "",
+                  "| condition | load avg | " + " | ".join(next(iter(pr["conditions"].values()))["rows"]) + " |",
+                  "|---|---:|" + "---:|" * len(next(iter(pr["conditions"].values()))["rows"])]
+        for name, c in pr["conditions"].items():
+            cells = [f"{_ms(r['p50_ms'])} / {_ms(r['p99_ms'])} ({r['rps']:.0f}/s)" for r in c["rows"].values()]
+            lines.append(f"| {name} | {c['load_average_1min']:.1f} | " + " | ".join(cells) + " |")
+        cpu = pr["api_cpu_ms_per_request"]
+        if cpu:
+            lines += ["", "The API's CPU time per request (one client, idle farm): "
+                      + ", ".join(f"{k} {v:.1f} ms" for k, v in cpu.items()) + "."]
+    prof = report.get("profile")
+    if prof and prof.get("busy_total"):
+        shares = {k: v for k, v in prof["named_share_of_busy"].items() if v >= 0.01}
+        lines += ["", f"py-spy on the API during the steady phase: {prof['busy_total']} busy samples ("
+                  + ", ".join(f"{k} {v}" for k, v in prof["busy_samples"].items()) + "); share of them inside: "
+                  + ", ".join(f"`{k}` {100 * v:.0f}%" for k, v in sorted(shares.items(), key=lambda kv: -kv[1])) + "."]
+    return lines
 
 
 def chart(report: dict, series: dict, path: Path) -> None:
