@@ -21,6 +21,8 @@ from argand.bench import machine_info, median_time
 from argand.core import find_roots_batch
 
 OUR_METHODS = ("auto", "smith", "paper", "unverified")
+#: How the headline names each suite.
+SUITE_LABELS = {"quartic": "quartics", "mixed_2_8": "mixed degrees 2-8", "rays": "real ray polynomials"}
 #: What each row measures (written into roots.json).
 CONTENDERS = {
     "argand-*": "argand.core.find_roots_batch(matrix, method) on one (N, n+1) batch per degree",
@@ -233,16 +235,24 @@ def bench_roots(
     repeats = 3 if smoke else 5
     # Timed repetitions after one untimed warm-up run; the median is kept.
     timed_runs = {"ours": repeats, "numpy": repeats, "flint": 3, "mpsolve": 3, "mpmath": 1}
+    from argand.bench.rays import ray_polynomials, summary
+
+    # Real ray polynomials: every preset and surfaces of degree 5 to 8,
+    # silhouettes and uncertified pixels included (argand.bench.rays).
+    rays, ray_origin = ray_polynomials(per_kind=3 if smoke else 40, size=48 if smoke else 96)
+    order = rng.permutation(len(rays))  # the contenders run on leading subsets: every scene in each
+    rays, ray_origin = [rays[i] for i in order], [ray_origin[i] for i in order]
     suites = {
         "quartic": random_polys(rng, count, (4, 4)),
         "mixed_2_8": random_polys(rng, count, (2, 8)),
+        "rays": rays,
     }
     have_mpsolve, mpsolve_note = mpsolve_available()
     report: dict = {
         "benchmark": "roots",
         "machine": machine_info(),
         "versions": versions(),
-        "sizes": sizes,
+        "sizes": sizes,  # per suite: at most these, at most the suite's size
         "repeats": timed_runs,
         "mpsolve": {"available": have_mpsolve, "note": mpsolve_note},
         "contenders": CONTENDERS,
@@ -254,6 +264,9 @@ def bench_roots(
             "rounded double"
         ),
         "suites": {},
+        "rays": dict(summary(ray_origin), note="the rays suite: primary rays of every preset and of surfaces of "
+                     "degree 5 to 8 (argand.bench.rays.HIGH_DEGREE) at delta 0, pi/18, pi/9; silhouette, uncertified, "
+                     "random-hit and random pixels; one polynomial per object"),
     }
     steps_per_suite = 2 + len(OUR_METHODS) + 4 + (1 if have_mpsolve else 0)
     total = steps_per_suite * len(suites) + 1
@@ -264,7 +277,9 @@ def bench_roots(
         progress(message, done, total)
         done += 1
 
+    full_sizes = dict(sizes)
     for suite, polys in suites.items():
+        sizes = {k: min(v, len(polys)) for k, v in full_sizes.items()}
         step(f"{suite}: truth for {sizes['truth']} polynomials (python-flint, 128 bits, exact rationals)")
         truth_idx = list(range(sizes["truth"]))
         truth = [true_roots(polys[i]) for i in truth_idx]
@@ -334,7 +349,7 @@ def headline(report: dict) -> list[str]:
     }
     lines = []
     for suite, data in report["suites"].items():
-        label = "quartics" if suite == "quartic" else "mixed degrees 2-8"
+        label = SUITE_LABELS.get(suite, suite)
         ratios = data["slowdown_vs_auto"]
         for key, text in names.items():
             if key in ratios:
