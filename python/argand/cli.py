@@ -368,6 +368,48 @@ def bench_load_cmd(
     console.print(f"wrote {out / 'load.json'}, {out / 'load.md'} and {out / 'load.png'}")
 
 
+@bench_app.command("stability")
+def bench_stability_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for stability.json, stability.md and stability.png."),
+    smoke: bool = typer.Option(False, "--smoke", help="A small picture, for CI."),
+) -> None:
+    """The named stability suite: every method (argand's, numpy, python-flint, mpmath, MPSolve) on every case, classed."""
+    from argand.bench.stability import bench_stability, markdown
+
+    with console.status("stability suite") as status:
+        report = bench_stability(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+    console.print(markdown(report), soft_wrap=True, markup=False, highlight=False)
+    console.print(f"wrote {out / 'stability.json'}, {out / 'stability.md'} and {out / 'stability.png'}")
+
+
+@bench_app.command("all")
+def bench_all_cmd(
+    out: Path = typer.Option(None, "--out", help="Folder for every section's files (default docs/bench, "
+                             "smoke build/bench-smoke)."),
+    page: Path = typer.Option(None, "--page", help="The report (default docs/benchmarks.md, smoke "
+                              "build/bench-smoke/benchmarks.md)."),
+    smoke: bool = typer.Option(False, "--smoke", help="Every section at its smoke size (minutes): keeps them alive in CI."),
+    reuse: Optional[str] = typer.Option(None, "--reuse", help="Sections taken from their last JSON instead of run "
+                                        "again, e.g. farm,render (of: roots, stability, render, farm, load)."),
+) -> None:
+    """Every benchmark, then docs/benchmarks.md: machine and versions, roots, stability, render, farm, load."""
+    from argand.bench.report import SECTIONS, bench_all
+
+    default_out = Path("build/bench-smoke") if smoke else Path("docs/bench")
+    out = out or default_out
+    page = page or (out / "benchmarks.md" if smoke else Path("docs/benchmarks.md"))
+    chosen = tuple(s.strip() for s in reuse.split(",") if s.strip()) if reuse else ()
+    bad = [s for s in chosen if s not in SECTIONS]
+    if bad:
+        fail(f"--reuse: unknown section(s) {', '.join(bad)}; sections: {', '.join(SECTIONS)}")
+    with console.status("benchmarks") as status:
+        try:
+            bench_all(out_dir=out, page=page, smoke=smoke, reuse=chosen, progress=lambda m: status.update(m))
+        except FileNotFoundError as exc:
+            fail(str(exc))
+    console.print(f"wrote {page} (sections' files in {out}/)")
+
+
 # ---------------------------------------------------------------------------
 # The farm
 # ---------------------------------------------------------------------------

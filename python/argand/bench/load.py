@@ -582,8 +582,10 @@ def _start_profiler(pid: int, seconds: float, work: Path):
     if not spy.exists():
         return None
     out = work / "api-profile.txt"
+    # --idle: a thread waiting inside SQLite (a lock) or Redis is sampled too;
+    # summarize_profile tells waiting for work from waiting inside a request.
     proc = subprocess.Popen([str(spy), "record", "--pid", str(pid), "--duration", str(int(seconds)), "--rate", "50",
-                             "--format", "raw", "--threads", "--output", str(out), "--nonblocking"],
+                             "--format", "raw", "--threads", "--idle", "--output", str(out), "--nonblocking"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return proc, out
 
@@ -623,7 +625,8 @@ IDLE_LEAVES = ("Condition.wait", "Event.wait", "select (", "epoll", "Runner.run"
                "Condition.notify", "run_forever")
 #: Functions whose inclusive share of the API's busy samples the diagnosis cites.
 NAMED = ("list_jobs", "get_job", "job_view", "job_progress", "_emit_lazyload", "submit", "create_job", "_send",
-         "control", "set_job_status", "dispatch_job", "patch", "stream", "reap", "_file", "metrics", "validate_scene")
+         "control", "set_job_status", "dispatch_job", "patch", "stream", "reap", "_file", "metrics", "validate_scene",
+         "do_execute", "do_commit", "send_task")
 #: Our own functions worth naming in the summary.
 OWN = ("argand/", "api/main.py", "worker/farm.py", "api/db.py")
 
@@ -855,6 +858,9 @@ def markdown(report: dict) -> str:
     for name, p in report["processes"].items():
         lines.append(f"| {name} | {p['max_mb']:.0f} | {p['last_mb']:.0f} | {p['mean_cpu_percent_steady']:.0f} |")
     lines += diagnosis_markdown(report)
+    found = causes(report)
+    if found:
+        lines += ["", "### Causes of the misses, and where the fixes belong", ""] + [f"{i}. {c}" for i, c in enumerate(found, 1)]
     if report["exceptions"]:
         lines += ["", "Exceptions in the users' code: " + "; ".join(f"{e['count']}× {e['msg']}" for e in report["exceptions"])]
     failures = [(n, s["failure_examples"]) for n, s in {**report["ramp"]["endpoints"], **st["endpoints"]}.items() if s["failures"]]
@@ -888,6 +894,110 @@ def diagnosis_markdown(report: dict) -> list[str]:
                   + ", ".join(f"{k} {v}" for k, v in prof["busy_samples"].items()) + "); share of them inside: "
                   + ", ".join(f"`{k}` {100 * v:.0f}%" for k, v in sorted(shares.items(), key=lambda kv: -kv[1])) + "."]
     return lines
+
+
+def _row(report: dict, condition: str, row: str) -> dict | None:
+    pr = report.get("probes") or {}
+    for name, c in pr.get("conditions", {}).items():
+        if name.startswith(condition) and (condition != "workers rendering" or name == condition):
+            return c["rows"].get(row)
+    return None
+
+
+def causes(report: dict) -> list[str]:
+    """The diagnosed causes, each with the run's figures and where its fix
+    belongs. Written from the probes, the profile and the steady phase."""
+    out: list[str] = []
+    st = report["steady"]["endpoints"]
+    prof = (report.get("profile") or {}).get("named_share_of_busy", {})
+    cpu = (report.get("probes") or {}).get("api_cpu_ms_per_request", {})
+
+    def pct(name: str) -> str:
+        return f"{100 * prof.get(name, 0.0):.0f}%"
+
+    def lat(condition: str, row: str) -> str:
+        r = _row(report, condition, row)
+        return f"{_ms(r['p50_ms'])}/{_ms(r['p99_ms'])} ms" if r else "–"
+
+    if cpu:
+        out.append(
+            f"**The job list is expensive.** One page of 20 jobs costs {cpu.get('list', 0):.1f} ms of the API's CPU, a "
+            f"job's status {cpu.get('status', 0):.1f} ms (idle farm, one client); with 8 clients the list tops out at "
+            f"{(_row(report, 'idle farm', 'list, 8 client(s)') or {}).get('rps', 0):.0f} requests/s on the idle farm. "
+            f"`list_jobs` builds the full `job_view` of every job: a lazy load of each job's frames (N+1 queries), "
+            f"every frame's `figures` JSON decoded and copied, the scene JSON per job"
+            + (f"; during the steady phase `list_jobs` is in {pct('list_jobs')} of the API's active samples, "
+               f"`job_view` {pct('job_view')}, lazy loads {pct('_emit_lazyload')}" if prof else "") + ". "
+            "Fix: api/main.py `list_jobs`/`job_view` (after the move: the job queries of argand.farm): a list view "
+            "without per-frame figures, the progress of all listed jobs in one aggregate query over frames "
+            "(or `selectinload(Job.frames)`), JSON columns deferred; the per-job view keeps the frames.")
+    if _row(report, "workers rendering at nice 10", "status, 8 client(s)"):
+        out.append(
+            "**Renders and requests share the CPU at the same priority.** On 2 cores the two workers take what "
+            "they can; a request waits behind them. Status with 8 clients (p50/p99): idle farm "
+            f"{lat('idle farm', 'status, 8 client(s)')}, workers rendering {lat('workers rendering', 'status, 8 client(s)')}, "
+            f"workers at nice 10 {lat('workers rendering at nice 10', 'status, 8 client(s)')}; the list with one client: "
+            f"{lat('idle farm', 'list, 1 client(s)')}, {lat('workers rendering', 'list, 1 client(s)')}, "
+            f"{lat('workers rendering at nice 10', 'list, 1 client(s)')}. "
+            "Fix: worker/serve.py `start_workers` (after the move: where argand.farm starts workers) starts the "
+            "Celery workers at a lower priority (`os.nice(10)` in a `preexec_fn`, or `nice -n 10` before "
+            "`worker_command`); the workers still get every cycle the API does not use.")
+    sse = next((k for k in (report.get("probes") or {}).get("conditions", {}) if "SSE" in k), None)
+    if sse:
+        out.append(
+            f"**The SSE poller runs database work on the event loop.** `events.stream` (api/main.py) opens a "
+            "session and builds the whole `job_view` every 0.5 s per open stream, synchronously, inside the "
+            "async generator: while it runs, no other request on the loop moves. With the workers rendering, the "
+            f"list with 8 clients: {lat('workers rendering', 'list, 8 client(s)')} without streams, "
+            f"{lat(sse, 'list, 8 client(s)')} with {sse.split(', ')[1]}; status with 8 clients "
+            f"{lat('workers rendering', 'status, 8 client(s)')} vs {lat(sse, 'status, 8 client(s)')}"
+            + (f"; in the steady phase `stream` is in {pct('stream')} of the API's active samples" if prof else "")
+            + ". Fix: api/main.py `events`: the tick in a thread (`await run_in_threadpool(...)`), and a compact "
+            "progress query (counters and frame states) instead of `job_view`; better, one poller per job shared "
+            "by its streams.")
+    submit = st.get("POST /api/jobs")
+    resume = st.get("POST /api/jobs/{id}/resume")
+    if submit:
+        out.append(
+            f"**Celery dispatch in the request path.** `POST /api/jobs` p50/p99 {_ms(submit['p50_ms'])}/"
+            f"{_ms(submit['p99_ms'])} ms"
+            + (f", resume {_ms(resume['p50_ms'])}/{_ms(resume['p99_ms'])} ms" if resume else "")
+            + ": the request inserts every tile and sends every message (`create_job` → `_send`, one `send_task` "
+            "and Redis round trip per message, a `saferepr` of its arguments each)"
+            + (f"; `create_job` is in {pct('create_job')} of the API's active samples, `send_task` {pct('send_task')}"
+               if prof else "") + ". "
+            "Fix: worker/farm.py `_send` (after the move: argand.farm's dispatch): publish a job's messages on one "
+            "producer connection (`app.producer_or_acquire()`) in one pipeline, or answer 201 once the rows are "
+            "committed and send from a background task; the same for `dispatch_job` (resume, priority).")
+    if prof:
+        sql = prof.get("do_execute", 0.0) + prof.get("do_commit", 0.0)
+        if sql < 0.25:
+            out.append(
+                f"**The SQLite write lock: no evidence.** The API spends {100 * sql:.0f}% of its active samples "
+                f"inside SQL statements and commits, waits included (`do_execute` {pct('do_execute')}, `do_commit` "
+                f"{pct('do_commit')}); reads run on WAL snapshots and do not wait for the workers' commits.")
+        else:
+            out.append(
+                f"**Time inside SQLite: {100 * sql:.0f}% of the API's active samples** (`do_execute` "
+                f"{pct('do_execute')}, `do_commit` {pct('do_commit')}, waits included): see load_profile.txt for "
+                "the statements; a write waiting for the workers' commits (busy_timeout) shows here.")
+    tp = report.get("throughput")
+    if tp:
+        loaded, idle = tp["cores_loaded"], tp["cores_unloaded"]
+        ours = sum(v for k, v in loaded.items() if k != "machine")
+        others = (loaded["machine"] - ours) if loaded.get("machine") is not None else None
+        same_work = tp["worker_cpu_s_per_frame_loaded"] <= 1.1 * tp["worker_cpu_s_per_frame_unloaded"]
+        out.append(
+            f"**Rendering under load: {100 * tp['share']:.0f}% of the idle farm.** Worker CPU per frame is "
+            f"{tp['worker_cpu_s_per_frame_loaded']:.3f} s under load and {tp['worker_cpu_s_per_frame_unloaded']:.3f} s "
+            + ("idle: the load does not make a frame more work; the workers get fewer cycles. " if same_work else
+               "idle: under load a frame costs the workers more CPU (contention for caches, the database, Redis). ")
+            + f"They ran on "
+            f"{loaded['workers']:.2f} cores under load ({idle['workers']:.2f} idle) while the API took "
+            f"{loaded['api']:.2f} and the users' process {loaded['users (locust)']:.2f}"
+            + (f", and other work on this shared machine {others:.2f} cores" if others is not None else "")
+            + ". The API's share falls with the list fix; the rest is the machine, not the farm.")
+    return out
 
 
 def chart(report: dict, series: dict, path: Path) -> None:
