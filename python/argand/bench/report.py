@@ -75,7 +75,8 @@ def run_section(name: str, out_dir: Path, smoke: bool, progress: Callable[[str],
     if name == "load":
         from argand.bench.load import bench_load
 
-        report = bench_load(out_dir=out_dir, smoke=smoke, progress=lambda m: progress(f"load: {m}"))
+        # py-spy on the API during the steady phase: the evidence the causes cite
+        report = bench_load(out_dir=out_dir, smoke=smoke, profile=not smoke, progress=lambda m: progress(f"load: {m}"))
         report.pop("series", None)
         return report
     raise ValueError(f"unknown section {name!r}; sections: {', '.join(SECTIONS)}")
@@ -183,22 +184,21 @@ def _section_stability(report: dict, out_dir: Path, page: Path) -> list[str]:
 
 
 def _section_render(report: dict, out_dir: Path, page: Path) -> list[str]:
-    from argand.scene import PRESETS, load_scene
+    from argand.bench.rays import scenes
 
-    degrees = {}
-    for name in PRESETS:
-        degrees[name] = "+".join(str(o.polynomial.degree) for o in load_scene(name).objects)
+    degrees = {name: "+".join(str(o.polynomial.degree) for o in scene.objects) for name, scene in scenes().items()}
     frames = report["frames"]
     size = max(f["width"] for f in frames)
-    lines = ["## Render: every preset", "",
-             f"`argand bench render`: one core, each preset at {size}×{size} (and smaller, in render.json) for three "
-             "deltas; the same frame with `method=unverified` beside it (the price of the proof).", "",
+    lines = ["## Render: every preset, and degrees 5 to 8", "",
+             f"`argand bench render`: one core, each preset and the degree 5-8 surfaces of the roots benchmark at "
+             f"{size}×{size} (and smaller, in render.json) for three deltas; the same frame with `method=unverified` "
+             "beside it (the price of the proof).", "",
              "| scene | degree | δ | ms / frame | ns / pixel | certified | escalated | unverified ms | proof overhead |",
              "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for f in frames:
         if f["width"] != size:
             continue
-        lines.append(f"| {f['scene']} | {degrees.get(f['scene'], '?')} | {f['delta']:.4f} | {f['ms']:.0f} | "
+        lines.append(f"| {f['scene']} | {f.get('degree') or degrees.get(f['scene'], '?')} | {f['delta']:.4f} | {f['ms']:.0f} | "
                      f"{f['ns_per_pixel']:.0f} | {100 * f['certified_share']:.2f}% | "
                      f"{100 * f.get('escalated_share', 0.0):.3f}% | {f['unverified_ms']:.0f} | "
                      f"{f['ms'] / f['unverified_ms']:.2f}× |")
