@@ -151,15 +151,19 @@ def run_flint(polys: list[np.ndarray], repeats: int, tol: float | None = None):
     prepared = [flint.acb_poly([flint.acb(float(c)) for c in p]) for p in polys]
 
     def solve(p):
-        return p.roots(tol, maxprec=1024) if tol is not None else p.roots()
+        try:
+            return p.roots(tol, maxprec=1024) if tol is not None else p.roots()
+        except ValueError:  # "failed to converge": a multiple root or a cluster it cannot isolate
+            return None
 
     seconds = median_time(lambda: [solve(p) for p in prepared], repeats)
-    approx, radii = [], []
+    approx, radii, failed = [], [], 0
     for p in prepared:
         r = solve(p)
-        approx.append(np.array([complex(float(z.real.mid()), float(z.imag.mid())) for z in r]))
-        radii.append(np.array([float(z.rad()) for z in r]))
-    return seconds, approx, radii
+        failed += r is None
+        approx.append(np.array([complex(float(z.real.mid()), float(z.imag.mid())) for z in r or []]))
+        radii.append(np.array([float(z.rad()) for z in r or []]))
+    return seconds, approx, radii, failed / max(len(prepared), 1)
 
 
 def run_mpmath(polys: list[np.ndarray], repeats: int):
@@ -170,7 +174,10 @@ def run_mpmath(polys: list[np.ndarray], repeats: int):
         try:
             return mpmath.polyroots(coeffs, maxsteps=200, extraprec=30)
         except mpmath.libmp.NoConvergence:  # rare: give it more room, as its docs advise
-            return mpmath.polyroots(coeffs, maxsteps=2000, extraprec=200)
+            try:
+                return mpmath.polyroots(coeffs, maxsteps=2000, extraprec=200)
+            except mpmath.libmp.NoConvergence:  # no answer (the accuracy counts none for it)
+                return []
 
     seconds = median_time(lambda: [solve(p) for p in polys], repeats)
     approx = [np.array([complex(z) for z in solve(p)]) for p in polys]
@@ -305,11 +312,11 @@ def bench_roots(
         seconds, approx, radii = run_numpy(polys[: sizes["numpy"]], repeats)
         record("numpy-eigvals", sizes["numpy"], seconds, approx, None)
         step(f"{suite}: python-flint acb_poly.roots")
-        seconds, approx, radii = run_flint(polys[: sizes["flint"]], timed_runs["flint"])
-        record("flint-acb_poly.roots", sizes["flint"], seconds, approx, radii)
+        seconds, approx, radii, failed = run_flint(polys[: sizes["flint"]], timed_runs["flint"])
+        record("flint-acb_poly.roots", sizes["flint"], seconds, approx, radii, {"failed_share": failed})
         step(f"{suite}: python-flint acb_poly.roots(tol=1e-14), accuracy matched")
-        seconds, approx, radii = run_flint(polys[: sizes["flint"]], timed_runs["flint"], tol=1e-14)
-        record("flint-acb_poly.roots(tol=1e-14)", sizes["flint"], seconds, approx, radii)
+        seconds, approx, radii, failed = run_flint(polys[: sizes["flint"]], timed_runs["flint"], tol=1e-14)
+        record("flint-acb_poly.roots(tol=1e-14)", sizes["flint"], seconds, approx, radii, {"failed_share": failed})
         step(f"{suite}: mpmath polyroots")
         seconds, approx, radii = run_mpmath(polys[: sizes["mpmath"]], timed_runs["mpmath"])
         record("mpmath-polyroots", sizes["mpmath"], seconds, approx, None)
@@ -368,8 +375,8 @@ def markdown(report: dict) -> str:
         lines += [
             f"**{suite}** ({rows['argand-auto']['polynomials']} polynomials; accuracy against the exact roots)",
             "",
-            "| method | ns / polynomial | time ÷ auto | median radius / \\|root\\| | median error | max error | fully verified |",
-            "|---|---:|---:|---:|---:|---:|---:|",
+            "| method | ns / polynomial | time ÷ auto | median radius / \\|root\\| | median error | max error | fully verified | no answer |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for name, row in rows.items():
             def fmt(key):
@@ -378,7 +385,8 @@ def markdown(report: dict) -> str:
             verified = f"{100 * row['fully_verified_share']:.2f}%" if "fully_verified_share" in row else ""
             lines.append(
                 f"| {name} | {row['ns_per_poly']:.0f} | {row['ns_per_poly'] / auto:.1f} | {fmt('median_rel_radius')} "
-                f"| {fmt('median_rel_error')} | {fmt('max_rel_error')} | {verified} |"
+                f"| {fmt('median_rel_error')} | {fmt('max_rel_error')} | {verified} | "
+                + (f"{100 * row['failed_share']:.1f}%" if "failed_share" in row else "") + " |"
             )
         lines.append("")
     return "\n".join(lines)
