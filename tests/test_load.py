@@ -78,6 +78,15 @@ def test_the_knee_is_the_first_step_that_misses_a_target():
     assert knee(steps)["latency_knee_users"] == 5 and knee(steps)["sustainable_users"] == 1
 
 
+def test_the_throughput_knee_is_where_more_users_bring_little_more():
+    # requests/s per user: 0.8, 0.7, 0.6, 0.43 (below 60% of the best, 0.8), 0.28
+    steps = [{"users": u, "rps": r, "failures": 0, "status_list_p99_ms": 10.0, "frame_download_p99_ms": 10.0}
+             for u, r in ((5, 4.0), (10, 7.0), (20, 12.0), (40, 17.2), (60, 17.0))]
+    found = knee(steps)
+    assert found["throughput_knee_users"] == 40 and found["max_rps"] == 17.2
+    assert found["latency_knee_users"] is None and found["sustainable_users"] == 60
+
+
 def test_check_job_view_refuses_what_the_front_end_could_not_show():
     good = {"id": "a", "status": "running", "progress": 0.5, "tiles_done": 1, "tiles_total": 2, "priority": 5,
             "frames": [{"index": 0, "status": "done", "png_url": "/p", "thumbnail_url": "/t"}]}

@@ -231,15 +231,23 @@ def knee(steps: list[dict]) -> dict:
     """The latency knee: the first step that misses a target (or fails a
     request); the sustainable level: the step before it (the first step if
     even that one misses). The throughput knee: the first step whose
-    requests/s per user falls below 80% of the first step's."""
+    requests/s per user falls below 60% of the best of the steps before it
+    (more users, little more throughput: the farm is saturated)."""
     latency = next((s for s in steps if not meets_targets(s)), None)
     index = steps.index(latency) if latency else len(steps)
     sustainable = steps[max(0, index - 1)]["users"] if steps else 1
-    base = steps[0]["rps"] / max(steps[0]["users"], 1) if steps else 0.0
-    throughput = next((s for s in steps[1:] if s["rps"] / max(s["users"], 1) < 0.8 * base), None)
+    throughput = None
+    best = 0.0
+    for s in steps:
+        per_user = s["rps"] / max(s["users"], 1)
+        if best and per_user < 0.6 * best:
+            throughput = s
+            break
+        best = max(best, per_user)
     return {"latency_knee_users": latency["users"] if latency else None,
             "throughput_knee_users": throughput["users"] if throughput else None,
-            "sustainable_users": sustainable, "first_step_meets_targets": bool(steps) and meets_targets(steps[0])}
+            "sustainable_users": sustainable, "first_step_meets_targets": bool(steps) and meets_targets(steps[0]),
+            "max_rps": max((s["rps"] for s in steps), default=0.0)}
 
 
 def time_series(rows: list[list], metrics: list[dict], processes: list[dict], t_start: float, bin_s: float) -> dict:
@@ -825,7 +833,8 @@ def markdown(report: dict) -> str:
         lines.append(f"| {s['users']} | {s['rps']:.1f} | {_ms(s['status_list_p99_ms'])} | {_ms(s['frame_download_p99_ms'])} | "
                      f"{s['failures']} | {'yes' if meets_targets(s) else 'no'} |")
     lines += ["", f"Latency knee: {k['latency_knee_users'] or 'none within the ramp'} users; throughput knee (requests/s per "
-              f"user below 80% of one user's): {k['throughput_knee_users'] or 'none within the ramp'}; "
+              f"user below 60% of the best before it): {k['throughput_knee_users'] or 'none within the ramp'} "
+              f"(at most {k.get('max_rps', 0):.1f} requests/s); "
               f"sustainable: {k['sustainable_users']} users"
               + ("" if k["first_step_meets_targets"] else " (even the first step misses a target)") + ".", "",
               f"### Steady phase ({st['users']} users)", ""]
@@ -905,12 +914,14 @@ def _row(report: dict, condition: str, row: str) -> dict | None:
 
 
 def causes(report: dict) -> list[str]:
-    """The diagnosed causes, each with the run's figures and where its fix
-    belongs. Written from the probes, the profile and the steady phase."""
+    """The diagnosed causes, each with this run's figures and where its fix
+    belongs. The wording follows the figures: a cause the probes do not
+    bear out this time is said to be so."""
     out: list[str] = []
     st = report["steady"]["endpoints"]
     prof = (report.get("profile") or {}).get("named_share_of_busy", {})
     cpu = (report.get("probes") or {}).get("api_cpu_ms_per_request", {})
+    conditions = (report.get("probes") or {}).get("conditions", {})
 
     def pct(name: str) -> str:
         return f"{100 * prof.get(name, 0.0):.0f}%"
@@ -919,42 +930,58 @@ def causes(report: dict) -> list[str]:
         r = _row(report, condition, row)
         return f"{_ms(r['p50_ms'])}/{_ms(r['p99_ms'])} ms" if r else "–"
 
+    downloads = [st[n] for n in FRAME_DOWNLOADS if n in st]
+    ramp_low = next((s for s in report["ramp"]["steps"] if s["frame_download_p99_ms"] is not None), None)
     if cpu:
         out.append(
-            f"**The job list is expensive.** One page of 20 jobs costs {cpu.get('list', 0):.1f} ms of the API's CPU, a "
-            f"job's status {cpu.get('status', 0):.1f} ms (idle farm, one client); with 8 clients the list tops out at "
-            f"{(_row(report, 'idle farm', 'list, 8 client(s)') or {}).get('rps', 0):.0f} requests/s on the idle farm. "
-            f"`list_jobs` builds the full `job_view` of every job: a lazy load of each job's frames (N+1 queries), "
-            f"every frame's `figures` JSON decoded and copied, the scene JSON per job"
-            + (f"; during the steady phase `list_jobs` is in {pct('list_jobs')} of the API's active samples, "
-               f"`job_view` {pct('job_view')}, lazy loads {pct('_emit_lazyload')}" if prof else "") + ". "
+            f"**The job list is expensive, and holds the GIL while it is built.** One page of 20 jobs costs "
+            f"{cpu.get('list', 0):.1f} ms of the API's CPU, a job's status {cpu.get('status', 0):.1f} ms (idle farm, "
+            f"one client); with 8 clients the idle farm serves at most "
+            f"{(_row(report, 'idle farm', 'list, 8 client(s)') or {}).get('rps', 0):.0f} lists/s. `list_jobs` builds "
+            "the full `job_view` of every listed job: a lazy load of each job's frames (N+1 queries), every frame's "
+            "`figures` JSON decoded and copied, each job's scene JSON; the cost grows with the jobs' frames"
+            + (f". In the steady phase `list_jobs` is in {pct('list_jobs')} of the API's active samples, `job_view` "
+               f"{pct('job_view')}, SQLAlchemy's lazy loads {pct('_emit_lazyload')}" if prof else "")
+            + (f"; the API is one process, so while a list is built every other request waits for the GIL: frame "
+               f"downloads (plain files) reach p99 {_ms(max(d['p99_ms'] for d in downloads))} ms in the steady phase"
+               + (f" against {_ms(ramp_low['frame_download_p99_ms'])} ms at {ramp_low['users']} users early in the "
+                  "ramp, when the list was short" if ramp_low else "") if downloads else "") + ". "
             "Fix: api/main.py `list_jobs`/`job_view` (after the move: the job queries of argand.farm): a list view "
-            "without per-frame figures, the progress of all listed jobs in one aggregate query over frames "
-            "(or `selectinload(Job.frames)`), JSON columns deferred; the per-job view keeps the frames.")
-    if _row(report, "workers rendering at nice 10", "status, 8 client(s)"):
+            "without per-frame figures, the progress of every listed job in one aggregate query over frames "
+            "(or `selectinload(Job.frames)`), JSON columns deferred; the job's own view keeps its frames.")
+    rendering, niced = _row(report, "workers rendering", "list, 1 client(s)"), \
+        _row(report, "workers rendering at nice 10", "list, 1 client(s)")
+    if rendering and niced:
+        gain = rendering["p50_ms"] / max(niced["p50_ms"], 1e-9)
         out.append(
             "**Renders and requests share the CPU at the same priority.** On 2 cores the two workers take what "
-            "they can; a request waits behind them. Status with 8 clients (p50/p99): idle farm "
-            f"{lat('idle farm', 'status, 8 client(s)')}, workers rendering {lat('workers rendering', 'status, 8 client(s)')}, "
-            f"workers at nice 10 {lat('workers rendering at nice 10', 'status, 8 client(s)')}; the list with one client: "
-            f"{lat('idle farm', 'list, 1 client(s)')}, {lat('workers rendering', 'list, 1 client(s)')}, "
-            f"{lat('workers rendering at nice 10', 'list, 1 client(s)')}. "
-            "Fix: worker/serve.py `start_workers` (after the move: where argand.farm starts workers) starts the "
+            "they can and a request waits its turn behind them. The list with one client (p50/p99): idle farm "
+            f"{lat('idle farm', 'list, 1 client(s)')}, workers rendering {lat('workers rendering', 'list, 1 client(s)')}, "
+            f"workers at nice 10 {lat('workers rendering at nice 10', 'list, 1 client(s)')}"
+            + (f" ({gain:.1f}× faster at the median)" if gain >= 1.2 else
+               " (no clear gain in this run: the machine's other load moved more than the priority did)")
+            + f"; status with 8 clients: {lat('idle farm', 'status, 8 client(s)')}, "
+            f"{lat('workers rendering', 'status, 8 client(s)')}, {lat('workers rendering at nice 10', 'status, 8 client(s)')}. "
+            "Fix: worker/serve.py `start_workers` (after the move: where argand.farm starts workers): start the "
             "Celery workers at a lower priority (`os.nice(10)` in a `preexec_fn`, or `nice -n 10` before "
-            "`worker_command`); the workers still get every cycle the API does not use.")
-    sse = next((k for k in (report.get("probes") or {}).get("conditions", {}) if "SSE" in k), None)
+            "`worker_command`); they still get every cycle the API leaves.")
+    sse = next((k for k in conditions if "SSE" in k), None)
     if sse:
+        without = {k: v for k, v in conditions["workers rendering"]["rows"].items()}
+        with_ = conditions[sse]["rows"]
+        worst = max(with_, key=lambda k: with_[k]["max_ms"] / max(without[k]["max_ms"], 1e-9))
         out.append(
-            f"**The SSE poller runs database work on the event loop.** `events.stream` (api/main.py) opens a "
-            "session and builds the whole `job_view` every 0.5 s per open stream, synchronously, inside the "
-            "async generator: while it runs, no other request on the loop moves. With the workers rendering, the "
-            f"list with 8 clients: {lat('workers rendering', 'list, 8 client(s)')} without streams, "
-            f"{lat(sse, 'list, 8 client(s)')} with {sse.split(', ')[1]}; status with 8 clients "
-            f"{lat('workers rendering', 'status, 8 client(s)')} vs {lat(sse, 'status, 8 client(s)')}"
-            + (f"; in the steady phase `stream` is in {pct('stream')} of the API's active samples" if prof else "")
-            + ". Fix: api/main.py `events`: the tick in a thread (`await run_in_threadpool(...)`), and a compact "
-            "progress query (counters and frame states) instead of `job_view`; better, one poller per job shared "
-            "by its streams.")
+            "**The SSE poller does database work on the event loop** (a latent cause). `events.stream` "
+            "(api/main.py) opens a session and builds the whole `job_view` every 0.5 s per open stream, "
+            "synchronously inside the async generator: while it runs, nothing else on the loop moves. "
+            f"With {sse.split(', ')[1]} on a job of 400 frames, the request that suffered most was `{worst}`: "
+            f"max {_ms(with_[worst]['max_ms'])} ms against {_ms(without[worst]['max_ms'])} ms without streams "
+            f"(p50/p99 {lat(sse, worst)} against {lat('workers rendering', worst)})"
+            + (f"; at the steady phase's {report['steady']['users']} users `stream` is only {pct('stream')} of the "
+               "API's active samples, so it is not what missed the targets there" if prof else "") + ". "
+            "Fix: api/main.py `events`: the tick in a thread (`await run_in_threadpool(...)`) and a compact progress "
+            "query (counters and frame states) instead of `job_view`; better, one poller per job shared by its "
+            "streams.")
     submit = st.get("POST /api/jobs")
     resume = st.get("POST /api/jobs/{id}/resume")
     if submit:
@@ -962,13 +989,13 @@ def causes(report: dict) -> list[str]:
             f"**Celery dispatch in the request path.** `POST /api/jobs` p50/p99 {_ms(submit['p50_ms'])}/"
             f"{_ms(submit['p99_ms'])} ms"
             + (f", resume {_ms(resume['p50_ms'])}/{_ms(resume['p99_ms'])} ms" if resume else "")
-            + ": the request inserts every tile and sends every message (`create_job` → `_send`, one `send_task` "
-            "and Redis round trip per message, a `saferepr` of its arguments each)"
+            + ": the request inserts every tile and sends every message before it answers (`create_job` → `_send`, "
+            "one `send_task` and Redis round trip per message, a `saferepr` of its arguments each)"
             + (f"; `create_job` is in {pct('create_job')} of the API's active samples, `send_task` {pct('send_task')}"
                if prof else "") + ". "
             "Fix: worker/farm.py `_send` (after the move: argand.farm's dispatch): publish a job's messages on one "
-            "producer connection (`app.producer_or_acquire()`) in one pipeline, or answer 201 once the rows are "
-            "committed and send from a background task; the same for `dispatch_job` (resume, priority).")
+            "producer connection (`app.producer_or_acquire()`), or answer 201 once the rows are committed and send "
+            "from a background task; the same for `dispatch_job` (resume, priority).")
     if prof:
         sql = prof.get("do_execute", 0.0) + prof.get("do_commit", 0.0)
         if sql < 0.25:
@@ -979,24 +1006,24 @@ def causes(report: dict) -> list[str]:
         else:
             out.append(
                 f"**Time inside SQLite: {100 * sql:.0f}% of the API's active samples** (`do_execute` "
-                f"{pct('do_execute')}, `do_commit` {pct('do_commit')}, waits included): see load_profile.txt for "
-                "the statements; a write waiting for the workers' commits (busy_timeout) shows here.")
+                f"{pct('do_execute')}, `do_commit` {pct('do_commit')}, waits included): load_profile.txt has the "
+                "statements; a write waiting for the workers' commits (busy_timeout) shows there.")
     tp = report.get("throughput")
     if tp:
         loaded, idle = tp["cores_loaded"], tp["cores_unloaded"]
         ours = sum(v for k, v in loaded.items() if k != "machine")
         others = (loaded["machine"] - ours) if loaded.get("machine") is not None else None
-        same_work = tp["worker_cpu_s_per_frame_loaded"] <= 1.1 * tp["worker_cpu_s_per_frame_unloaded"]
+        others_idle = (idle["machine"] - sum(v for k, v in idle.items() if k != "machine")) \
+            if idle.get("machine") is not None else None
+        per_frame = tp["worker_cpu_s_per_frame_loaded"] / tp["worker_cpu_s_per_frame_unloaded"] - 1
         out.append(
-            f"**Rendering under load: {100 * tp['share']:.0f}% of the idle farm.** Worker CPU per frame is "
-            f"{tp['worker_cpu_s_per_frame_loaded']:.3f} s under load and {tp['worker_cpu_s_per_frame_unloaded']:.3f} s "
-            + ("idle: the load does not make a frame more work; the workers get fewer cycles. " if same_work else
-               "idle: under load a frame costs the workers more CPU (contention for caches, the database, Redis). ")
-            + f"They ran on "
-            f"{loaded['workers']:.2f} cores under load ({idle['workers']:.2f} idle) while the API took "
-            f"{loaded['api']:.2f} and the users' process {loaded['users (locust)']:.2f}"
-            + (f", and other work on this shared machine {others:.2f} cores" if others is not None else "")
-            + ". The API's share falls with the list fix; the rest is the machine, not the farm.")
+            f"**Rendering under load: {100 * tp['share']:.0f}% of the idle farm's rate.** The workers had "
+            f"{loaded['workers']:.2f} cores under load against {idle['workers']:.2f} in the idle replay, and a frame "
+            f"took {100 * per_frame:+.0f}% worker CPU. The API and the users' process took {loaded['api']:.2f} and "
+            f"{loaded['users (locust)']:.2f} cores"
+            + (f"; other work on this shared machine {others:.2f} cores under load and {others_idle:.2f} during the "
+               "replay. Here the farm's own cost cannot be told apart from its neighbours'; on a machine of its "
+               "own the API's share is what the list fix reduces" if others is not None else "") + ".")
     return out
 
 

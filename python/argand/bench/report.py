@@ -89,14 +89,15 @@ def bench_all(out_dir: Path = Path("docs/bench"), page: Path = Path("docs/benchm
     unknown = set(reuse) - set(SECTIONS)
     if unknown:
         raise ValueError(f"unknown section(s) {', '.join(sorted(unknown))}; sections: {', '.join(SECTIONS)}")
+    missing = [out_dir / f"{name}.json" for name in reuse if not (out_dir / f"{name}.json").exists()]
+    if missing:  # before anything runs
+        raise FileNotFoundError(f"--reuse: {', '.join(map(str, missing))} not found; run those sections once first")
     out_dir.mkdir(parents=True, exist_ok=True)
     reports: dict[str, dict] = {}
     seconds: dict[str, float] = {}
     for name in SECTIONS:
         path = out_dir / f"{name}.json"
         if name in reuse:
-            if not path.exists():
-                raise FileNotFoundError(f"--reuse {name}: {path} does not exist; run the section once first")
             reports[name] = json.loads(path.read_text())
             reports[name].pop("series", None)
             continue
@@ -179,7 +180,10 @@ def _section_stability(report: dict, out_dir: Path, page: Path) -> list[str]:
              f"![unverified vs auto]({_rel(out_dir / 'stability.png', page)})", "",
              "The same frame rendered with `method=unverified` and `auto`; magenta marks the pixels that differ: "
              + "; ".join(f"{k}: {v['differing_pixels']} pixels ({100 * v['differing_share']:.2f}%), auto certifies "
-                         f"{100 * v['auto_certified_share']:.1f}%" for k, v in pic.items()) + ".", ""]
+                         f"{100 * v['auto_certified_share']:.1f}%" for k, v in pic.items()) + ". At δ = 0 the band is "
+             "the positive real axis, and a root lies in it exactly only when it is proven real (core/src/render.cpp, "
+             "`classify`): the unverified method has no such proof, so a root it finds with a tiny imaginary part "
+             "falls outside the band and the pixel shows the background.", ""]
     return lines
 
 
