@@ -8,8 +8,9 @@ import json
 
 import pytest
 
-from argand.bench.load import (FRAME_DOWNLOADS, STATUS_LIST, TARGETS, endpoint_stats, knee, meets_targets,
-                               percentiles, ramp_steps, summarize_profile)
+from argand.bench.load_diagnosis import summarize_profile
+from argand.bench.load_figures import (FRAME_DOWNLOADS, STATUS_LIST, TARGETS, endpoint_stats, knee, meets_targets,
+                                       percentiles, ramp_steps)
 from argand.bench.load_users import check_job_view
 
 

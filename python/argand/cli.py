@@ -362,7 +362,7 @@ def bench_load_cmd(
         report = bench_load(out_dir=out, url=url, smoke=smoke, ramp_users=ramp, step_s=step_s, steady_s=steady_s,
                             steady_users=steady_users, seed=seed, profile=profile, probes=probes,
                             progress=lambda m: status.update(m))
-    from argand.bench.load import markdown
+    from argand.bench.load_report import markdown
 
     console.print(markdown(report), soft_wrap=True, markup=False, highlight=False)
     console.print(f"wrote {out / 'load.json'}, {out / 'load.md'} and {out / 'load.png'}")

@@ -220,7 +220,7 @@ def _section_farm(report: dict, out_dir: Path, page: Path) -> list[str]:
 
 
 def _section_load(report: dict, out_dir: Path, page: Path) -> list[str]:
-    from argand.bench.load import markdown as load_markdown
+    from argand.bench.load_report import markdown as load_markdown
 
     return ["## Load test: users on a two-worker farm", "",
             "`argand bench load` (`make load`): Locust users against `argand serve --workers 2` over loopback HTTP; "
