@@ -68,11 +68,16 @@ class FarmSampler(threading.Thread):
         self._procs: dict[int, object] = {}
 
     def _label(self, proc) -> str:
-        cmd = " ".join(proc.cmdline())
+        """api, redis, or "worker NAME" for a worker: `argand worker --name
+        NAME` (what argand serve starts) or `celery ... worker --hostname
+        NAME` (an earlier version)."""
+        args = proc.cmdline()
+        cmd = " ".join(args)
         if "redis-server" in cmd:
             return "redis"
-        if "celery" in cmd and "--hostname" in cmd:
-            return "worker " + cmd.split("--hostname", 1)[1].split()[0].split("@")[0]
+        for flag in ("--name", "--hostname"):
+            if flag in args and ("worker" in args or "celery" in cmd):
+                return "worker " + args[args.index(flag) + 1].split("@")[0]
         if proc.pid == self.root_pid:
             return "api"
         return proc.name()

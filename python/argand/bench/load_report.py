@@ -125,8 +125,10 @@ def causes(report: dict) -> list[str]:
     cpu = (report.get("probes") or {}).get("api_cpu_ms_per_request", {})
     conditions = (report.get("probes") or {}).get("conditions", {})
 
-    def pct(name: str) -> str:
-        return f"{100 * prof.get(name, 0.0):.0f}%"
+    def pct(*names: str) -> str:
+        """The share of the first of ``names`` the profile saw (a function
+        renamed by the argand.farm move keeps both names here)."""
+        return f"{100 * max(prof.get(n, 0.0) for n in names):.0f}%"
 
     def lat(condition: str, row: str) -> str:
         r = _row(report, condition, row)
@@ -140,17 +142,18 @@ def causes(report: dict) -> list[str]:
             f"{cpu.get('list', 0):.1f} ms of the API's CPU, a job's status {cpu.get('status', 0):.1f} ms (idle farm, "
             f"one client); with 8 clients the idle farm serves at most "
             f"{(_row(report, 'idle farm', 'list, 8 client(s)') or {}).get('rps', 0):.0f} lists/s. `list_jobs` builds "
-            "the full `job_view` of every listed job: a lazy load of each job's frames (N+1 queries), every frame's "
+            "the full view (`job_out`) of every listed job: a lazy load of each job's frames (N+1 queries), every frame's "
             "`figures` JSON decoded and copied, each job's scene JSON; the cost grows with the jobs' frames"
-            + (f". In the steady phase `list_jobs` is in {pct('list_jobs')} of the API's active samples, `job_view` "
-               f"{pct('job_view')}, SQLAlchemy's lazy loads {pct('_emit_lazyload')}" if prof else "")
+            + (f". In the steady phase `list_jobs` is in {pct('list_jobs')} of the API's active samples, the views "
+               f"{pct('job_out', 'job_view')}, SQLAlchemy's lazy loads {pct('_emit_lazyload')}" if prof else "")
             + (f"; the API is one process, so while a list is built every other request waits for the GIL: frame "
                f"downloads (plain files) reach p99 {_ms(max(d['p99_ms'] for d in downloads))} ms in the steady phase"
                + (f" against {_ms(ramp_low['frame_download_p99_ms'])} ms with {ramp_low['users']} user(s) early in the "
                   "ramp, when the list was short" if ramp_low else "") if downloads else "") + ". "
-            "Fix: api/main.py `list_jobs`/`job_view` (after the move: the job queries of argand.farm): a list view "
-            "without per-frame figures, the progress of every listed job in one aggregate query over frames "
-            "(or `selectinload(Job.frames)`), JSON columns deferred; the job's own view keeps its frames.")
+            "Fix: api/routers/jobs.py `list_jobs` and api/schemas.py `job_out` (with argand/farm/progress.py "
+            "`job_progress`): a list view without per-frame figures, the progress of every listed job in one "
+            "aggregate query over frames (or `selectinload(Job.frames)`), JSON columns deferred; the job's own view "
+            "keeps its frames.")
     rendering, niced = _row(report, "workers rendering", "list, 1 client(s)"), \
         _row(report, "workers rendering at nice 10", "list, 1 client(s)")
     if rendering and niced:
@@ -164,9 +167,8 @@ def causes(report: dict) -> list[str]:
                " (no clear gain in this run: the machine's other load moved more than the priority did)")
             + f"; status with 8 clients: {lat('idle farm', 'status, 8 client(s)')}, "
             f"{lat('workers rendering', 'status, 8 client(s)')}, {lat('workers rendering at nice 10', 'status, 8 client(s)')}. "
-            "Fix: worker/serve.py `start_workers` (after the move: where argand.farm starts workers): start the "
-            "Celery workers at a lower priority (`os.nice(10)` in a `preexec_fn`, or `nice -n 10` before "
-            "`worker_command`); they still get every cycle the API leaves.")
+            "Fix: worker/serve.py `start_workers`: start the workers at a lower priority (`os.nice(10)` in a "
+            "`preexec_fn`, or `nice -n 10` before `worker_command`); they still get every cycle the API leaves.")
     sse = next((k for k in conditions if "SSE" in k), None)
     if sse:
         without = {k: v for k, v in conditions["workers rendering"]["rows"].items()}
@@ -174,15 +176,16 @@ def causes(report: dict) -> list[str]:
         worst = max(with_, key=lambda k: with_[k]["max_ms"] / max(without[k]["max_ms"], 1e-9))
         out.append(
             "**The SSE poller does database work on the event loop** (a latent cause). `events.stream` "
-            "(api/main.py) opens a session and builds the whole `job_view` every 0.5 s per open stream, "
+            "(api/routers/jobs.py, through `_progress`) opens a session and builds the job's whole view every 0.5 s "
+            "per open stream, "
             "synchronously inside the async generator: while it runs, nothing else on the loop moves. "
             f"With {sse.split(', ')[1]} on a job of 400 frames, the request that suffered most was `{worst}`: "
             f"max {_ms(with_[worst]['max_ms'])} ms against {_ms(without[worst]['max_ms'])} ms without streams "
             f"(p50/p99 {lat(sse, worst)} against {lat('workers rendering', worst)})"
             + (f"; at the steady phase's {report['steady']['users']} users `stream` is only {pct('stream')} of the "
                "API's active samples, so it is not what missed the targets there" if prof else "") + ". "
-            "Fix: api/main.py `events`: the tick in a thread (`await run_in_threadpool(...)`) and a compact progress "
-            "query (counters and frame states) instead of `job_view`; better, one poller per job shared by its "
+            "Fix: api/routers/jobs.py `events`/`_progress`: the tick in a thread (`await run_in_threadpool(...)`) and a compact progress "
+            "query (counters and frame states) instead of the whole view; better, one poller per job shared by its "
             "streams.")
     submit = st.get("POST /api/jobs")
     resume = st.get("POST /api/jobs/{id}/resume")
@@ -191,13 +194,14 @@ def causes(report: dict) -> list[str]:
             f"**Celery dispatch in the request path.** `POST /api/jobs` p50/p99 {_ms(submit['p50_ms'])}/"
             f"{_ms(submit['p99_ms'])} ms"
             + (f", resume {_ms(resume['p50_ms'])}/{_ms(resume['p99_ms'])} ms" if resume else "")
-            + ": the request inserts every tile and sends every message before it answers (`create_job` → `_send`, "
-            "one `send_task` and Redis round trip per message, a `saferepr` of its arguments each)"
+            + ": the request inserts every tile and sends every message before it answers (`create_job` → "
+            "`send_runs`: one `send_task` and Redis round trip per message, a `saferepr` of its arguments each)"
             + (f"; `create_job` is in {pct('create_job')} of the API's active samples, `send_task` {pct('send_task')}"
                if prof else "") + ". "
-            "Fix: worker/farm.py `_send` (after the move: argand.farm's dispatch): publish a job's messages on one "
-            "producer connection (`app.producer_or_acquire()`), or answer 201 once the rows are committed and send "
-            "from a background task; the same for `dispatch_job` (resume, priority).")
+            "Fix: argand/farm/queue.py `send_runs` (called by argand/farm/submission.py `create_job` and "
+            "argand/farm/dispatch.py `dispatch_job`): publish a job's messages on one producer connection "
+            "(`app.producer_or_acquire()`), or answer 201 once the rows are committed and send from a background "
+            "task; the same for resume and priority changes.")
     if prof:
         sql = prof.get("do_execute", 0.0) + prof.get("do_commit", 0.0)
         if sql < 0.25:
