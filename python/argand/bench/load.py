@@ -52,6 +52,10 @@ from argand.bench.load_report import chart, markdown
 # ---------------------------------------------------------------------------
 
 
+#: /metrics is scraped every this many process samples (seconds).
+METRICS_EVERY = 5
+
+
 class FarmSampler(threading.Thread):
     """Every ``interval`` seconds: RSS and CPU of the farm's processes (when
     the farm's root process is known) and the farm's /metrics counters."""
@@ -130,10 +134,13 @@ class FarmSampler(threading.Thread):
 
     def run(self) -> None:
         with httpx.Client() as client:
+            tick = 0
             while not self.stop.is_set():
                 now = time.time()
                 self._sample_processes(now)
-                self._sample_metrics(client, now)
+                if tick % METRICS_EVERY == 0:  # /metrics costs the API real work: not every second
+                    self._sample_metrics(client, now)
+                tick += 1
                 self.stop.wait(self.interval)
 
 

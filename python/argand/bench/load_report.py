@@ -202,6 +202,15 @@ def causes(report: dict) -> list[str]:
             "argand/farm/dispatch.py `dispatch_job`): publish a job's messages on one producer connection "
             "(`app.producer_or_acquire()`), or answer 201 once the rows are committed and send from a background "
             "task; the same for resume and priority changes.")
+    scrape = report.get("metrics_ms") or {}
+    if prof and prof.get("metrics", 0.0) >= 0.05 and scrape.get("p50_ms"):
+        out.append(
+            f"**/metrics is expensive.** One scrape took {_ms(scrape['p50_ms'])} ms at the median (p99 "
+            f"{_ms(scrape['p99_ms'])} ms), and the harness's scrapes were {pct('metrics')} of the API's active samples "
+            "in the steady phase: every scrape counts and bins every tile and frame (the histograms of render, "
+            "assembly and queue-wait times) in SQL. Fix: argand/farm/metrics.py `FarmCollector`: keep the "
+            "histograms as counters updated when a tile or frame completes (or cache a scrape for a few seconds), "
+            "so that a scrape reads a handful of rows; scrape no more often than Prometheus's default 15 s.")
     if prof:
         sql = prof.get("do_execute", 0.0) + prof.get("do_commit", 0.0)
         if sql < 0.25:
