@@ -72,7 +72,8 @@ class PriorityPatch(BaseModel):
     priority: int = Field(ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
 
 
-class FrameOut(BaseModel):
+class FrameBrief(BaseModel):
+    """A frame in the job list: no figures (their JSON is read by the job's own view only)."""
     index: int
     sigma: float
     delta: float
@@ -81,15 +82,18 @@ class FrameOut(BaseModel):
     exr_url: str | None
     thumbnail_url: str | None
     finished: float | None
+
+
+class FrameOut(FrameBrief):
     certified_share: float | None
     figures: dict | None
 
 
-class JobOut(BaseModel):
+class JobSummary(BaseModel):
+    """A job in the list: its counters and frames, without the scene and the frames' figures."""
     id: str
     status: str
     scene_name: str
-    scene: dict
     sigma: float
     width: int
     height: int
@@ -104,37 +108,62 @@ class JobOut(BaseModel):
     started: float | None
     finished: float | None
     error: str | None
-    frames: list[FrameOut]
+    frames: list[FrameBrief]
     animation_url: str | None
     webp_url: str | None
+
+
+class JobOut(JobSummary):
+    scene: dict
+    frames: list[FrameOut]
 
 
 class JobPage(BaseModel):
     total: int
     page: int
     per_page: int
-    jobs: list[JobOut]
+    jobs: list[JobSummary]
 
 
-def frame_out(base: str, f) -> FrameOut:
-    done = f.status == "done"
-    return FrameOut(index=f.index, sigma=f.sigma, delta=f.delta, status=f.status,
-                    png_url=f"{base}/frames/{f.index}.png" if done else None,
-                    exr_url=f"{base}/frames/{f.index}.exr" if done else None,
-                    thumbnail_url=f"{base}/frames/{f.index}/thumbnail.png" if done else None,
-                    finished=f.finished, certified_share=(f.figures or {}).get("certified_share"), figures=f.figures)
+def _urls(base: str, index: int, done: bool) -> dict:
+    return {"png_url": f"{base}/frames/{index}.png" if done else None,
+            "exr_url": f"{base}/frames/{index}.exr" if done else None,
+            "thumbnail_url": f"{base}/frames/{index}/thumbnail.png" if done else None}
 
 
-def job_out(job: Job) -> JobOut:
-    done, total = job_progress(job)
+def _job_fields(job: Job, done: int, total: int, frames: int) -> dict:
     base = f"/api/jobs/{job.id}"
-    animated = job.status == "done" and len(job.frames) > 1
-    return JobOut(
-        id=job.id, status=job.status, scene_name=job.scene_name, scene=job.scene, sigma=job.sigma, width=job.width,
+    animated = job.status == "done" and frames > 1
+    return dict(
+        id=job.id, status=job.status, scene_name=job.scene_name, sigma=job.sigma, width=job.width,
         height=job.height, tile=job.tile, method=job.method, priority=job.priority,
         progress=done / total if total else 0.0, tiles_done=done, tiles_total=total,
         eta_s=eta_seconds(job, done, total), created=job.created, started=job.started, finished=job.finished,
-        error=job.error, frames=[frame_out(base, f) for f in job.frames],
-        animation_url=f"{base}/animation.gif" if animated else None,
+        error=job.error, animation_url=f"{base}/animation.gif" if animated else None,
         webp_url=f"{base}/animation.webp" if animated else None,
     )
+
+
+def frame_out(base: str, f) -> FrameOut:
+    return FrameOut(index=f.index, sigma=f.sigma, delta=f.delta, status=f.status, **_urls(base, f.index, f.status == "done"),
+                    finished=f.finished, certified_share=(f.figures or {}).get("certified_share"), figures=f.figures)
+
+
+def frame_brief(base: str, index: int, sigma: float, delta: float, status: str, finished: float | None) -> FrameBrief:
+    return FrameBrief(index=index, sigma=sigma, delta=delta, status=status, **_urls(base, index, status == "done"),
+                      finished=finished)
+
+
+def job_out(job: Job) -> JobOut:
+    """The job's own view: every frame with its figures."""
+    done, total = job_progress(job)
+    base = f"/api/jobs/{job.id}"
+    return JobOut(scene=job.scene, frames=[frame_out(base, f) for f in job.frames],
+                  **_job_fields(job, done, total, len(job.frames)))
+
+
+def job_summary(job: Job, progress: tuple[int, int], frames: list[tuple]) -> JobSummary:
+    """A job in the list, from its row (scene deferred), its (tiles done, total) and its
+    frames' (index, sigma, delta, status, finished)."""
+    base = f"/api/jobs/{job.id}"
+    return JobSummary(frames=[frame_brief(base, *f) for f in frames], **_job_fields(job, *progress, len(frames)))

@@ -4,6 +4,8 @@ paths, and a job submitted over HTTP lands in the database as queued work."""
 
 from __future__ import annotations
 
+import contextlib
+import json
 import threading
 import time
 
@@ -17,21 +19,30 @@ from test_farm_work import farm_parts, queued_messages  # noqa: F401  (the fixtu
 
 @pytest.fixture
 def client(farm_parts):  # noqa: F811
+    with _served(farm_parts) as (c, redis_server, _app):
+        yield c, redis_server
+
+
+@contextlib.contextmanager
+def _served(farm_parts):  # noqa: F811
     from argand.api.app import create_app
 
     settings, redis_server = farm_parts
     port = free_port()
-    server = uvicorn.Server(uvicorn.Config(create_app(settings), host="127.0.0.1", port=port, log_level="warning"))
+    app = create_app(settings)
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
     thread = threading.Thread(target=server.run, daemon=True)
     thread.start()
     deadline = time.monotonic() + 30
     while not server.started and time.monotonic() < deadline:
         time.sleep(0.05)
     assert server.started
-    with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=30) as c:
-        yield c, redis_server
-    server.should_exit = True
-    thread.join(10)
+    try:
+        with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=30) as c:
+            yield c, redis_server, app
+    finally:
+        server.should_exit = True
+        thread.join(10)
 
 
 def test_a_job_that_does_not_exist_is_a_404_on_every_route(client):
@@ -63,3 +74,88 @@ def test_submit_stores_queued_work_and_refuses_what_is_not_allowed(client):
     assert c.post(f"/api/jobs/{job['id']}/pause").json()["status"] == "paused"  # again: nothing changes
     assert c.post(f"/api/jobs/{job['id']}/cancel").json()["status"] == "canceled"
     assert c.delete(f"/api/jobs/{job['id']}").status_code == 204 and c.get(f"/api/jobs/{job['id']}").status_code == 404
+
+
+def _set_tiles_done(settings, job_id: str, done: dict[int, int]) -> None:
+    """What a worker's commits do to the frames' counters, written directly."""
+    from sqlalchemy import update
+
+    from argand.farm.database import session_scope
+    from argand.farm.models import Frame
+
+    with session_scope(settings.sqlalchemy_url) as s:
+        for index, n in done.items():
+            s.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == index).values(tiles_done=n))
+        s.commit()
+
+
+def test_the_list_is_each_jobs_own_view_without_the_scene_and_the_figures(farm_parts):  # noqa: F811
+    settings, _ = farm_parts
+    with _served(farm_parts) as (c, _, _app):
+        ids = [c.post("/api/jobs", json={"scene": "plucker", "deltas": [0, 0.1, 0.2][:n], "width": 32, "height": 32,
+                                         "tile": 16}).json()["id"] for n in (1, 3)]
+        _set_tiles_done(settings, ids[1], {0: 4, 2: 1})  # 5 of the 3 x 4 tiles
+        page = c.get("/api/jobs?per_page=5").json()
+        assert page["total"] == 2 and [j["id"] for j in page["jobs"]] == ids[::-1]
+        for listed in page["jobs"]:
+            own = c.get(f"/api/jobs/{listed['id']}").json()
+            assert set(own) - set(listed) == {"scene"} and "scene" in own
+            assert {k: v for k, v in own.items() if k not in ("scene", "frames", "eta_s")} == \
+                   {k: v for k, v in listed.items() if k not in ("frames", "eta_s")}
+            assert [{k: v for k, v in f.items() if k not in ("figures", "certified_share")} for f in own["frames"]] \
+                == listed["frames"]
+            assert all("figures" not in f for f in listed["frames"])
+        second = next(j for j in page["jobs"] if j["id"] == ids[1])
+        assert (second["tiles_done"], second["tiles_total"], second["progress"]) == (5, 12, 5 / 12)
+        assert c.get("/api/jobs?per_page=5&status=done").json() == {"total": 0, "page": 1, "per_page": 5, "jobs": []}
+
+
+def _events(c, job_id: str, out: list) -> None:
+    with c.stream("GET", f"/api/jobs/{job_id}/events", timeout=60) as stream:
+        name = None
+        for line in stream.iter_lines():
+            if line.startswith("event: "):
+                name = line.removeprefix("event: ")
+            elif line.startswith("data: "):
+                out.append((name, json.loads(line.removeprefix("data: "))))
+                if name in ("end", "deleted", "error"):
+                    return
+
+
+def test_the_streams_of_a_job_share_one_poller_and_follow_it_to_its_end(farm_parts):  # noqa: F811
+    settings, _ = farm_parts
+    with _served(farm_parts) as (c, _, app):
+        job_id = c.post("/api/jobs", json={"scene": "plucker", "deltas": [0, 0.1], "width": 32, "height": 32,
+                                           "tile": 16}).json()["id"]
+        seen = [[], [], []]
+        threads = [threading.Thread(target=_events, args=(c, job_id, out)) for out in seen]
+        for th in threads:
+            th.start()
+        deadline = time.monotonic() + 30
+        while not all(any(n == "progress" for n, _ in out) for out in seen) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        pollers = dict(app.state.job_pollers)
+        assert list(pollers) == [(settings.sqlalchemy_url, job_id)] and pollers[next(iter(pollers))].streams == 3
+        _set_tiles_done(settings, job_id, {1: 2})
+        time.sleep(1.2)  # two polls
+        assert c.post(f"/api/jobs/{job_id}/cancel").json()["status"] == "canceled"
+        for th in threads:
+            th.join(30)
+        for out in seen:
+            names = [n for n, _ in out]
+            assert names[0] == "progress" and names[-2:] == ["progress", "end"] and out[-1][1] == {"status": "canceled"}
+            assert out[-2][1]["status"] == "canceled" and out[-2][1]["tiles_done"] == 2 and out[-2][1]["tiles_total"] == 8
+            assert [f["index"] for f in out[-2][1]["frames"]] == [0, 1]
+        time.sleep(0.2)
+        assert app.state.job_pollers == {}  # the poller stopped with the job
+        # A job that is gone: its stream says so.
+        other = c.post("/api/jobs", json={"scene": "plucker", "width": 32, "height": 32, "tile": 16}).json()["id"]
+        out: list = []
+        th = threading.Thread(target=_events, args=(c, other, out))
+        th.start()
+        deadline = time.monotonic() + 30
+        while not out and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert c.delete(f"/api/jobs/{other}").status_code == 204
+        th.join(30)
+        assert [n for n, _ in out] == ["progress", "deleted"]

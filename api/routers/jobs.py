@@ -6,15 +6,18 @@ import asyncio
 import json
 from typing import Literal
 
-from fastapi import APIRouter, HTTPException, Query
+from fastapi import APIRouter, HTTPException, Query, Request
+from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import StreamingResponse
 from sqlalchemy import func, select
+from sqlalchemy.orm import defer
 
 from argand.api.deps import JobIdDep, SettingsDep, job_or_404
-from argand.api.schemas import DeltaRange, JobOut, JobPage, JobRequest, PriorityPatch, job_out
+from argand.api.schemas import DeltaRange, JobOut, JobPage, JobRequest, PriorityPatch, job_out, job_summary
 from argand.farm.control import delete_job, set_job_status, set_priority
 from argand.farm.database import session_scope
-from argand.farm.models import Job
+from argand.farm.models import Frame, Job
+from argand.farm.progress import eta_seconds, jobs_progress
 from argand.farm.states import ACTIONS, ENDED, JOB
 from argand.farm.submission import JobRefused, JobSpec, create_job, sweep_deltas
 from argand.scene import SceneError, load_scene, scene_from_dict
@@ -63,13 +66,24 @@ def list_jobs(
     if status is not None and status not in JOB.states:
         raise HTTPException(422, detail=f"status must be one of {', '.join(JOB.states)}")
     with session_scope(settings.sqlalchemy_url) as s:
-        q = select(Job).order_by(Job.created.desc())
+        # A fixed number of queries whatever the page holds: the jobs (their scene
+        # JSON deferred), their progress in one aggregate, their frames' plain columns.
+        q = select(Job).options(defer(Job.scene)).order_by(Job.created.desc())
         cq = select(func.count()).select_from(Job)
         if status:
             q, cq = q.where(Job.status == status), cq.where(Job.status == status)
         total = s.scalar(cq)
         rows = s.scalars(q.offset((page - 1) * per_page).limit(per_page)).all()
-        return JobPage(total=total, page=page, per_page=per_page, jobs=[job_out(j) for j in rows])
+        ids = [j.id for j in rows]
+        progress = jobs_progress(s, ids)
+        frames: dict[str, list[tuple]] = {i: [] for i in ids}
+        if ids:
+            for job_id, *f in s.execute(select(Frame.job_id, Frame.index, Frame.sigma, Frame.delta, Frame.status,
+                                               Frame.finished).where(Frame.job_id.in_(ids))
+                                        .order_by(Frame.job_id, Frame.index)):
+                frames[job_id].append(tuple(f))
+        return JobPage(total=total, page=page, per_page=per_page,
+                       jobs=[job_summary(j, progress[j.id], frames[j.id]) for j in rows])
 
 
 @router.get("/{job_id}")
@@ -95,34 +109,96 @@ def delete(job_id: str, settings: SettingsDep) -> None:
     delete_job(settings, job_id)
 
 
+#: Seconds between two polls of a followed job's progress.
+POLL_S = 0.5
+
+
 def _progress(settings, job_id: str) -> dict | None:
+    """The job's progress for its event stream, in three small queries (no frame
+    objects, no figures); None once the job is gone."""
     with session_scope(settings.sqlalchemy_url) as s:
-        job = s.get(Job, job_id)
+        job = s.get(Job, job_id, options=[defer(Job.scene)])
         if job is None:
             return None
-        view = job_out(job)
-    payload = view.model_dump(include={"id", "status", "progress", "eta_s", "tiles_done", "tiles_total"})
-    payload["frames"] = [{"index": f.index, "status": f.status} for f in view.frames]
-    return payload
+        done, total = jobs_progress(s, [job_id])[job_id]
+        frames = [{"index": i, "status": st} for i, st in
+                  s.execute(select(Frame.index, Frame.status).where(Frame.job_id == job_id).order_by(Frame.index))]
+        return {"id": job.id, "status": job.status, "progress": done / total if total else 0.0,
+                "eta_s": eta_seconds(job, done, total), "tiles_done": done, "tiles_total": total, "frames": frames}
+
+
+class _Poller:
+    """One poll of a job's progress every POLL_S, in the thread pool (never on the
+    event loop), shared by every open stream of the job; it stops when the job
+    ends or is gone, or when its last stream closes."""
+
+    def __init__(self, pollers: dict, key, settings, job_id: str) -> None:
+        self.pollers, self.key, self.settings, self.job_id = pollers, key, settings, job_id
+        self.payload: dict | None = None
+        self.version = 0
+        self.streams = 0
+        self.changed = asyncio.Condition()
+        self.task = asyncio.create_task(self._run())
+
+    async def _run(self) -> None:
+        try:
+            while self.streams:
+                payload = await run_in_threadpool(_progress, self.settings, self.job_id)
+                if self.version == 0 or payload != self.payload:
+                    self.payload, self.version = payload, self.version + 1
+                    async with self.changed:
+                        self.changed.notify_all()
+                if payload is None or payload["status"] in ENDED:
+                    return
+                await asyncio.sleep(POLL_S)
+        except Exception as exc:  # the database failed: the streams end with the reason, not wait for ever
+            self.payload, self.version = {"error": f"{type(exc).__name__}: {exc}"}, self.version + 1
+            async with self.changed:
+                self.changed.notify_all()
+        finally:
+            if self.pollers.get(self.key) is self:
+                del self.pollers[self.key]
+
+    @classmethod
+    def join(cls, pollers: dict, settings, job_id: str) -> "_Poller":
+        key = (settings.sqlalchemy_url, job_id)
+        poller = pollers.get(key)
+        if poller is None or poller.task.done():
+            poller = pollers[key] = cls(pollers, key, settings, job_id)
+        poller.streams += 1
+        return poller
+
+    async def after(self, seen: int) -> tuple[int, dict | None]:
+        """(version, payload) of the first payload newer than version ``seen``."""
+        async with self.changed:
+            await self.changed.wait_for(lambda: self.version > seen)
+        return self.version, self.payload
 
 
 @router.get("/{job_id}/events")
-async def events(job_id: JobIdDep, settings: SettingsDep):
+async def events(job_id: JobIdDep, settings: SettingsDep, request: Request):
     """Server-sent events: the job's progress until it ends."""
+    if not hasattr(request.app.state, "job_pollers"):
+        request.app.state.job_pollers = {}  # (database, job id) -> _Poller, for this app's event loop
+    pollers = request.app.state.job_pollers
 
     async def stream():
-        last = None
-        while True:
-            payload = _progress(settings, job_id)
-            if payload is None:
-                yield "event: deleted\ndata: {}\n\n"
-                return
-            if payload != last:
+        poller = _Poller.join(pollers, settings, job_id)  # when the response starts: left in `finally`
+        seen = 0
+        try:
+            while True:
+                seen, payload = await poller.after(seen)
+                if payload is None:
+                    yield "event: deleted\ndata: {}\n\n"
+                    return
+                if "error" in payload:
+                    yield f"event: error\ndata: {json.dumps(payload)}\n\n"
+                    return
                 yield f"event: progress\ndata: {json.dumps(payload)}\n\n"
-                last = payload
-            if payload["status"] in ENDED:
-                yield f"event: end\ndata: {json.dumps({'status': payload['status']})}\n\n"
-                return
-            await asyncio.sleep(0.5)
+                if payload["status"] in ENDED:
+                    yield f"event: end\ndata: {json.dumps({'status': payload['status']})}\n\n"
+                    return
+        finally:
+            poller.streams -= 1
 
     return StreamingResponse(stream(), media_type="text/event-stream", headers={"Cache-Control": "no-cache"})

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import time
 
-from argand.farm.models import Job
+from sqlalchemy import func, select
+
+from argand.farm.models import Frame, Job
 
 
 def job_progress(job: Job) -> tuple[int, int]:
@@ -21,3 +23,15 @@ def eta_seconds(job: Job, done: int, total: int) -> float | None:
         return 0.0 if done >= total and total else None
     elapsed = time.time() - job.started
     return elapsed / done * (total - done)
+
+
+def jobs_progress(s, job_ids: list[str]) -> dict[str, tuple[int, int]]:
+    """(tiles done, tiles in all) of each of ``job_ids``, in one aggregate query
+    over their frames' counters (no frame is loaded); 0/0 for a job without frames."""
+    if not job_ids:
+        return {}
+    rows = s.execute(select(Frame.job_id, func.coalesce(func.sum(Frame.tiles_done), 0), func.sum(Frame.tiles_total))
+                     .where(Frame.job_id.in_(job_ids)).group_by(Frame.job_id)).all()
+    out = {job_id: (0, 0) for job_id in job_ids}
+    out.update({job_id: (int(done or 0), int(total or 0)) for job_id, done, total in rows})
+    return out
