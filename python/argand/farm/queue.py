@@ -59,11 +59,16 @@ def _sender(settings: Settings) -> Celery:
 
 
 def send_runs(settings: Settings, job_id: str, runs: list[tuple[int, list[int]]], priority: int) -> None:
-    """One message per run of tiles, at the job's ``priority`` (9 first)."""
+    """One message per run of tiles, at the job's ``priority`` (9 first), all
+    published on one producer (one broker connection, acquired once)."""
+    if not runs:
+        return
     app = _sender(settings)
     level = max(0, min(9, 9 - priority))
-    for frame_index, tile_indices in runs:
-        app.send_task(TASK_NAME, args=[job_id, frame_index, tile_indices, time.time()], priority=level, queue=QUEUE)
+    with app.producer_or_acquire() as producer:
+        for frame_index, tile_indices in runs:
+            app.send_task(TASK_NAME, args=[job_id, frame_index, tile_indices, time.time()], priority=level,
+                          queue=QUEUE, producer=producer)
 
 
 def broker_client(settings: Settings):
