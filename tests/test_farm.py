@@ -322,6 +322,12 @@ def test_pause_resume_priority_events_delete(farm):
     r = farm.post("/api/jobs", {"scene": "whitney-in-sphere", "deltas": {"start": 0, "stop": "pi/9", "count": 12},
                                 "width": 192, "height": 192, "tile": 16, "priority": 3})
     job_id = r.json()["id"]
+    # The workers render at a lower priority than the API (serve's own process) answers.
+    import psutil
+
+    serve = psutil.Process(farm.proc.pid)
+    workers = [p for p in serve.children(recursive=True) if p.cmdline()[1:4] == ["-m", "argand.cli", "worker"]]
+    assert len(workers) >= 2 and {p.nice() for p in workers} == {min(19, serve.nice() + 10)}
     assert farm.post(f"/api/jobs/{job_id}/pause").json()["status"] == "paused"
     time.sleep(1.5)  # a tile in flight may finish
     held = farm.get(f"/api/jobs/{job_id}")["tiles_done"]
