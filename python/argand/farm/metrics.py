@@ -2,10 +2,16 @@
 workers record what the histograms need on the rows they already write):
 gauges of jobs and tiles by state and of live workers, a counter of frames
 done, and histograms of tile render time, frame assembly time and queue
-wait (a message's sending to its claim). The API adds request latency."""
+wait (a message's sending to its claim). The API adds request latency.
+
+The gauges and the counter are counts over indexed columns, read on every
+scrape; the histograms scan the finished tiles, so they are read again only
+when those counts changed and at most once every ``histogram_refresh_s``
+(between two reads a scrape gets the last ones: at most that many seconds old)."""
 
 from __future__ import annotations
 
+import threading
 import time
 
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, HistogramMetricFamily
@@ -43,27 +49,42 @@ def _by_status(s, name: str, doc: str, model, states) -> GaugeMetricFamily:
 class FarmCollector:
     """A prometheus_client collector over the farm's database."""
 
-    def __init__(self, settings: Settings) -> None:
+    def __init__(self, settings: Settings, histogram_refresh_s: float = 5.0) -> None:
         self.settings = settings
+        self.histogram_refresh_s = histogram_refresh_s
+        self._lock = threading.Lock()
+        self._histograms: list[HistogramMetricFamily] = []
+        self._token = None  # the counts the histograms were read at
+        self._read_at = -float("inf")
 
     def describe(self):  # no description up front: collect() is called on scrape only
         return []
 
+    def _read_histograms(self, s) -> list[HistogramMetricFamily]:
+        return [
+            _histogram(s, "argand_tile_render_seconds", "Render time of a tile (its run's mean)",
+                       Tile.seconds, Tile.status == "done", TILE_BUCKETS),
+            _histogram(s, "argand_frame_assembly_seconds", "Assembly time of a frame",
+                       Frame.assembly_s, Frame.status == "done", ASSEMBLY_BUCKETS),
+            _histogram(s, "argand_queue_wait_seconds", "From a message's sending to its tile's claim",
+                       Tile.waited, Tile.status.in_(TILE.states), WAIT_BUCKETS),
+        ]
+
     def collect(self):
         now = time.time()
         with session_scope(self.settings.sqlalchemy_url) as s:
-            yield _by_status(s, "argand_jobs", "Jobs by status", Job, JOB.states)
-            yield _by_status(s, "argand_tiles", "Tiles by status", Tile, TILE.states)
+            jobs = _by_status(s, "argand_jobs", "Jobs by status", Job, JOB.states)
+            tiles = _by_status(s, "argand_tiles", "Tiles by status", Tile, TILE.states)
+            frames_done = s.scalar(select(func.count()).select_from(Frame).where(Frame.status == "done"))
             done = CounterMetricFamily("argand_frames_done", "Frames assembled")
-            done.add_metric([], s.scalar(select(func.count()).select_from(Frame).where(Frame.status == "done")))
-            yield done
+            done.add_metric([], frames_done)
             alive = GaugeMetricFamily("argand_workers_alive", "Workers with a recent heartbeat")
             alive.add_metric([], s.scalar(select(func.count()).select_from(Worker).where(
                 Worker.heartbeat > now - self.settings.heartbeat_timeout_s)))
-            yield alive
-            yield _histogram(s, "argand_tile_render_seconds", "Render time of a tile (its run's mean)",
-                             Tile.seconds, Tile.status == "done", TILE_BUCKETS)
-            yield _histogram(s, "argand_frame_assembly_seconds", "Assembly time of a frame",
-                             Frame.assembly_s, Frame.status == "done", ASSEMBLY_BUCKETS)
-            yield _histogram(s, "argand_queue_wait_seconds", "From a message's sending to its tile's claim",
-                             Tile.waited, Tile.status.in_(TILE.states), WAIT_BUCKETS)
+            token = (tuple(sample.value for sample in tiles.samples), frames_done)
+            with self._lock:
+                mono = time.monotonic()
+                if token != self._token and mono - self._read_at >= self.histogram_refresh_s:
+                    self._histograms, self._token, self._read_at = self._read_histograms(s), token, mono
+                histograms = self._histograms
+        yield from (jobs, tiles, done, alive, *histograms)
