@@ -141,19 +141,19 @@ def causes(report: dict) -> list[str]:
             f"**The job list is expensive, and holds the GIL while it is built.** One page of 20 jobs costs "
             f"{cpu.get('list', 0):.1f} ms of the API's CPU, a job's status {cpu.get('status', 0):.1f} ms (idle farm, "
             f"one client); with 8 clients the idle farm serves at most "
-            f"{(_row(report, 'idle farm', 'list, 8 client(s)') or {}).get('rps', 0):.0f} lists/s. `list_jobs` builds "
-            "the full view (`job_out`) of every listed job: a lazy load of each job's frames (N+1 queries), every frame's "
-            "`figures` JSON decoded and copied, each job's scene JSON; the cost grows with the jobs' frames"
+            f"{(_row(report, 'idle farm', 'list, 8 client(s)') or {}).get('rps', 0):.0f} lists/s. Before issue 13 "
+            "`list_jobs` built the full view (`job_out`) of every listed job: a lazy load of each job's frames (N+1 "
+            "queries), every frame's `figures` JSON decoded and copied, each job's scene JSON"
             + (f". In the steady phase `list_jobs` is in {pct('list_jobs')} of the API's active samples, the views "
                f"{pct('job_out', 'job_view')}, SQLAlchemy's lazy loads {pct('_emit_lazyload')}" if prof else "")
             + (f"; the API is one process, so while a list is built every other request waits for the GIL: frame "
                f"downloads (plain files) reach p99 {_ms(max(d['p99_ms'] for d in downloads))} ms in the steady phase"
                + (f" against {_ms(ramp_low['frame_download_p99_ms'])} ms with {ramp_low['users']} user(s) early in the "
                   "ramp, when the list was short" if ramp_low else "") if downloads else "") + ". "
-            "Fix: api/routers/jobs.py `list_jobs` and api/schemas.py `job_out` (with argand/farm/progress.py "
-            "`job_progress`): a list view without per-frame figures, the progress of every listed job in one "
-            "aggregate query over frames (or `selectinload(Job.frames)`), JSON columns deferred; the job's own view "
-            "keeps its frames.")
+            "Fixed (issue 13): api/routers/jobs.py `list_jobs` reads a page in four queries whatever it holds "
+            "(the jobs with their scene deferred, their progress in one aggregate, argand/farm/progress.py "
+            "`jobs_progress`, and their frames' plain columns) into api/schemas.py `job_summary`, a view without the "
+            "scene and the frames' figures; the job's own view (`job_out`) keeps them.")
     rendering, niced = _row(report, "workers rendering", "list, 1 client(s)"), \
         _row(report, "workers rendering at nice 10", "list, 1 client(s)")
     if rendering and niced:
@@ -167,26 +167,25 @@ def causes(report: dict) -> list[str]:
                " (no clear gain in this run: the machine's other load moved more than the priority did)")
             + f"; status with 8 clients: {lat('idle farm', 'status, 8 client(s)')}, "
             f"{lat('workers rendering', 'status, 8 client(s)')}, {lat('workers rendering at nice 10', 'status, 8 client(s)')}. "
-            "Fix: worker/serve.py `start_workers`: start the workers at a lower priority (`os.nice(10)` in a "
-            "`preexec_fn`, or `nice -n 10` before `worker_command`); they still get every cycle the API leaves.")
+            "Fixed (issue 13): worker/serve.py `start_workers` starts the workers at nice 10 (`os.nice` in a "
+            "`preexec_fn`), so the probe's 'workers rendering' is already at nice 10 and the last condition renices "
+            "nothing new; they still get every cycle the API leaves.")
     sse = next((k for k in conditions if "SSE" in k), None)
     if sse:
         without = {k: v for k, v in conditions["workers rendering"]["rows"].items()}
         with_ = conditions[sse]["rows"]
         worst = max(with_, key=lambda k: with_[k]["max_ms"] / max(without[k]["max_ms"], 1e-9))
         out.append(
-            "**The SSE poller does database work on the event loop** (a latent cause). `events.stream` "
-            "(api/routers/jobs.py, through `_progress`) opens a session and builds the job's whole view every 0.5 s "
-            "per open stream, "
-            "synchronously inside the async generator: while it runs, nothing else on the loop moves. "
+            "**The SSE poller** (a latent cause). Before issue 13 `events.stream` "
+            "(api/routers/jobs.py, through `_progress`) opened a session and built the job's whole view every 0.5 s "
+            "per open stream, synchronously on the event loop. "
             f"With {sse.split(', ')[1]} on a job of 400 frames, the request that suffered most was `{worst}`: "
             f"max {_ms(with_[worst]['max_ms'])} ms against {_ms(without[worst]['max_ms'])} ms without streams "
             f"(p50/p99 {lat(sse, worst)} against {lat('workers rendering', worst)})"
             + (f"; at the steady phase's {report['steady']['users']} users `stream` is only {pct('stream')} of the "
                "API's active samples, so it is not what missed the targets there" if prof else "") + ". "
-            "Fix: api/routers/jobs.py `events`/`_progress`: the tick in a thread (`await run_in_threadpool(...)`) and a compact progress "
-            "query (counters and frame states) instead of the whole view; better, one poller per job shared by its "
-            "streams.")
+            "Fixed (issue 13): api/routers/jobs.py `_Poller`: one poller per job shared by its streams, its tick "
+            "in the thread pool (`run_in_threadpool`), a compact progress query (counters and frame states).")
     submit = st.get("POST /api/jobs")
     resume = st.get("POST /api/jobs/{id}/resume")
     if submit:
@@ -195,22 +194,20 @@ def causes(report: dict) -> list[str]:
             f"{_ms(submit['p99_ms'])} ms"
             + (f", resume {_ms(resume['p50_ms'])}/{_ms(resume['p99_ms'])} ms" if resume else "")
             + ": the request inserts every tile and sends every message before it answers (`create_job` → "
-            "`send_runs`: one `send_task` and Redis round trip per message, a `saferepr` of its arguments each)"
+            "`send_runs`)"
             + (f"; `create_job` is in {pct('create_job')} of the API's active samples, `send_task` {pct('send_task')}"
                if prof else "") + ". "
-            "Fix: argand/farm/queue.py `send_runs` (called by argand/farm/submission.py `create_job` and "
-            "argand/farm/dispatch.py `dispatch_job`): publish a job's messages on one producer connection "
-            "(`app.producer_or_acquire()`), or answer 201 once the rows are committed and send from a background "
-            "task; the same for resume and priority changes.")
+            "Since issue 13 argand/farm/queue.py `send_runs` publishes a job's messages on one producer connection "
+            "(`app.producer_or_acquire()`); left open: answering 201 once the rows are committed and sending from a "
+            "background task.")
     scrape = report.get("metrics_ms") or {}
     if prof and prof.get("metrics", 0.0) >= 0.05 and scrape.get("p50_ms"):
         out.append(
             f"**/metrics is expensive.** One scrape took {_ms(scrape['p50_ms'])} ms at the median (p99 "
             f"{_ms(scrape['p99_ms'])} ms), and the harness's scrapes were {pct('metrics')} of the API's active samples "
-            "in the steady phase: every scrape counts and bins every tile and frame (the histograms of render, "
-            "assembly and queue-wait times) in SQL. Fix: argand/farm/metrics.py `FarmCollector`: keep the "
-            "histograms as counters updated when a tile or frame completes (or cache a scrape for a few seconds), "
-            "so that a scrape reads a handful of rows; scrape no more often than Prometheus's default 15 s.")
+            "in the steady phase: a read of the histograms counts and bins every tile and frame (the histograms of render, "
+            "assembly and queue-wait times) in SQL. Since issue 13 argand/farm/metrics.py `FarmCollector` reads the "
+            "histograms again only when the tile and frame counts changed, at most every 5 s.")
     if prof:
         sql = prof.get("do_execute", 0.0) + prof.get("do_commit", 0.0)
         if sql < 0.25:
