@@ -6,7 +6,6 @@ import numpy as np
 import numpy.typing as npt
 
 MAX_DEGREE: int
-MAX_OBJECTS: int
 
 def find_roots(
     coeffs: npt.NDArray[np.float64],

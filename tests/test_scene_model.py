@@ -422,15 +422,3 @@ def test_unreadable_file(tmp_path):
     path.write_bytes(b"\xff\xfe\x00objects")
     with pytest.raises(SceneError, match="cannot read the file"):
         load_scene(path)
-
-
-def test_objects_per_scene_are_limited_to_what_the_renderer_holds():
-    from argand.core import _core
-    from argand.scene import MAX_OBJECTS
-
-    assert MAX_OBJECTS == _core.MAX_OBJECTS == 16
-    sphere = {"surface": "x^2 + y^2 + z^2 - 1"}
-    assert len(scene_from_dict({"objects": [sphere] * MAX_OBJECTS}).objects) == MAX_OBJECTS
-    with pytest.raises(SceneError, match="objects") as caught:
-        scene_from_dict({"objects": [sphere] * (MAX_OBJECTS + 1)})
-    assert str(MAX_OBJECTS) in str(caught.value)

@@ -82,7 +82,6 @@ py::array_t<T> as_image(const std::vector<T>& v, int h, int w, int channels) {
 }  // namespace
 
 void init_render(py::module_& m) {
-    m.attr("MAX_OBJECTS") = kMaxObjects;
     py::class_<FramePlan>(m, "FramePlan", "A frame planned once (camera, Taylor expansions); render tiles from it.")
         .def_property_readonly("width", [](const FramePlan& p) { return p.params.width; })
         .def_property_readonly("height", [](const FramePlan& p) { return p.params.height; });

@@ -213,7 +213,7 @@ public:
         int n_cand = 0;
         ObjectDisc all[4 * kMaxDegree];
         int n_all = 0;
-        bool object_all_verified[kMaxObjects] = {};  // plan_frame caps the objects
+        bool object_all_verified[16] = {};
         bool unverified_seen = false;
         int eligible = 0;
         bool escalated = false;
@@ -239,11 +239,13 @@ public:
                 continue;
             }
             if (res.escalation > 0 || res.wants_exact) escalated = true;
-            object_all_verified[obj] = true;
-            for (int i = 0; i < res.n_discs; ++i) {
-                object_all_verified[obj] = object_all_verified[obj] && res.discs[i].verified;
-                if (n_all < 4 * kMaxDegree) all[n_all++] = {obj, res.discs[i]};
-                else object_all_verified[obj] = false;
+            if (obj < 16) {
+                object_all_verified[obj] = true;
+                for (int i = 0; i < res.n_discs; ++i) {
+                    object_all_verified[obj] = object_all_verified[obj] && res.discs[i].verified;
+                    if (n_all < 4 * kMaxDegree) all[n_all++] = {obj, res.discs[i]};
+                    else object_all_verified[obj] = false;
+                }
             }
             // Seed the next pixel with these approximations when complete.
             if (seeds) {
@@ -443,9 +445,6 @@ private:
 
 FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
     if (scene.objects.empty()) throw std::invalid_argument("the scene has no objects");
-    if (scene.objects.size() > static_cast<std::size_t>(kMaxObjects))
-        throw std::invalid_argument("the scene has " + std::to_string(scene.objects.size()) + " objects; the most is " +
-                                    std::to_string(kMaxObjects));
     if (params.width < 1 || params.height < 1) throw std::invalid_argument("frame size must be at least 1x1");
     FramePlan plan;
     plan.scene = scene;

@@ -21,10 +21,6 @@
 
 namespace argand {
 
-/// Most objects in one scene: the per-ray bookkeeping is sized from it (a
-/// scene with more is refused by plan_frame, not truncated).
-constexpr int kMaxObjects = 16;
-
 struct Term {
     int ex, ey, ez;   // exponents of x, y, z
     double coeff;
@@ -131,8 +127,8 @@ struct FramePlan {
     std::vector<ObjectPlan> objects;
 };
 
-/// Validates the scene for rendering (degree 1..kMaxDegree per object, 1 to
-/// kMaxObjects objects, finite numbers). Throws std::invalid_argument with the
+/// Validates the scene for rendering (degree 1..kMaxDegree per object, at
+/// least one object, finite numbers). Throws std::invalid_argument with the
 /// reason.
 FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params);
 

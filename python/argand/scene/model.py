@@ -20,12 +20,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from argand.core import _core
 from argand.scene.expression import ExpressionError, SurfacePolynomial, parse_surface
-
-#: Most objects in one scene (the renderer's per-ray bookkeeping is sized
-#: from it; it also bounds a scene's cost per pixel).
-MAX_OBJECTS: int = _core.MAX_OBJECTS
 
 RGB = tuple[float, float, float]
 
@@ -189,7 +184,7 @@ FRAMING_MARGIN = 1.1
 
 
 class Scene(_Strict):
-    objects: list[SceneObject] = Field(min_length=1, max_length=MAX_OBJECTS)
+    objects: list[SceneObject] = Field(min_length=1)
     camera: Camera | None = None
     lights: list[Light] | None = None
     background: Color = (0.08, 0.08, 0.1)
