@@ -23,7 +23,6 @@ from argand.scene.expression import (
     parse_surface,
 )
 from argand.scene.model import (
-    MAX_OBJECTS,
     Camera,
     Light,
     Material,
@@ -44,7 +43,6 @@ __all__ = [
     "MAX_LENGTH",
     "MAX_NESTING",
     "MAX_NUMBER_LENGTH",
-    "MAX_OBJECTS",
     "MAX_TERMS",
     "MAX_WORK",
     "PRESETS",
