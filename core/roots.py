@@ -20,6 +20,13 @@ at high precision on the exact rational value of the double coefficients):
   range of float64 comes back unverified with an infinite center.
 * Exact zero constant terms give an exact verified disc ``D(0, 0)``.
 * Degree 0 (a nonzero constant) has no roots: empty arrays.
+* ``radius`` (optional, one finite radius >= 0 per coefficient) turns the
+  input into a family of polynomials: every promise above then holds for
+  EVERY real polynomial q with ``|q_k - coeffs[k]| <= radius[k]``. A
+  coefficient is exactly zero only when its radius is 0 too; if the leading
+  coefficient's interval contains 0, or a stripped zero has a radius,
+  nothing is verified. The exact fallback (below) is for one exact
+  polynomial, so it does not run when a radius is nonzero.
 * NaN or infinite coefficients, the zero polynomial, an empty input or a
   degree above ``MAX_DEGREE`` raise ``ValueError`` with the reason.
 
@@ -143,21 +150,28 @@ def find_roots(
     coeffs: Sequence[float] | np.ndarray,
     method: str = "auto",
     initial: Sequence[complex] | np.ndarray | None = None,
+    radius: Sequence[float] | np.ndarray | None = None,
 ) -> Roots:
     """All complex roots of ``p(t) = sum coeffs[k] t^k`` with proven discs.
 
     ``initial`` (optional, one complex value per root) seeds the approximation,
     for example with the roots of a neighbouring ray's polynomial; it changes
     speed only, never what is proven. See the module docstring for the full
-    contract.
+    contract (``radius``: coefficient radii, a family of polynomials).
     """
     _check_method(method)
     arr = _as_coefficients(coeffs)
-    center, radius, count, verified, real, n_inf, wants_exact, escalation = _core.find_roots(
-        arr, method, None if initial is None else np.asarray(initial, dtype=np.complex128)
+    rad = None
+    if radius is not None:
+        rad = _as_coefficients(radius)
+        if rad.shape != arr.shape:
+            raise ValueError(f"radius must have one entry per coefficient ({arr.size}), got {rad.size}")
+    center, disc_radius, count, verified, real, n_inf, wants_exact, escalation = _core.find_roots(
+        arr, method, None if initial is None else np.asarray(initial, dtype=np.complex128), rad
     )
-    result = Roots(center, radius, count, verified, real, int(n_inf), method, int(escalation), arr.size - 1)
-    if method == "auto" and wants_exact:
+    result = Roots(center, disc_radius, count, verified, real, int(n_inf), method, int(escalation), arr.size - 1)
+    exact_polynomial = rad is None or not np.any(rad > 0)
+    if method == "auto" and wants_exact and exact_polynomial:
         exact = exact_roots(arr)
         if exact is not None:
             return exact

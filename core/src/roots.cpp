@@ -101,8 +101,32 @@ bool method_from_name(const char* name, Method& out) {
     return false;
 }
 
+namespace {
+
+/// rad * 2^k rounded up (a radius in scaled coordinates); 0 stays 0.
+double scale_radius_up(double rad, int k) {
+    if (rad == 0.0) return 0.0;
+    double out;
+    if (exact_scale(rad, k, out)) return out;
+    out = std::ldexp(rad, k);
+    if (out == 0.0) return kDenormMin;
+    if (std::isfinite(out) && std::ldexp(out, -k) < rad) out = next_up(out);
+    return out;
+}
+
+/// Every disc becomes an unverified estimate (nothing is claimed).
+void unverify_all(RootsResult& out) {
+    for (int i = 0; i < out.n_discs; ++i) {
+        out.discs[i].verified = false;
+        out.discs[i].real = false;
+    }
+    out.wants_exact = true;
+}
+
+}  // namespace
+
 Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult& out,
-                  const double* initial_re, const double* initial_im) {
+                  const double* initial_re, const double* initial_im, const double* coeff_radius) {
     out.n_discs = 0;
     out.n_infinite = 0;
     out.wants_exact = false;
@@ -111,6 +135,13 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
     if (n_coeffs - 1 > kMaxDegree) return Status::TooLarge;
     for (int k = 0; k < n_coeffs; ++k)
         if (!std::isfinite(coeffs[k])) return Status::NonFinite;
+    bool has_radius = false;
+    if (coeff_radius != nullptr)
+        for (int k = 0; k < n_coeffs; ++k) {
+            if (!(coeff_radius[k] >= 0.0) || !std::isfinite(coeff_radius[k])) return Status::NonFinite;
+            has_radius = has_radius || coeff_radius[k] > 0.0;
+        }
+    const double* radius_in = has_radius ? coeff_radius : nullptr;
 
     // Roots at infinity: exactly zero leading coefficients.
     int top = n_coeffs - 1;
@@ -122,12 +153,29 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
     int low = 0;
     while (coeffs[low] == 0.0) ++low;
     const int n = top - low;
+    // A stripped zero that is not exactly zero over the whole family (the
+    // family holds polynomials of another degree, or without the root 0):
+    // the discs below would be about another family; claim nothing.
+    bool family_degenerate = false;
+    if (radius_in != nullptr) {
+        for (int k = top + 1; k < n_coeffs; ++k) family_degenerate = family_degenerate || radius_in[k] > 0.0;
+        for (int k = 0; k < low; ++k) family_degenerate = family_degenerate || radius_in[k] > 0.0;
+    }
 
     detail::KernelResult kr;
     int e = 0;
     if (n >= 1) {
         double scaled[kMaxDegree + 1];
         e = scale_polynomial(coeffs + low, n, scaled);
+        // The same exact scaling of the radii (rounded up where inexact):
+        // scaled coefficient k is c_{low+k} 2^(e k + f), f read off the
+        // leading coefficient's scaling.
+        double scaled_radius[kMaxDegree + 1];
+        if (radius_in != nullptr) {
+            const int f = exponent_of(scaled[n]) - exponent_of(coeffs[top]) - e * n;
+            for (int k = 0; k <= n; ++k) scaled_radius[k] = scale_radius_up(radius_in[low + k], e * k + f);
+        }
+        const double* rad = radius_in != nullptr ? scaled_radius : nullptr;
         Complex<double> seed[kMaxDegree];
         const bool use_seed = initial_re != nullptr && initial_im != nullptr;
         if (use_seed) {
@@ -136,10 +184,14 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
                 if (!is_finite(seed[i])) seed[i] = Complex<double>(0.5 + 0.1 * i, 0.3 + 0.05 * i);
             }
         }
-        if (method == Method::Paper) {
+        if (method == Method::Paper && rad == nullptr) {
             detail::solve_paper(scaled, n, kr);
         } else {
-            detail::solve_smith(scaled, n, method, use_seed ? seed : nullptr, kr);
+            // (With coefficient radii the paper's per-root Krawczyk test is
+            // not extended to the family: Smith's discs, with the paper's
+            // double-double retry, prove the roots instead.)
+            const Method kernel = method == Method::Paper ? Method::Auto : method;
+            detail::solve_smith(scaled, rad, n, kernel, use_seed ? seed : nullptr, kr);
         }
         for (int i = 0; i < kr.n_discs; ++i) unscale_disc(kr.discs[i], e);
     }
@@ -151,6 +203,7 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
         out.n_discs = kr.n_discs;
         for (int i = 0; i < kr.n_discs; ++i) out.discs[i] = kr.discs[i];
         if (low > 0) out.discs[out.n_discs++] = RootDisc{0.0, 0.0, 0.0, low, false, false};
+        if (family_degenerate) unverify_all(out);
         return Status::Ok;
     }
 
@@ -171,6 +224,7 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
         out.n_discs = detail::enclose_and_merge(members, kr.n_discs + 1, true, out.discs);
         // Keep the "real" proof of discs that were not merged (a merged disc
         // is symmetric with an odd count, or keeps real = false).
+        if (family_degenerate) unverify_all(out);
         return Status::Ok;
     }
     // Some discs unverified: a verified disc holds its roots of p / t^low;
@@ -195,6 +249,7 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
     }
     if (!zero_absorbed) out.discs[k++] = zero;
     out.n_discs = k;
+    if (family_degenerate) unverify_all(out);
     return Status::Ok;
 }
 

@@ -66,6 +66,25 @@ inline bool eval_bound(const double* c, int n, Complex<T> x, Complex<T>& value, 
     return std::isfinite(e) && is_finite(y);
 }
 
+/// Upper bound of sum_k rad_k |x|^k for a modulus bound ax >= |x| (rounded
+/// upward: every step is a sum or product of nonnegatives, each rounded up).
+/// With rad the radii of a family of polynomials {q : |q_k - c_k| <= rad_k},
+/// |q(x)| <= |p(x)| + family_up(rad, n, |x|) for every member q. rad may be
+/// null (a single polynomial): 0.
+inline double family_up(const double* rad, int n, double ax) {
+    if (rad == nullptr) return 0.0;
+    double s = rad[n];
+    for (int k = n - 1; k >= 0; --k) s = add_up(mul_up(s, ax), rad[k]);
+    return s;
+}
+
+/// Lower bound of |q_n| over the family: |c_n| - rad_n rounded down (<= 0
+/// when the family contains a polynomial of lower degree; nothing can then
+/// be proven about n roots).
+inline double lead_down(const double* c, const double* rad, int n) {
+    return rad == nullptr ? std::fabs(c[n]) : add_down(std::fabs(c[n]), -rad[n]);
+}
+
 // ---------------------------------------------------------------------------
 // Approximation: initial guesses and the Aberth-Ehrlich iteration
 // ---------------------------------------------------------------------------
@@ -308,10 +327,15 @@ inline bool separate_duplicates(Complex<T>* x, int n) {
 /// and every connected component of their union made of m discs holds
 /// exactly m roots (with multiplicity).
 /// On true, r[i] is an upper bound of that radius, computed with rigorous
-/// error bounds. On false nothing is claimed (non-finite intermediate or
+/// error bounds; with rad (coefficient radii), an upper bound of the radius
+/// for every polynomial of the family {q : |q_k - c_k| <= rad_k}, so the
+/// discs and their counts hold for each member (larger radii keep Smith's
+/// counts: each component of the larger discs is a union of components of
+/// the smaller ones). On false nothing is claimed (non-finite intermediate or
 /// coincident approximations).
 template <class T>
-inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r, double* pair_low = nullptr) {
+inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r, double* pair_low = nullptr,
+                        const double* rad = nullptr) {
     using E = ErrorModel<T>;
     // |exact difference| >= |computed difference| * (1 - add_rel) - abs_err.
     const double shrink = next_down(1.0 - 2.0 * E::add_rel);
@@ -322,12 +346,13 @@ inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r, 
             const double d = mag_down(x[i] - x[j]);
             low[i * n + j] = low[j * n + i] = std::fmax(0.0, add_down(mul_down(d, shrink), -E::abs_err));
         }
-    const double lead = std::fabs(c[n]);
+    const double lead = lead_down(c, rad, n);
+    if (!(lead > 0.0)) return false;
     for (int i = 0; i < n; ++i) {
         Complex<T> v;
         double err;
         if (!eval_bound(c, n, x[i], v, err)) return false;
-        const double numerator = add_up(mag_up(v), err);
+        const double numerator = add_up(add_up(mag_up(v), err), family_up(rad, n, mag_up(x[i])));
         double denominator = lead;
         for (int j = 0; j < n; ++j)
             if (j != i) denominator = mul_down(denominator, low[i * n + j]);
@@ -357,7 +382,8 @@ inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r, 
 /// exact distance when nothing underflows (guard: >= 2^-450); a product of n-1
 /// of them and the leading coefficient within (1+u)^(4.5n), covered by the
 /// factor 1 - 2(5n+2)u (guard: product >= 2^-900).
-inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, double* r, double* low) {
+inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, double* r, double* low,
+                             const double* rad = nullptr) {
     constexpr double u = kUnitRoundoff;
     using E = ErrorModel<double>;
     const double relative_up = 1.0 + 2.0 * (4.0 * n + 10.0) * u;
@@ -398,9 +424,22 @@ inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, d
             ay[i] = a_next;
         }
     }
+    // The family's term sum_k rad_k |x|^k, in round-to-nearest on ax >= |x|
+    // (1 - u): the same argument as for e bounds it by relative_up and slack.
+    double fam[kMaxDegree];
+    const double lead_low = lead_down(c, rad, n);
+    if (!(lead_low > 0.0)) return false;
     for (int i = 0; i < n; ++i) {
-        const double numerator = next_up(next_up(ay[i]) + next_up(e[i] * relative_up) + slack);
-        double denominator = lead;
+        fam[i] = 0.0;
+        if (rad == nullptr) continue;
+        double s = rad[n];
+        for (int k = n - 1; k >= 0; --k) s = s * ax[i] + rad[k];
+        fam[i] = add_up(next_up(s * relative_up), slack);
+    }
+    for (int i = 0; i < n; ++i) {
+        const double numerator =
+            add_up(add_up(next_up(ay[i]), next_up(e[i] * relative_up)), add_up(slack, fam[i]));
+        double denominator = lead_low;
         for (int j = 0; j < n; ++j)
             if (j != i) denominator *= dist[i * n + j];
         if (!(denominator >= 0x1p-900) || !std::isfinite(denominator) || !std::isfinite(numerator)) return false;
@@ -536,7 +575,10 @@ struct KernelResult {
     RootDisc discs[kMaxDegree];
 };
 
-void solve_smith(const double* c, int n, Method method, const Complex<double>* seed, KernelResult& out);
+/// rad (nullable): coefficient radii; the discs then hold for every member of
+/// the family {q : |q_k - c_k| <= rad_k} (see smith_radii).
+void solve_smith(const double* c, const double* rad, int n, Method method, const Complex<double>* seed,
+                 KernelResult& out);
 void solve_paper(const double* c, int n, KernelResult& out);
 
 }  // namespace argand::detail
