@@ -1,7 +1,9 @@
 // find_roots_fuzz.cpp: libFuzzer target for argand::find_roots.
 //
-// Input: one control byte (method, raw or structured coefficients, seeds),
-// a coefficient count, the coefficients, then optional seeds. Checked on
+// Input: one control byte (method, raw or structured coefficients, seeds,
+// coefficient radii), a coefficient count, the coefficients, then optional
+// seeds and optional coefficient radii (|structured double|, so NaN and
+// infinity too). Checked on
 // every input, beyond "no crash, no undefined behaviour, no hang" (the
 // sanitizers and libFuzzer's -timeout watch those):
 //  * the status is the documented one (NonFinite, ZeroPolynomial, TooLarge);
@@ -36,13 +38,14 @@ bool certainly_overlap(const argand::RootDisc& a, const argand::RootDisc& b) {
     return distance * (1.0 + 0x1p-40) < reach * (1.0 - 0x1p-40);
 }
 
-void check(const double* coeffs, int n_coeffs, Method method, const double* seed_re, const double* seed_im) {
+void check(const double* coeffs, int n_coeffs, Method method, const double* seed_re, const double* seed_im,
+           const double* radii) {
     RootsResult out;
-    const Status status = argand::find_roots(coeffs, n_coeffs, method, out, seed_re, seed_im);
+    const Status status = argand::find_roots(coeffs, n_coeffs, method, out, seed_re, seed_im, radii);
     const int n = n_coeffs - 1;
     bool finite = true, all_zero = true;
     for (int i = 0; i < n_coeffs; ++i) {
-        finite = finite && std::isfinite(coeffs[i]);
+        finite = finite && std::isfinite(coeffs[i]) && (!radii || (std::isfinite(radii[i]) && radii[i] >= 0.0));
         all_zero = all_zero && coeffs[i] == 0.0;
     }
     if (n > argand::kMaxDegree) {
@@ -96,6 +99,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             seed_im[i] = in.structured_double();
         }
     }
-    check(coeffs, n_coeffs, method, seeded ? seed_re : nullptr, seeded ? seed_im : nullptr);
+    const bool with_radii = (control & 32) != 0;
+    double radii[argand::kMaxDegree + 2];
+    if (with_radii)
+        for (int i = 0; i < n_coeffs; ++i) radii[i] = std::fabs(in.structured_double());
+    check(coeffs, n_coeffs, method, seeded ? seed_re : nullptr, seeded ? seed_im : nullptr,
+          with_radii ? radii : nullptr);
     return 0;
 }

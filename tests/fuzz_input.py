@@ -61,6 +61,7 @@ class RootsCase:
     method: str
     coeffs: list[float]
     seeds: list[complex] | None
+    radii: list[float] | None = None
 
     @property
     def valid(self) -> bool:
@@ -69,6 +70,7 @@ class RootsCase:
             all(math.isfinite(c) for c in self.coeffs)
             and any(c != 0.0 for c in self.coeffs)
             and len(self.coeffs) - 1 <= MAX_DEGREE
+            and (self.radii is None or all(math.isfinite(r) for r in self.radii))
         )
 
 
@@ -86,18 +88,21 @@ def decode_roots_case(data: bytes) -> RootsCase:
         for _ in range(min(n_coeffs - 1, MAX_DEGREE + 1)):
             re = b.structured_double()
             seeds.append(complex(re, b.structured_double()))
-    return RootsCase(method, coeffs, seeds)
+    radii = [abs(b.structured_double()) for _ in range(n_coeffs)] if control & 32 else None
+    return RootsCase(method, coeffs, seeds, radii)
 
 
 def replay(case: RootsCase) -> list[str]:
-    """The contract's violations by find_roots on the case (empty: none)."""
+    """The contract's violations by find_roots on the case (empty: none).
+    With coefficient radii the claims must hold for every polynomial within
+    them, so in particular for the centre one, which is what is checked."""
     import numpy as np
 
     from argand.core import find_roots
     from truth import check_roots
 
     initial = None if not case.seeds or len(case.seeds) != len(case.coeffs) - 1 else np.array(case.seeds)
-    roots = find_roots(case.coeffs, method=case.method, initial=initial)
+    roots = find_roots(case.coeffs, method=case.method, initial=initial, radius=case.radii)
     if case.method == "unverified":
         return ["the unverified method claimed a proof"] if roots.verified.any() else []
     return check_roots(case.coeffs, roots)
@@ -108,4 +113,4 @@ if __name__ == "__main__":
     found = decode_roots_case(Path(sys.argv[1]).read_bytes())
     problems = replay(found) if found.valid else []
     print(json.dumps({"method": found.method, "coeffs": [c.hex() for c in found.coeffs],
-                      "seeded": found.seeds is not None, "problems": problems}))
+                      "seeded": found.seeds is not None, "radii": found.radii, "problems": problems}))
