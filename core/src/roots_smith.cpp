@@ -28,7 +28,7 @@ bool has_duplicate(const Complex<T>* x, int n) {
 /// Returns false if Smith's bound could not be evaluated (nothing claimed).
 template <class T>
 bool smith_members(const double* c, const double* rad, int n, Complex<T>* x, MemberDisc* members) {
-    separate_duplicates(x, n);
+    if (!separate_duplicates(x, n)) return false;
     Complex<T> original[kMaxDegree];
     for (int i = 0; i < n; ++i) original[i] = x[i];
 
@@ -83,7 +83,7 @@ int smith_discs(const double* c, const double* rad, int n, Complex<T>* x, RootDi
 /// grouping otherwise.
 template <>
 int smith_discs<double>(const double* c, const double* rad, int n, Complex<double>* x, RootDisc* out) {
-    if (has_duplicate(x, n)) separate_duplicates(x, n);
+    if (has_duplicate(x, n) && !separate_duplicates(x, n)) return 0;
     // Snap approximations that are real to working accuracy (as
     // smith_members does); if that made two coincide, take the general path.
     const double snap_tol = 64.0 * working_epsilon<double>();

@@ -299,23 +299,31 @@ inline bool exact_equal(double a, double b) { return a == b; }
 inline bool exact_equal(DoubleDouble a, DoubleDouble b) { return a.hi == b.hi && a.lo == b.lo; }
 
 /// Makes the approximations pairwise distinct (Smith's theorem needs it) by
-/// moving later duplicates a little. Returns true if anything moved.
+/// moving later duplicates a little. Bounded work: returns false (and the
+/// caller must claim nothing) if an approximation is not finite, or if the
+/// duplicates could not be separated within 4 n^2 + 16 moves (e.g. after an
+/// overflow made two of them (inf, inf), whose nudge is infinite).
 template <class T>
 inline bool separate_duplicates(Complex<T>* x, int n) {
-    bool moved = false;
+    for (int i = 0; i < n; ++i)
+        if (!is_finite(x[i])) return false;
+    int budget = 4 * n * n + 16;
     for (int i = 1; i < n; ++i) {
         for (int j = 0; j < i; ++j) {
             if (exact_equal(x[i].re, x[j].re) && exact_equal(x[i].im, x[j].im)) {
-                const double a = mag_approx(x[i]);
-                const double step = (a > 0 ? a : 1.0) * 1e-9;
+                if (--budget < 0) return false;
+                // A step of 1e-9 relative (max-norm: no overflow), at least
+                // 2^-1000 so that it moves subnormal approximations too.
+                const double a = std::fmax(std::fabs(to_double(x[i].re)), std::fabs(to_double(x[i].im)));
+                const double step = std::fmax(a * 1e-9, 0x1p-1000);
                 const double angle = 2.0 * kPi * i / n + 0.3;
                 x[i] = x[i] + Complex<T>(T(step * std::cos(angle)), T(step * std::sin(angle)));
-                moved = true;
+                if (!is_finite(x[i])) return false;
                 j = -1;  // re-check against all earlier ones
             }
         }
     }
-    return moved;
+    return true;
 }
 
 // ---------------------------------------------------------------------------
@@ -463,12 +471,32 @@ struct MemberDisc {
 
 /// Lower / upper bounds of |a - b| for points given in doubles. A difference
 /// of doubles is correctly rounded (exact when subnormal), so per component
-/// |exact| is within a factor (1 +- u) of the computed one.
+/// |exact| is within a factor (1 +- u) of the computed one (overflow gives
+/// inf: still an upper bound, and next_down(inf) is a lower one). The modulus
+/// is taken on components rescaled by an exact power of two when they are
+/// tiny or huge, so that squaring neither underflows (which made the lower
+/// bound 0 and the upper bound 2^-537 for subnormal distances) nor overflows.
+inline double scaled_hypot(double dr, double di, bool up) {
+    const double big = std::fmax(dr, di);
+    if (big > 0.0 && big < 0x1p-500) {
+        // Exact: no overflow, and a product by 2^600 of a double this small is a normal double.
+        const double h = up ? hypot_up(dr * 0x1p600, di * 0x1p600) : hypot_down(dr * 0x1p600, di * 0x1p600);
+        return up ? mul_up(h, 0x1p-600) : mul_down(h, 0x1p-600);
+    }
+    if (big > 0x1p500 && std::isfinite(big)) {
+        // The smaller component may lose bits when scaled down: round it the safe way.
+        const double sr = up ? mul_up(dr, 0x1p-600) : mul_down(dr, 0x1p-600);
+        const double si = up ? mul_up(di, 0x1p-600) : mul_down(di, 0x1p-600);
+        const double h = up ? hypot_up(std::fmax(sr, 0.0), std::fmax(si, 0.0)) : hypot_down(std::fmax(sr, 0.0), std::fmax(si, 0.0));
+        return up ? mul_up(h, 0x1p600) : mul_down(h, 0x1p600);
+    }
+    return up ? hypot_up(dr, di) : hypot_down(dr, di);
+}
 inline double dist_down(double ar, double ai, double br, double bi) {
-    return mul_down(hypot_down(std::fabs(ar - br), std::fabs(ai - bi)), 1.0 - 2.0 * kUnitRoundoff);
+    return std::fmax(0.0, mul_down(scaled_hypot(std::fabs(ar - br), std::fabs(ai - bi), false), 1.0 - 2.0 * kUnitRoundoff));
 }
 inline double dist_up(double ar, double ai, double br, double bi) {
-    return mul_up(hypot_up(std::fabs(ar - br), std::fabs(ai - bi)), 1.0 + 2.0 * kUnitRoundoff);
+    return mul_up(scaled_hypot(std::fabs(ar - br), std::fabs(ai - bi), true), 1.0 + 2.0 * kUnitRoundoff);
 }
 
 /// Given a covering family (every root of p lies in some member, and every
