@@ -247,6 +247,33 @@ def test_find_roots_makes_no_false_claim_on_any_doubles(coeffs, method):
     assert not problems, f"{reproducer(coeffs, method)}: {problems}"
 
 
+_SEED = st.one_of(st.just(0j), st.builds(complex, _ANY_FINITE, _ANY_FINITE), st.builds(complex, _SCALED_INTEGER, _SCALED_INTEGER))
+
+
+@st.composite
+def _seeded(draw):
+    """Coefficients and one seed per root: arbitrary, all equal or all zero
+    (the fuzzer's hangs were all-zero seeds)."""
+    coeffs = draw(_COEFFICIENTS)
+    n = len(coeffs) - 1
+    kind = draw(st.sampled_from(["any", "equal", "zero"]))
+    if kind == "any":
+        seeds = draw(st.lists(_SEED, min_size=n, max_size=n))
+    else:
+        seeds = [draw(_SEED) if kind == "equal" else 0j] * n
+    return coeffs, seeds
+
+
+@reproducible(max_examples=100, deadline=None)
+@given(_seeded(), st.sampled_from(["auto", "smith", "paper"]))
+def test_seeds_change_nothing_that_is_proven(case, method):
+    coeffs, seeds = case
+    with watchdog():
+        roots = find_roots(coeffs, method=method, initial=np.array(seeds, dtype=np.complex128))
+    problems = check_roots(coeffs, roots)
+    assert not problems, f"{reproducer(coeffs, method)} seeded with {seeds}: {problems}"
+
+
 @reproducible(max_examples=60, deadline=None)
 @given(_COEFFICIENTS)
 def test_unverified_method_claims_nothing_and_accounts_for_every_root(coeffs):
