@@ -37,7 +37,11 @@ Methods (``method=``):
     cannot isolate the roots; for the rare polynomials that still have a
     cluster or an unverified entry, the exact fallback: python-flint's
     ``fmpq_poly.complex_roots()`` on the exact rational coefficients, which
-    gives isolated roots with exact multiplicities.
+    gives isolated roots with exact multiplicities; their float64 discs are
+    grouped until proven disjoint (roots closer than double spacing become
+    one cluster disc with their total count). The fallback's work is capped
+    (``EXACT_MAX_DEGREE_BITS``); beyond the cap the double / double-double
+    answer stands, honestly unverified where it was.
 ``"smith"``
     Aberth-Ehrlich + Smith's (1970) inclusion discs in double with rigorous
     rounding bounds; clusters get a count (components of k discs hold k roots);
@@ -250,6 +254,8 @@ def _exact_disjoint(a: tuple[float, float, float], b: tuple[float, float, float]
     exactly in rationals (never rounded)."""
     from flint import fmpq
 
+    if not all(math.isfinite(v) for v in (*a, *b)):
+        return False  # nothing proven about an unbounded disc
     q = lambda v: fmpq(*float(v).as_integer_ratio())  # noqa: E731
     dx, dy, s = q(a[0]) - q(b[0]), q(a[1]) - q(b[1]), q(a[2]) + q(b[2])
     return dx * dx + dy * dy > s * s
