@@ -67,7 +67,7 @@ def test_roots_at_infinity_and_constants():
         (["roots", "1", "1", "--method", "fast"], "unknown method"),
         (["render", "no-such-scene"], "no preset or file named"),
         (["render", "bicube", "--deltas", "0:pi/9"], "START:STOP:COUNT"),
-        (["render", "bicube", "--delta", "pi/"], "the angle ends with '/'"),
+        (["render", "bicube", "--delta", "pi/"], "cannot read"),
         (["render", "bicube", "--size", "big"], "--size must look like"),
         (["render", "bicube", "--exr-compression", "lzma"], "--exr-compression: EXR compression must be one of"),
         (["render", "bicube", "--exr-compression", "zip:10"], "1..9"),

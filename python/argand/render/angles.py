@@ -81,7 +81,7 @@ class _Angle:
         self.ops: list[tuple[str, int]] = []
 
     def error(self, message: str, position: int) -> ExpressionError:
-        return ExpressionError(message, position, self.text)
+        return _error(message, position, self.text)
 
     def tokens(self):
         """(kind, text, position) with kind "num", "pi", "op", "(", ")" and a
@@ -95,7 +95,10 @@ class _Angle:
                 return
             ch = text[i]
             if ch in _DIGITS or (ch == "." and i + 1 < n and text[i + 1] in _DIGITS):
-                literal = scan_number(text, i)
+                try:
+                    literal = scan_number(text, i)
+                except ExpressionError as exc:
+                    raise self.error(exc.message, exc.position) from None
                 yield "num", literal, i
                 i += len(literal)
             elif ch in _NAME_CHARS:
@@ -149,11 +152,11 @@ class _Angle:
                     self.ops.append(("(" if kind == "(" else "u" + token, position))
                 elif kind == "end":
                     if previous is None:
-                        raise self.error(f"the angle is empty: write {ANGLE_SYNTAX}", 0)
+                        raise self.error(f"it is empty (write {ANGLE_SYNTAX})", 0)
                     if previous[0] == "(":
                         raise self.error("unmatched '('", previous[2])
                     raise self.error(
-                        f"the angle ends with {previous[1]!r}: a number, pi or '(' must follow it", previous[2]
+                        f"it ends with {previous[1]!r}: a number, pi or '(' must follow it", previous[2]
                     )
                 elif kind == ")":
                     if previous is not None and previous[0] == "(":
@@ -184,17 +187,17 @@ class _Angle:
         raise AssertionError("unreachable: tokens() ends with 'end'")  # pragma: no cover
 
 
+def _error(message: str, position: int, text: str) -> ExpressionError:
+    return ExpressionError(f"cannot read the angle: {message}", position, text)
+
+
 def _precedence(op: str) -> int:
     return _UNARY_PRECEDENCE if op in ("u+", "u-") else _PRECEDENCE[op]
 
 
 def _parse_text(text: str) -> float:
     if len(text) > MAX_ANGLE_LENGTH:
-        raise ExpressionError(
-            f"the angle has {len(text)} characters; the most is {MAX_ANGLE_LENGTH} ({ANGLE_SYNTAX})",
-            MAX_ANGLE_LENGTH,
-            text,
-        )
+        raise _error(f"it has {len(text)} characters; the most is {MAX_ANGLE_LENGTH} ({ANGLE_SYNTAX})", MAX_ANGLE_LENGTH, text)
     return _Angle(text).parse()
 
 

@@ -48,10 +48,11 @@ MAX_NUMBER_LENGTH = 400
 MAX_DECIMAL_EXPONENT = 700
 #: Most work units one expansion may take: a unit is one product or sum of
 #: two coefficients of up to about 300 bits, and longer coefficients cost
-#: more units (about bits_a * bits_b / 100,000): the whole budget is well
-#: under a second of CPU whatever the text. (x+y+z+1)^12 takes about 9,000
-#: units, a product of two full sextics about 7,100.
-MAX_WORK = 50_000
+#: more units (about bits_a * bits_b / 100,000). A unit takes 5-10 us, so
+#: the budget is about 0.2 s of CPU whatever the text, and a scene of many
+#: objects stays within seconds. (x+y+z+1)^12 takes 5,463 units, a product
+#: of two full sextics 8,070, Barth's sextic 89, the presets at most 49.
+MAX_WORK = 20_000
 #: Most distinct terms a surface can have: every monomial x^i y^j z^k of
 #: total degree <= MAX_DEGREE (455 for degree 12). Not a separate check: the
 #: degree bound implies it.
