@@ -10,6 +10,9 @@ fragment and splices the animation from them.
 from argand.render.angles import parse_angle, parse_sweep
 from argand.render.frames import (
     AOV_CHANNELS,
+    BAND_RULE,
+    ESCALATION_NAMES,
+    MAX_OBJECTS,
     STATUS_NAMES,
     FrameParams,
     FrameResult,
@@ -23,6 +26,9 @@ from argand.render.frames import (
 
 __all__ = [
     "AOV_CHANNELS",
+    "BAND_RULE",
+    "ESCALATION_NAMES",
+    "MAX_OBJECTS",
     "STATUS_NAMES",
     "FrameParams",
     "FrameResult",
