@@ -13,8 +13,20 @@
 namespace argand {
 namespace {
 
-/// True iff ldexp(v, e) is exact (no overflow, no loss in the subnormal range).
+/// True iff ldexp(v, e) is exact (no overflow, no loss in the subnormal
+/// range); out = ldexp(v, e) either way. The common case (a normal v whose
+/// result is normal) only moves the exponent field; libm's ldexp, twice, is
+/// kept for the rest (it was most of the scaling's cost on the ray caster's
+/// polynomials).
 inline bool exact_ldexp(double v, int e, double& out) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    const int biased = static_cast<int>((bits >> 52) & 0x7ff);
+    if (biased != 0 && biased != 0x7ff && e > -2046 && e < 2046 && biased + e >= 1 && biased + e <= 0x7fe) {
+        bits += static_cast<std::uint64_t>(static_cast<std::int64_t>(e)) << 52;
+        std::memcpy(&out, &bits, sizeof out);
+        return true;
+    }
     out = std::ldexp(v, e);
     return std::isfinite(out) && std::ldexp(out, -e) == v;
 }
@@ -30,12 +42,13 @@ inline int exponent_of(double v) {
 /// Exponent of the lowest set bit of a finite nonzero double: v is an
 /// integer multiple of 2^lowest_bit(v).
 inline int lowest_bit(double v) {
-    int q;
-    const double m = std::frexp(std::fabs(v), &q);  // v = m 2^q, m in [0.5, 1)
-    auto mant = static_cast<std::uint64_t>(std::ldexp(m, 53));  // exact: 53 bits
-    int tz = 0;
-    while ((mant & 1u) == 0) { mant >>= 1; ++tz; }
-    return q - 53 + tz;
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    const int biased = static_cast<int>((bits >> 52) & 0x7ff);
+    const std::uint64_t fraction = bits & 0x000fffffffffffffULL;
+    // Normal: (2^52 + fraction) 2^(biased - 1075); subnormal: fraction 2^-1074.
+    const std::uint64_t mant = biased == 0 ? fraction : (fraction | 0x0010000000000000ULL);
+    return (biased == 0 ? -1074 : biased - 1075) + __builtin_ctzll(mant);
 }
 
 /// Writes s[k] = c[k] 2^(e k + f) for all k and returns true iff every one
@@ -229,7 +242,10 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
         const bool use_seed = initial_re != nullptr && initial_im != nullptr;
         if (use_seed) {
             for (int i = 0; i < n; ++i) {
-                seed[i] = Complex<double>(std::ldexp(initial_re[i], -e), std::ldexp(initial_im[i], -e));
+                double sr, si;
+                exact_ldexp(initial_re[i], -e, sr);
+                exact_ldexp(initial_im[i], -e, si);
+                seed[i] = Complex<double>(sr, si);
                 if (!is_finite(seed[i])) seed[i] = Complex<double>(0.5 + 0.1 * i, 0.3 + 0.05 * i);
             }
         }
