@@ -32,9 +32,11 @@ from fractions import Fraction
 
 import numpy as np
 
-#: Largest total degree of a surface (a renderable scene never needs more,
-#: and it bounds the work of expansion).
-MAX_DEGREE = 12
+from argand.core import _core
+
+#: Largest total degree of a surface: the renderer's limit (defined in C++,
+#: where plan_frame enforces it); it also bounds the work of expansion.
+MAX_DEGREE: int = _core.MAX_SURFACE_DEGREE
 #: Longest expression text accepted (a fully expanded degree-12 polynomial
 #: has at most 455 terms and fits easily).
 MAX_LENGTH = 20_000
