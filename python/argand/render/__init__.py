@@ -5,6 +5,8 @@ farm's workers call it too); ``render_frame`` renders all tiles of a frame
 on all cores; ``argand.render.output`` writes EXR (all AOVs), PNG and JSON
 through OpenImageIO; ``argand.render.gif`` encodes each frame's GIF
 fragment and splices the animation from them.
+``primary_ray(scene, width, height, x, y)`` gives the exact doubles of a
+pixel's ray, so anyone can check a pixel against the surface itself.
 """
 
 from argand.render.angles import parse_angle, parse_sweep
@@ -20,6 +22,7 @@ from argand.render.frames import (
     render_tile,
     tiles,
 )
+from argand.render.rays import primary_ray
 
 __all__ = [
     "AOV_CHANNELS",
@@ -31,6 +34,7 @@ __all__ = [
     "delta_sweep",
     "parse_angle",
     "parse_sweep",
+    "primary_ray",
     "render_frame",
     "render_tile",
     "tiles",
