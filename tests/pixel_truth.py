@@ -218,7 +218,9 @@ def _in_band(theta: flint.arb, lo: flint.fmpq, hi: flint.fmpq, exact_theta: flin
 
 def _eligible(root_ball: flint.acb, real: bool, complex_space: bool, sigma: flint.fmpq, top: flint.fmpq) -> bool | None:
     if real:
-        positive = root_ball.real > 0
+        if not (root_ball.real > 0 or root_ball.real < 0):
+            return None  # t = 0 is excluded, so more precision separates it
+        positive = bool(root_ball.real > 0)
         if not complex_space:
             return positive
         theta = flint.arb(0) if positive else flint.arb.pi()
