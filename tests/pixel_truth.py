@@ -375,18 +375,35 @@ def _near(value: float, target: flint.arb, scale: float) -> bool:
     return abs(flint.arb(value) - target) <= AOV_RELATIVE_TOLERANCE * scale
 
 
+def _nearest_root(truth: PixelTruth, point: complex) -> TruthRoot | None:
+    """The root (of any object, either conjugate) nearest ``point``, when
+    certainly nearer than every other root."""
+    g = flint.acb(point.real, abs(point.imag))  # roots are kept with imag >= 0
+    dist = [(abs(r.ball - g), r) for r in truth.roots]
+    for d, r in dist:
+        if all(d < e for e, q in dist if q is not r):
+            return r
+    return None
+
+
 def check_pixel(truth: PixelTruth, status: int, hit: bool, re: float, im: float, z: float) -> list[str]:
     """The contradictions between a rendered pixel and the truth, as readable
     strings; only a certified pixel (status 0) claims anything, so any other
     status gives []. ``re``, ``im``, ``z`` are the pixel's AOVs (the chosen
-    root and its modulus), ``hit`` its alpha > 0."""
+    root and its modulus), ``hit`` its alpha > 0.
+
+    Each string starts with its kind: ``"wrong: "`` when the pixel claims a
+    different answer (hit for miss, miss for hit, another root than the
+    chosen one, a single root where the chosen root is multiple), and
+    ``"imprecise: "`` when it shows the right root but farther from it than
+    float32 AOVs allow (AOV_RELATIVE_TOLERANCE relative to |t|)."""
     if status != 0:
         return []
     if truth.hit is None:
         return []  # degenerate without a certain candidate: nothing to contradict
     if hit != truth.hit:
         said = "hit" if hit else "miss"
-        return [f"certified {said}, but the exact answer is {truth.describe()}"]
+        return [f"wrong: certified {said}, but the exact answer is {truth.describe()}"]
     if not hit or truth.root is None:
         return []
     r = truth.root
@@ -396,9 +413,166 @@ def check_pixel(truth: PixelTruth, status: int, hit: bool, re: float, im: float,
         _near(im, r.ball.imag, scale) or _near(im, -r.ball.imag, scale)
     )
     if not on_root:
-        problems.append(f"certified hit at t = {complex(re, im)}, but the exact chosen root is {truth.describe()}")
+        nearest = _nearest_root(truth, complex(re, im))
+        kind = "imprecise" if nearest is r else "wrong"
+        gap = abs(r.ball - flint.acb(re, abs(im)))
+        problems.append(f"{kind}: certified hit at t = {complex(re, im)}, {float(gap.mid()):.3g} from the exact "
+                        f"chosen root: {truth.describe()}")
     if not _near(z, r.modulus, scale):
-        problems.append(f"certified Z = {z!r}, but the exact chosen root has |t| = {r.modulus}")
+        problems.append(f"{'wrong' if on_root else kind}: certified Z = {z!r}, but the exact chosen root has "
+                        f"|t| = {r.modulus}")
     if r.multiplicity > 1:
-        problems.append(f"certified a single root, but the chosen root has multiplicity {r.multiplicity}")
+        problems.append(f"wrong: certified a single root, but the chosen root has multiplicity {r.multiplicity}")
     return problems
+
+
+def is_wrong(problems: Sequence[str]) -> bool:
+    """Whether any of check_pixel's problems is a wrong answer (not only an
+    imprecise AOV)."""
+    return any(p.startswith("wrong: ") for p in problems)
+
+
+# ---------------------------------------------------------------------------
+# Checking a rendered frame (the glue that calls the renderer; the truth
+# above never does)
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class FrameCheck:
+    """The outcome of checking pixels of one rendered frame."""
+
+    pixels: int = 0  # pixels checked
+    certified: int = 0  # of those, status 0
+    certified_hits: int = 0
+    degenerate: int = 0  # pixels whose truth is degenerate
+    by_status: list[int] = field(default_factory=lambda: [0, 0, 0, 0])
+    disagreements: list[tuple[int, int, list[str]]] = field(default_factory=list)
+    seconds_truth: float = 0.0
+
+    @property
+    def wrong(self) -> int:
+        """Certified pixels whose answer the truth contradicts."""
+        return sum(is_wrong(p) for _, _, p in self.disagreements)
+
+    @property
+    def imprecise(self) -> int:
+        """Certified pixels with the right answer but AOVs off by more than float32."""
+        return len(self.disagreements) - self.wrong
+
+    def add(self, other: FrameCheck) -> None:
+        self.pixels += other.pixels
+        self.certified += other.certified
+        self.certified_hits += other.certified_hits
+        self.degenerate += other.degenerate
+        self.by_status = [a + b for a, b in zip(self.by_status, other.by_status)]
+        self.disagreements += other.disagreements
+        self.seconds_truth += other.seconds_truth
+
+
+def rendered_pixel(result: Any, x: int, y: int) -> tuple[int, bool, float, float, float]:
+    """(status, hit, re, im, Z) of pixel (x, y) of a FrameResult or TileAOVs
+    whose arrays start at pixel (0, 0)."""
+    a = result.aovs
+    return (int(a["status"][y, x]), bool(result.rgba[y, x, 3] > 0), float(a["re"][y, x]),
+            float(a["im"][y, x]), float(a["Z"][y, x]))
+
+
+def check_frame(scene: Any, params: Any, result: Any, pixels: Sequence[tuple[int, int]]) -> FrameCheck:
+    """Checks the given pixels of ``result`` (a rendered FrameResult of
+    ``scene`` with FrameParams ``params``) against the exact truth."""
+    import time
+
+    from argand.render import primary_ray
+
+    objects = scene_objects(scene)
+    out = FrameCheck()
+    for x, y in pixels:
+        status, hit, re, im, z = rendered_pixel(result, x, y)
+        out.pixels += 1
+        out.by_status[status] += 1
+        if status != 0:
+            continue
+        out.certified += 1
+        out.certified_hits += hit
+        origin, direction = primary_ray(scene, params.width, params.height, x, y)
+        start = time.perf_counter()
+        truth = pixel_truth(scene, params.sigma, params.delta, origin, direction, objects)
+        out.seconds_truth += time.perf_counter() - start
+        out.degenerate += truth.decision == "degenerate"
+        problems = check_pixel(truth, status, hit, re, im, z)
+        if problems:
+            out.disagreements.append((x, y, problems))
+    return out
+
+
+def sample_pixels(width: int, height: int, count: int, seed: int) -> list[tuple[int, int]]:
+    """``count`` distinct pixels of the frame (all of them when count >= w h)."""
+    import random
+
+    every = [(x, y) for y in range(height) for x in range(width)]
+    if count >= len(every):
+        return every
+    return random.Random(seed).sample(every, count)
+
+
+def _scene_from_spec(spec: str) -> Any:
+    if spec.startswith("random:"):
+        from random_surfaces import parse_random_spec
+
+        return parse_random_spec(spec)
+    from argand.scene import load_scene
+
+    return load_scene(spec)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    import argparse
+    import sys
+    import time
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from argand.render import FrameParams, render_frame
+    from argand.render.angles import parse_angle
+
+    parser = argparse.ArgumentParser(
+        prog="tests/pixel_truth.py",
+        description="Check sampled pixels of rendered frames against the exact truth; print every certified "
+        "pixel the truth contradicts. Exit status 1 when there is one.",
+    )
+    parser.add_argument("scenes", nargs="+", help="preset names, scene files, or random:[FAMILY:]DEGREE:SEED")
+    parser.add_argument("--size", default="64x64", help="frame size WxH (default 64x64)")
+    parser.add_argument("--sigma", default="0", help="band start (radians, or e.g. pi/36)")
+    parser.add_argument("--delta", action="append", help="band width(s); repeat for several (default 0)")
+    parser.add_argument("-n", "--pixels", type=int, default=1000, help="pixels sampled per frame (default 1000)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--method", default="auto")
+    args = parser.parse_args(argv)
+    width, height = (int(v) for v in args.size.lower().split("x"))
+    deltas = [parse_angle(d) for d in (args.delta or ["0"])]
+    total = FrameCheck()
+    for spec in args.scenes:
+        scene = _scene_from_spec(spec)
+        for delta in deltas:
+            params = FrameParams(sigma=parse_angle(args.sigma), delta=delta, width=width, height=height,
+                                 method=args.method)
+            start = time.perf_counter()
+            result = render_frame(scene, params, workers=1)
+            render_s = time.perf_counter() - start
+            check = check_frame(scene, params, result, sample_pixels(width, height, args.pixels, args.seed))
+            total.add(check)
+            share = check.certified / max(1, check.pixels)
+            print(f"{spec} delta={delta:.6g}: {check.pixels} pixels, certified {100 * share:.2f}% "
+                  f"(status 0/1/2/3: {'/'.join(map(str, check.by_status))}), {check.degenerate} degenerate, "
+                  f"{check.wrong} wrong, {check.imprecise} imprecise; render {render_s:.2f} s, truth {check.seconds_truth:.2f} s")
+            for x, y, problems in check.disagreements:
+                for p in problems:
+                    print(f"  {spec} delta={delta!r} pixel ({x}, {y}): {p}")
+    print(f"total: {total.pixels} pixels, {total.certified} certified checked ({total.certified_hits} hits), "
+          f"{total.degenerate} degenerate, {total.wrong} wrong, {total.imprecise} imprecise")
+    return 1 if total.disagreements else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -11,7 +11,7 @@ import math
 import flint
 import pytest
 
-from pixel_truth import check_pixel, pixel_truth, ray_polynomial, object_ray, scene_objects
+from pixel_truth import check_pixel, is_wrong, object_ray, pixel_truth, ray_polynomial, scene_objects
 
 IDENTITY = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
 UNIT_SPHERE = [(2, 0, 0, 1.0), (0, 2, 0, 1.0), (0, 0, 2, 1.0), (0, 0, 0, -1.0)]
@@ -221,31 +221,38 @@ def test_true_claims_pass(truth, pixel):
 
 
 def test_certified_miss_on_a_hit_is_caught():
-    only(check_pixel(real_hit(), 0, False, 0.0, 0.0, math.inf), "certified miss")
+    only(check_pixel(real_hit(), 0, False, 0.0, 0.0, math.inf), "wrong: certified miss")
 
 
 def test_certified_hit_on_a_miss_is_caught():
     truth = pixel_truth(scene(sphere()), 0.0, 0.0, (0.0, 2.0, -3.0), UP)
-    only(check_pixel(truth, 0, True, 3.0, 0.0, 3.0), "certified hit")
+    only(check_pixel(truth, 0, True, 3.0, 0.0, 3.0), "wrong: certified hit")
 
 
 def test_the_farther_root_is_caught():
     problems = check_pixel(real_hit(), 0, True, 4.0, 0.0, 4.0)
-    assert len(problems) == 2 and "exact chosen root" in problems[0] and "Z = 4.0" in problems[1], problems
+    assert len(problems) == 2 and is_wrong(problems), problems
+    assert problems[0].startswith("wrong: certified hit at t") and "Z = 4.0" in problems[1], problems
+    # The nearer root of the wrong object is wrong too.
+    truth = pixel_truth(scene(sphere(), plane_z(-2.5)), 0.0, 0.0, (0.0, 0.0, -3.0), UP)  # plane at 0.5
+    only(check_pixel(truth, 0, True, 2.0, 0.0, 0.5), "wrong: certified hit at t")
 
 
-def test_a_root_off_by_more_than_float32_is_caught():
+def test_a_root_off_by_more_than_float32_is_imprecise():
     off = 2.0 * (1 + 2.0**-19)
     problems = check_pixel(real_hit(), 0, True, off, 0.0, off)
-    assert len(problems) == 2, problems
+    assert len(problems) == 2 and all(p.startswith("imprecise: ") for p in problems), problems
+    assert not is_wrong(problems)
     # The imaginary part is checked too (a complex root for a real one).
-    only(check_pixel(real_hit(), 0, True, 2.0, 1e-3, 2.0), "certified hit at t")
-    only(check_pixel(complex_hit(), 0, True, 3.0, 1.74, math.sqrt(12)), "certified hit at t")
+    only(check_pixel(real_hit(), 0, True, 2.0, 1e-3, 2.0), "imprecise: certified hit at t")
+    only(check_pixel(complex_hit(), 0, True, 3.0, 1.74, math.sqrt(12)), "imprecise: certified hit at t")
+    # Nearer to the other root: wrong, not imprecise.
+    only(check_pixel(real_hit(), 0, True, 3.01, 0.0, 2.0), "wrong: certified hit at t")
 
 
 def test_a_certified_single_root_on_a_double_root_is_caught():
     truth = pixel_truth(scene(sphere()), 0.0, 0.0, (0.0, 1.0, -3.0), UP)
-    only(check_pixel(truth, 0, True, 3.0, 0.0, 3.0), "multiplicity 2")
+    only(check_pixel(truth, 0, True, 3.0, 0.0, 3.0), "wrong: certified a single root")
 
 
 def test_a_degenerate_truth_checks_what_it_knows():
