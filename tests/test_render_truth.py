@@ -172,7 +172,7 @@ def test_certified_pixels_of_the_presets_agree_with_the_exact_truth(name, delta)
     assert_never_wrong(frame_problems(check, f"{name}, delta {delta}:"))
 
 
-def test_a_product_surface_pixel_that_today_s_renderer_certifies_wrongly():
+def test_a_product_surface_pixel_that_main_certified_wrongly():
     """Found by `tests/pixel_truth.py random:product:7:1 --size 40x40 -n 1600`
     on main: the float ray polynomial's two nearby real roots near t = 4.682
     (exactly 4.68178 and 4.68230) are lost to rounding, and the pixel is a
