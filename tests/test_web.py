@@ -126,3 +126,23 @@ def test_static_files_are_served_by_the_api(farm):
         r = httpx.get(farm.url + path)
         assert r.status_code == 200
     assert "cdn" not in httpx.get(farm.url + "/").text.lower()
+
+
+def test_the_front_end_reads_the_farms_definitions_from_api_meta(farm):
+    """/api/meta serves each definition from where it is defined, and the
+    front end keeps no copy of them."""
+    from argand.core import METHODS
+    from argand.farm.previews import PREVIEW_CHANNELS, STATUS_COLOURS
+    from argand.farm.states import ACTIONS, JOB
+    from argand.render.frames import STATUS_NAMES
+
+    meta = farm.get("/api/meta")
+    assert meta["job_states"] == list(JOB.states) and meta["methods"] == list(METHODS)
+    assert set(meta["actions"]) == set(ACTIONS) and meta["channels"] == list(PREVIEW_CHANNELS)
+    assert [(p["code"], p["name"]) for p in meta["pixel_statuses"]] == sorted(STATUS_NAMES.items())
+    assert [p["colour"] for p in meta["pixel_statuses"]] == ["#%02x%02x%02x" % STATUS_COLOURS[n] for n in STATUS_NAMES.values()]
+    assert meta["limits"]["max_width"] == 4096 and meta["defaults"]["tile"] == 64
+    app_js = (REPO / "web" / "app.js").read_text()
+    for p in meta["pixel_statuses"]:
+        assert p["colour"] not in app_js and f'"{p["name"]}"' not in app_js
+    assert '"paused"' not in app_js and '"retry"' not in app_js and "4096" not in app_js

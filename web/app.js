@@ -12,6 +12,12 @@ async function api(path, options = {}) {
   return body;
 }
 
+// The farm's definitions (states, actions, pixel statuses and their colours,
+// channels, limits, a new job's defaults), read once from the API: no copies here.
+let meta = null;
+async function loadMeta() { meta = meta || await api("/api/meta"); return meta; }
+const ended = (status) => meta.ended_states.includes(status);
+
 function fmtEta(s) { return s == null ? "" : s < 60 ? `${Math.round(s)} s` : `${Math.floor(s / 60)} min ${Math.round(s % 60)} s`; }
 function pct(x) { return `${Math.round(100 * x)}%`; }
 
@@ -19,7 +25,7 @@ function pct(x) { return `${Math.round(100 * x)}%`; }
 async function jobsPage() {
   view.replaceChildren(h(`<h1>Jobs</h1>
     <div class="controls"><label>Status <select id="filter" aria-label="Filter by status">
-      <option value="">all</option>${["queued", "running", "paused", "done", "failed", "canceled"].map((s) => `<option>${s}</option>`).join("")}
+      <option value="">all</option>${meta.job_states.map((s) => `<option>${s}</option>`).join("")}
     </select></label></div><div id="table"><p class="muted">Loading jobs…</p></div>`));
   const filter = view.querySelector("#filter");
   filter.value = new URLSearchParams(location.hash.split("?")[1]).get("status") || "";
@@ -40,7 +46,7 @@ async function jobsPage() {
           <td><div class="bar" role="progressbar" aria-valuenow="${Math.round(100 * j.progress)}" aria-valuemin="0" aria-valuemax="100"><span style="width:${pct(j.progress)}"></span></div></td>
           <td>${fmtEta(j.eta_s)}</td>
           <td><input type="number" min="0" max="9" value="${j.priority}" aria-label="Priority" data-priority style="width:4rem"></td>
-          <td>${["cancel", "pause", "resume", "retry"].map((a) => `<button data-action="${a}">${a}</button>`).join(" ")}</td></tr>`;
+          <td>${Object.keys(meta.actions).map((a) => `<button data-action="${a}"${meta.actions[a].includes(j.status) ? "" : " disabled"}>${a}</button>`).join(" ")}</td></tr>`;
         }).join("")}</tbody></table>`));
     } catch (e) { view.querySelector("#table").replaceChildren(h(`<p class="error">${esc(e.message)}</p>`)); }
   };
@@ -74,11 +80,11 @@ async function newPage() {
       <label>σ (sigma) <input id="sigma" value="0"></label>
       <label>δ from <input id="start" value="0"></label>
       <label>δ to <input id="stop" value="pi/9"></label>
-      <label>Frames <input id="count" type="number" min="1" max="720" value="12"></label>
-      <label>Width <input id="width" type="number" min="8" max="4096" value="256"></label>
-      <label>Height <input id="height" type="number" min="8" max="4096" value="256"></label>
-      <label>Tile <input id="tile" type="number" min="8" max="4096" value="64"></label>
-      <label>Priority <input id="priority" type="number" min="0" max="9" value="5"></label>
+      <label>Frames <input id="count" type="number" min="1" max="${meta.limits.max_frames}" value="12"></label>
+      <label>Width <input id="width" type="number" min="8" max="${meta.limits.max_width}" value="${meta.defaults.width}"></label>
+      <label>Height <input id="height" type="number" min="8" max="${meta.limits.max_height}" value="${meta.defaults.height}"></label>
+      <label>Tile <input id="tile" type="number" min="${meta.limits.min_tile}" max="${meta.limits.max_tile}" value="${meta.defaults.tile}"></label>
+      <label>Priority <input id="priority" type="number" min="${meta.limits.priority[0]}" max="${meta.limits.priority[1]}" value="${meta.defaults.priority}"></label>
       <div class="wide"><button class="primary" type="submit" id="submit">Render</button> <span id="form-msg" class="error"></span></div>
     </form>`));
   let preset = null;
@@ -139,11 +145,11 @@ async function jobPage(id) {
         <button id="next" aria-label="Next frame (right arrow)">▶</button>
         <label>mode <select id="mode"><option value="loop">loop</option><option value="pingpong">ping-pong</option></select></label>
         <label>fps <input id="fps" type="number" min="1" max="60" value="8" style="width:4rem"></label>
-        <label>channel <select id="channel" aria-label="Channel"><option>beauty</option><option>modulus</option><option>argument</option><option>status</option></select></label>
+        <label>channel <select id="channel" aria-label="Channel">${meta.channels.map((c) => `<option>${c}</option>`).join("")}</select></label>
       </div>
       <input id="scrub" type="range" min="0" max="${job.frames.length - 1}" value="0" style="width:100%" aria-label="Frame (delta)">
       <div id="scrub-label" class="muted"></div>
-      <div id="legend" class="legend muted" hidden>status:<span style="background:#2ea043"></span>certified<span style="background:#e6b41e"></span>cluster<span style="background:#d73c32"></span>unverified<span style="background:#785ac8"></span>undecided</div>
+      <div id="legend" class="legend muted" hidden>status:${meta.pixel_statuses.map((p) => `<span style="background:${p.colour}"></span>${p.name}`).join("")}</div>
     </div><aside><h2 style="font-size:1rem">Frame</h2><dl id="figures"></dl>
       <h2 style="font-size:1rem">Downloads</h2><div id="downloads" class="muted">when the frames are done</div></aside></div>
     <div class="frames" id="grid"></div>`));
@@ -214,7 +220,7 @@ async function jobPage(id) {
   };
   document.addEventListener("keydown", keys);
   let source = null;
-  if (!["done", "failed", "canceled"].includes(job.status)) {
+  if (!ended(job.status)) {
     source = new EventSource(`/api/jobs/${id}/events`);
     source.addEventListener("progress", async () => { try { refresh(await api(`/api/jobs/${id}`)); } catch { /* next event */ } });
     source.addEventListener("end", async () => { source.close(); refresh(await api(`/api/jobs/${id}`)); });
@@ -276,6 +282,7 @@ async function comparePage() {
 // ---------------------------------------------------------------- router
 async function route() {
   cleanup(); cleanup = () => {};
+  try { await loadMeta(); } catch (e) { view.replaceChildren(h(`<p class="error">${esc(e.message)}</p>`)); return; }
   const [path] = location.hash.replace(/^#/, "").split("?");
   const parts = path.split("/").filter(Boolean);
   document.querySelectorAll("nav a[data-nav]").forEach((a) => a.classList.toggle("active", a.dataset.nav === (parts[0] || "jobs")));

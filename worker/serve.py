@@ -1,5 +1,8 @@
-"""`argand serve`: Redis (embedded or external), the API (uvicorn) and N
-Celery worker processes, in the foreground; Ctrl-C stops everything."""
+"""`argand serve`, the supervisor: Redis (embedded or external), the schema
+upgraded, N worker processes (`argand worker`) and the API (uvicorn) in the
+foreground; Ctrl-C stops everything. The settings travel to the workers as
+their environment (Settings.environment); this process's own are passed
+explicitly."""
 
 from __future__ import annotations
 
@@ -8,68 +11,48 @@ import signal
 import subprocess
 import sys
 
-from argand.api.settings import Settings
+from argand.farm.database import upgrade
+from argand.farm.settings import Settings
+from argand.worker.broker import EmbeddedRedis
 
 
 def worker_command(name: str) -> list[str]:
-    return [sys.executable, "-m", "celery", "-A", "argand.worker.app", "worker", "--pool", "solo",
-            "--concurrency", "1", "--hostname", name, "--queues", "argand", "--loglevel", "WARNING",
-            "--without-gossip", "--without-mingle"]
+    return [sys.executable, "-m", "argand.cli", "worker", "--name", name]
 
 
-def child_env(settings: Settings, broker_url: str) -> dict[str, str]:
-    env = dict(os.environ)
-    env["ARGAND_DATA_DIR"] = str(settings.data_path)
-    env["ARGAND_REDIS_URL"] = broker_url
-    env["ARGAND_DATABASE_URL"] = settings.sqlalchemy_url
-    return env
+def start_workers(settings: Settings, count: int) -> list[subprocess.Popen]:
+    env = dict(os.environ, **settings.environment())
+    return [subprocess.Popen(worker_command(f"w{i + 1}@{os.uname().nodename}"), env=env) for i in range(count)]
 
 
-def start_workers(settings: Settings, broker_url: str, count: int) -> list[subprocess.Popen]:
-    procs = []
-    for i in range(count):
-        name = f"w{i + 1}@{os.uname().nodename}"
-        env = child_env(settings, broker_url)
-        env["ARGAND_WORKER_NAME"] = name
-        procs.append(subprocess.Popen(worker_command(name), env=env))
-    return procs
+def stop_all(procs: list[subprocess.Popen]) -> None:
+    for p in procs:
+        if p.poll() is None:
+            p.send_signal(signal.SIGTERM)
+    for p in procs:
+        try:
+            p.wait(15)
+        except subprocess.TimeoutExpired:
+            p.kill()
 
 
 def serve(settings: Settings, workers: int, announce=print) -> None:
     import uvicorn
 
-    from argand.worker.broker import EmbeddedRedis
+    from argand.api.app import create_app
 
     settings.data_path.mkdir(parents=True, exist_ok=True)
     redis = None
-    broker_url = settings.redis_url
-    if broker_url is None:
+    if settings.redis_url is None:
         redis = EmbeddedRedis(settings.redis_socket).start()
-        broker_url = redis.url
-    os.environ.update(child_env(settings, broker_url))
-    from argand.api.settings import get_settings
-
-    get_settings.cache_clear()
-    live = get_settings()
-    # Create the schema before the workers race for it.
-    from argand.api.db import engine_for
-
-    engine_for(live.sqlalchemy_url)
-    procs = start_workers(live, broker_url, workers)
+        settings = settings.model_copy(update={"redis_url": redis.url})
+    upgrade(settings.sqlalchemy_url)  # before the workers and the API use it
+    procs = start_workers(settings, workers)
     try:
-        from argand.api.main import create_app
-
         announce(f"Argand is serving on http://{settings.host}:{settings.port}/  (API docs: /docs; "
                  f"{workers} worker(s); data in {settings.data_path})")
-        uvicorn.run(create_app(live), host=settings.host, port=settings.port, log_level="warning")
+        uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="warning")
     finally:
-        for p in procs:
-            if p.poll() is None:
-                p.send_signal(signal.SIGTERM)
-        for p in procs:
-            try:
-                p.wait(15)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        stop_all(procs)
         if redis:
             redis.stop()

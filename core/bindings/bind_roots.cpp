@@ -5,6 +5,7 @@
 #include <complex>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "argand/roots.h"
 
@@ -37,7 +38,7 @@ using F64 = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
 // One polynomial: returns (center, radius, count, verified, real, n_infinite,
 // wants_exact, escalation) with arrays of length n_discs.
-py::tuple find_roots_py(F64 coeffs, const std::string& method, py::object initial) {
+py::tuple find_roots_py(F64 coeffs, const std::string& method, py::object initial, py::object coeff_radius) {
     if (coeffs.ndim() != 1) throw py::value_error("coeffs must be a 1-D sequence of numbers, lowest degree first");
     const Method m = parse_method(method);
     const py::ssize_t n_coeffs = coeffs.shape(0);
@@ -52,12 +53,23 @@ py::tuple find_roots_py(F64 coeffs, const std::string& method, py::object initia
             iim.push_back(arr.at(i).imag());
         }
     }
+    std::vector<double> rad;
+    if (!coeff_radius.is_none()) {
+        auto arr = F64::ensure(coeff_radius);
+        if (!arr || arr.ndim() != 1 || arr.shape(0) != n_coeffs)
+            throw py::value_error("radius must be a 1-D sequence with one radius per coefficient");
+        rad.assign(arr.data(), arr.data() + n_coeffs);
+        for (double r : rad)
+            if (!(r >= 0.0) || !std::isfinite(r))
+                throw py::value_error("every coefficient radius must be a finite number >= 0");
+    }
     RootsResult res;
     Status s;
     {
         py::gil_scoped_release release;
         s = argand::find_roots(coeffs.data(), static_cast<int>(n_coeffs), m, res,
-                               ire.empty() ? nullptr : ire.data(), iim.empty() ? nullptr : iim.data());
+                               ire.empty() ? nullptr : ire.data(), iim.empty() ? nullptr : iim.data(),
+                               rad.empty() ? nullptr : rad.data());
     }
     raise_status(s, -1);
     const py::ssize_t k = res.n_discs;
@@ -151,7 +163,7 @@ py::dict find_roots_batch_py(F64 matrix, const std::string& method) {
 void init_roots(py::module_& m) {
     m.attr("MAX_DEGREE") = argand::kMaxDegree;
     m.def("find_roots", &find_roots_py, py::arg("coeffs"), py::arg("method") = "auto",
-          py::arg("initial") = py::none(),
+          py::arg("initial") = py::none(), py::arg("radius") = py::none(),
           "Raw root finder for one polynomial (see argand.core.find_roots).");
     m.def("find_roots_batch", &find_roots_batch_py, py::arg("matrix"), py::arg("method") = "auto",
           "Raw batch root finder, GIL released (see argand.core.find_roots_batch).");

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <algorithm>
 #include <cstring>
 #include <limits>
 
@@ -26,66 +27,114 @@ inline int exponent_of(double v) {
     return biased == 0 ? std::ilogb(v) : biased - 1023;
 }
 
-/// v * 2^k when that is exact: the result is a normal double (a product by a
-/// power of two then only changes the exponent). Otherwise false.
-inline bool exact_scale(double v, int k, double& out) {
-    if (v == 0.0) { out = 0.0; return true; }
-    if (k < -1022 || k > 1023) return exact_ldexp(v, k, out);
-    out = v * pow2(k);
-    return std::fabs(out) >= 0x1p-1022 && std::fabs(out) <= std::numeric_limits<double>::max();
+/// Exponent of the lowest set bit of a finite nonzero double: v is an
+/// integer multiple of 2^lowest_bit(v).
+inline int lowest_bit(double v) {
+    int q;
+    const double m = std::frexp(std::fabs(v), &q);  // v = m 2^q, m in [0.5, 1)
+    auto mant = static_cast<std::uint64_t>(std::ldexp(m, 53));  // exact: 53 bits
+    int tz = 0;
+    while ((mant & 1u) == 0) { mant >>= 1; ++tz; }
+    return q - 53 + tz;
+}
+
+/// Writes s[k] = c[k] 2^(e k + f) for all k and returns true iff every one
+/// is exact (finite, and nothing lost in the subnormal range).
+inline bool scale_exactly(const double* c, int n, int e, int f, double* s) {
+    for (int k = 0; k <= n; ++k)
+        if (!exact_ldexp(c[k], e * k + f, s[k]) && c[k] != 0.0) return false;
+    return true;
 }
 
 /// Chooses t = 2^e u and an overall factor 2^f so that the scaled polynomial
 /// has roots of modulus ~1 and coefficients of modulus <= ~1, and writes its
 /// coefficients. Only exact scalings are accepted (the scaled polynomial must
-/// have exactly the roots of the original divided by 2^e); otherwise falls
-/// back to e = 0, then to no scaling at all.
+/// have exactly the roots of the original divided by 2^e). When putting the
+/// largest coefficient at ~1 would lose bits of a tiny one, the factor is
+/// raised just enough to keep every coefficient exact, as long as the largest
+/// stays below 2^(1023 - 64 - 8) (headroom for Horner at |u| ~ 1). Tries the
+/// root scaling from the end coefficients, then e = 0; otherwise no scaling.
 int scale_polynomial(const double* c, int n, double* s) {
     const int lo_exp = exponent_of(c[0]);
     const int hi_exp = exponent_of(c[n]);
     const int e_guess = static_cast<int>(std::lround(static_cast<double>(lo_exp - hi_exp) / n));
     for (int attempt = 0; attempt < 2; ++attempt) {
         const int e = attempt == 0 ? e_guess : 0;
-        // Largest exponent after the root scaling, to normalise by.
-        int top = -100000;
+        // Largest exponent and lowest bit after the root scaling.
+        int top = -100000, low = 100000;
         for (int k = 0; k <= n; ++k)
-            if (c[k] != 0.0) top = std::max(top, exponent_of(c[k]) + e * k);
-        const int f = -top;
-        bool ok = true;
-        for (int k = 0; k <= n && ok; ++k) {
-            ok = exact_scale(c[k], e * k + f, s[k]);
-        }
-        if (ok) return e;
+            if (c[k] != 0.0) {
+                top = std::max(top, exponent_of(c[k]) + e * k);
+                low = std::min(low, lowest_bit(c[k]) + e * k);
+            }
+        const int f = std::max(-top, -1074 - low);
+        if (top + f > 1023 - kMaxDegree - 8) continue;
+        if (scale_exactly(c, n, e, f, s)) return e;
     }
     for (int k = 0; k <= n; ++k) s[k] = c[k];
     return 0;
 }
 
 /// Maps a disc from scaled coordinates (u) back to t = 2^e u, keeping the
-/// enclosure: centres are exact unless they underflow, and any loss is added
-/// to the radius; radii are rounded up.
-void unscale_disc(RootDisc& d, int e) {
-    if (e == 0) return;
+/// enclosure: where a centre component lands in the subnormal range it is
+/// rounded (an error of at most half the smallest subnormal, the absolute
+/// term that relative bounds miss) and a smallest subnormal per component is
+/// added to the radius; radii are rounded up. Returns true iff the mapping
+/// was exact (then every claim carries over unchanged); false means the disc
+/// was enlarged, so its count and its disjointness from the others must be
+/// proven again (see reconcile_enlarged).
+bool unscale_disc(RootDisc& d, int e) {
+    if (e == 0) return true;
     double re, im;
     double slack = 0.0;
-    if (!exact_scale(d.re, e, re)) { re = std::ldexp(d.re, e); slack = add_up(slack, kDenormMin); }
-    if (!exact_scale(d.im, e, im)) { im = std::ldexp(d.im, e); slack = add_up(slack, kDenormMin); }
+    bool exact = true;
+    if (!exact_ldexp(d.re, e, re)) { exact = false; slack = add_up(slack, kDenormMin); }
+    if (!exact_ldexp(d.im, e, im)) { exact = false; slack = add_up(slack, kDenormMin); }
     double r;
-    if (!exact_scale(d.radius, e, r)) {
-        r = std::ldexp(d.radius, e);
+    if (!exact_ldexp(d.radius, e, r)) {
+        exact = false;
         if (std::ldexp(r, -e) < d.radius) r = next_up(r);
     }
     d.re = re;
     d.im = im;
     d.radius = slack > 0.0 ? add_up(r, slack) : r;
-    if (!std::isfinite(d.re) || !std::isfinite(d.im)) {
+    if (!std::isfinite(d.re) || !std::isfinite(d.im) || !std::isfinite(d.radius)) {
         d.verified = false;
         d.real = false;
     }
-    if (d.verified && !std::isfinite(d.radius)) {
-        d.verified = false;
-        d.real = false;
+    return exact;
+}
+
+/// After some discs were enlarged by the back-mapping, restores the contract.
+/// If the verified discs account for every root (all verified, counts adding
+/// up to n: a covering family), enlarging members keeps Smith's component
+/// property (a component of the enlarged family is a union of components of
+/// the old one), so the discs are regrouped by enclose_and_merge into proven
+/// disjoint enclosures. Otherwise an enlarged disc may have reached a root
+/// that no verified disc accounts for, or another disc: it is unverified
+/// (exactly mapped discs keep their claims, and their disjointness).
+void reconcile_enlarged(detail::KernelResult& kr, const bool* enlarged, int n) {
+    int total = 0;
+    bool all_verified = true;
+    for (int i = 0; i < kr.n_discs; ++i) {
+        all_verified = all_verified && kr.discs[i].verified;
+        total += kr.discs[i].count;
     }
+    if (all_verified && total == n && kr.n_discs > 0) {
+        detail::MemberDisc members[kMaxDegree];
+        for (int i = 0; i < kr.n_discs; ++i)
+            members[i] = {kr.discs[i].re, kr.discs[i].im, kr.discs[i].radius, kr.discs[i].count};
+        kr.n_discs = detail::enclose_and_merge(members, kr.n_discs, true, kr.discs);
+        kr.wants_exact = false;
+        for (int i = 0; i < kr.n_discs; ++i) kr.wants_exact = kr.wants_exact || kr.discs[i].count > 1;
+        return;
+    }
+    for (int i = 0; i < kr.n_discs; ++i)
+        if (enlarged[i] && kr.discs[i].verified) {
+            kr.discs[i].verified = false;
+            kr.discs[i].real = false;
+            kr.wants_exact = true;
+        }
 }
 
 }  // namespace
@@ -101,8 +150,32 @@ bool method_from_name(const char* name, Method& out) {
     return false;
 }
 
+namespace {
+
+/// rad * 2^k rounded up (a radius in scaled coordinates); 0 stays 0.
+double scale_radius_up(double rad, int k) {
+    if (rad == 0.0) return 0.0;
+    double out;
+    if (exact_ldexp(rad, k, out)) return out;
+    out = std::ldexp(rad, k);
+    if (out == 0.0) return kDenormMin;
+    if (std::isfinite(out) && std::ldexp(out, -k) < rad) out = next_up(out);
+    return out;
+}
+
+/// Every disc becomes an unverified estimate (nothing is claimed).
+void unverify_all(RootsResult& out) {
+    for (int i = 0; i < out.n_discs; ++i) {
+        out.discs[i].verified = false;
+        out.discs[i].real = false;
+    }
+    out.wants_exact = true;
+}
+
+}  // namespace
+
 Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult& out,
-                  const double* initial_re, const double* initial_im) {
+                  const double* initial_re, const double* initial_im, const double* coeff_radius) {
     out.n_discs = 0;
     out.n_infinite = 0;
     out.wants_exact = false;
@@ -111,6 +184,13 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
     if (n_coeffs - 1 > kMaxDegree) return Status::TooLarge;
     for (int k = 0; k < n_coeffs; ++k)
         if (!std::isfinite(coeffs[k])) return Status::NonFinite;
+    bool has_radius = false;
+    if (coeff_radius != nullptr)
+        for (int k = 0; k < n_coeffs; ++k) {
+            if (!(coeff_radius[k] >= 0.0) || !std::isfinite(coeff_radius[k])) return Status::NonFinite;
+            has_radius = has_radius || coeff_radius[k] > 0.0;
+        }
+    const double* radius_in = has_radius ? coeff_radius : nullptr;
 
     // Roots at infinity: exactly zero leading coefficients.
     int top = n_coeffs - 1;
@@ -122,12 +202,29 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
     int low = 0;
     while (coeffs[low] == 0.0) ++low;
     const int n = top - low;
+    // A stripped zero that is not exactly zero over the whole family (the
+    // family holds polynomials of another degree, or without the root 0):
+    // the discs below would be about another family; claim nothing.
+    bool family_degenerate = false;
+    if (radius_in != nullptr) {
+        for (int k = top + 1; k < n_coeffs; ++k) family_degenerate = family_degenerate || radius_in[k] > 0.0;
+        for (int k = 0; k < low; ++k) family_degenerate = family_degenerate || radius_in[k] > 0.0;
+    }
 
     detail::KernelResult kr;
     int e = 0;
     if (n >= 1) {
         double scaled[kMaxDegree + 1];
         e = scale_polynomial(coeffs + low, n, scaled);
+        // The same exact scaling of the radii (rounded up where inexact):
+        // scaled coefficient k is c_{low+k} 2^(e k + f), f read off the
+        // leading coefficient's scaling.
+        double scaled_radius[kMaxDegree + 1];
+        if (radius_in != nullptr) {
+            const int f = exponent_of(scaled[n]) - exponent_of(coeffs[top]) - e * n;
+            for (int k = 0; k <= n; ++k) scaled_radius[k] = scale_radius_up(radius_in[low + k], e * k + f);
+        }
+        const double* rad = radius_in != nullptr ? scaled_radius : nullptr;
         Complex<double> seed[kMaxDegree];
         const bool use_seed = initial_re != nullptr && initial_im != nullptr;
         if (use_seed) {
@@ -136,12 +233,22 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
                 if (!is_finite(seed[i])) seed[i] = Complex<double>(0.5 + 0.1 * i, 0.3 + 0.05 * i);
             }
         }
-        if (method == Method::Paper) {
+        if (method == Method::Paper && rad == nullptr) {
             detail::solve_paper(scaled, n, kr);
         } else {
-            detail::solve_smith(scaled, n, method, use_seed ? seed : nullptr, kr);
+            // (With coefficient radii the paper's per-root Krawczyk test is
+            // not extended to the family: Smith's discs, with the paper's
+            // double-double retry, prove the roots instead.)
+            const Method kernel = method == Method::Paper ? Method::Auto : method;
+            detail::solve_smith(scaled, rad, n, kernel, use_seed ? seed : nullptr, kr);
         }
-        for (int i = 0; i < kr.n_discs; ++i) unscale_disc(kr.discs[i], e);
+        bool enlarged[kMaxDegree];
+        bool any_enlarged = false;
+        for (int i = 0; i < kr.n_discs; ++i) {
+            enlarged[i] = !unscale_disc(kr.discs[i], e);
+            any_enlarged = any_enlarged || enlarged[i];
+        }
+        if (any_enlarged && method != Method::Unverified) reconcile_enlarged(kr, enlarged, n);
     }
     out.escalation = kr.escalation;
     out.wants_exact = kr.wants_exact;
@@ -151,6 +258,7 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
         out.n_discs = kr.n_discs;
         for (int i = 0; i < kr.n_discs; ++i) out.discs[i] = kr.discs[i];
         if (low > 0) out.discs[out.n_discs++] = RootDisc{0.0, 0.0, 0.0, low, false, false};
+        if (family_degenerate) unverify_all(out);
         return Status::Ok;
     }
 
@@ -171,6 +279,7 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
         out.n_discs = detail::enclose_and_merge(members, kr.n_discs + 1, true, out.discs);
         // Keep the "real" proof of discs that were not merged (a merged disc
         // is symmetric with an odd count, or keeps real = false).
+        if (family_degenerate) unverify_all(out);
         return Status::Ok;
     }
     // Some discs unverified: a verified disc holds its roots of p / t^low;
@@ -195,6 +304,7 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
     }
     if (!zero_absorbed) out.discs[k++] = zero;
     out.n_discs = k;
+    if (family_degenerate) unverify_all(out);
     return Status::Ok;
 }
 

@@ -27,8 +27,8 @@ bool has_duplicate(const Complex<T>* x, int n) {
 /// snapped onto the real axis so that their discs are symmetric (p is real).
 /// Returns false if Smith's bound could not be evaluated (nothing claimed).
 template <class T>
-bool smith_members(const double* c, int n, Complex<T>* x, MemberDisc* members) {
-    separate_duplicates(x, n);
+bool smith_members(const double* c, const double* rad, int n, Complex<T>* x, MemberDisc* members) {
+    if (!separate_duplicates(x, n)) return false;
     Complex<T> original[kMaxDegree];
     for (int i = 0; i < n; ++i) original[i] = x[i];
 
@@ -40,7 +40,7 @@ bool smith_members(const double* c, int n, Complex<T>* x, MemberDisc* members) {
         for (int i = 0; i < n; ++i) x[i] = original[i];
 
     double r[kMaxDegree];
-    if (!smith_radii(c, n, x, r)) return false;
+    if (!smith_radii(c, n, x, r, nullptr, rad)) return false;
 
     // Second pass: an approximation whose disc crosses the real axis by a
     // wide margin is also moved onto it (its true root may be real).
@@ -55,7 +55,7 @@ bool smith_members(const double* c, int n, Complex<T>* x, MemberDisc* members) {
             moved = true;
         }
     }
-    if (moved && (has_duplicate(x, n) || !smith_radii(c, n, x, r))) {
+    if (moved && (has_duplicate(x, n) || !smith_radii(c, n, x, r, nullptr, rad))) {
         for (int i = 0; i < n; ++i) {
             x[i] = first[i];
             r[i] = first_r[i];
@@ -71,9 +71,9 @@ bool smith_members(const double* c, int n, Complex<T>* x, MemberDisc* members) {
 
 /// Verified discs from approximations x, or 0 if Smith's bound failed.
 template <class T>
-int smith_discs(const double* c, int n, Complex<T>* x, RootDisc* out) {
+int smith_discs(const double* c, const double* rad, int n, Complex<T>* x, RootDisc* out) {
     MemberDisc members[kMaxDegree];
-    if (!smith_members(c, n, x, members)) return 0;
+    if (!smith_members(c, rad, n, x, members)) return 0;
     return enclose_and_merge(members, n, /*real_axis_centers=*/true, out);
 }
 
@@ -82,8 +82,8 @@ int smith_discs(const double* c, int n, Complex<T>* x, RootDisc* out) {
 /// own component and holds exactly one root. Falls back to the general
 /// grouping otherwise.
 template <>
-int smith_discs<double>(const double* c, int n, Complex<double>* x, RootDisc* out) {
-    if (has_duplicate(x, n)) separate_duplicates(x, n);
+int smith_discs<double>(const double* c, const double* rad, int n, Complex<double>* x, RootDisc* out) {
+    if (has_duplicate(x, n) && !separate_duplicates(x, n)) return 0;
     // Snap approximations that are real to working accuracy (as
     // smith_members does); if that made two coincide, take the general path.
     const double snap_tol = 64.0 * working_epsilon<double>();
@@ -98,7 +98,7 @@ int smith_discs<double>(const double* c, int n, Complex<double>* x, RootDisc* ou
     if (!snapped) {
         double r[kMaxDegree];
         double low[kMaxDegree * kMaxDegree];
-        if (smith_radii_fast(c, n, x, r, low) || smith_radii(c, n, x, r, low)) {
+        if (smith_radii_fast(c, n, x, r, low, rad) || smith_radii(c, n, x, r, low, rad)) {
             bool separated = true;
             for (int i = 0; i < n && separated; ++i)
                 for (int j = i + 1; j < n && separated; ++j)
@@ -117,7 +117,7 @@ int smith_discs<double>(const double* c, int n, Complex<double>* x, RootDisc* ou
         }
     }
     MemberDisc members[kMaxDegree];
-    if (!smith_members(c, n, x, members)) return 0;
+    if (!smith_members(c, rad, n, x, members)) return 0;
     return enclose_and_merge(members, n, /*real_axis_centers=*/true, out);
 }
 
@@ -166,7 +166,8 @@ bool all_isolated(int n_discs, int n) { return n_discs == n && n > 0; }
 
 }  // namespace
 
-void solve_smith(const double* c, int n, Method method, const Complex<double>* seed, KernelResult& out) {
+void solve_smith(const double* c, const double* rad, int n, Method method, const Complex<double>* seed,
+                 KernelResult& out) {
     Complex<double> x[kMaxDegree];
     if (seed) {
         for (int i = 0; i < n; ++i) x[i] = seed[i];
@@ -183,13 +184,13 @@ void solve_smith(const double* c, int n, Method method, const Complex<double>* s
     // Double precision: Smith discs, then up to two re-spread rounds.
     Complex<double> work[kMaxDegree];
     for (int i = 0; i < n; ++i) work[i] = x[i];
-    int nd = smith_discs(c, n, work, out.discs);
+    int nd = smith_discs(c, rad, n, work, out.discs);
     for (int round = 0; round < 2 && !all_isolated(nd, n); ++round) {
         if (nd > 0) respread_clusters(x, n, out.discs, nd);
         aberth(c, n, x, 40);
         for (int i = 0; i < n; ++i) work[i] = x[i];
         RootDisc trial[kMaxDegree];
-        const int nt = smith_discs(c, n, work, trial);
+        const int nt = smith_discs(c, rad, n, work, trial);
         if (nt > nd) {
             nd = nt;
             for (int i = 0; i < nt; ++i) out.discs[i] = trial[i];
@@ -207,7 +208,7 @@ void solve_smith(const double* c, int n, Method method, const Complex<double>* s
             Complex<DoubleDouble> wd[kMaxDegree];
             for (int i = 0; i < n; ++i) wd[i] = xd[i];
             RootDisc trial[kMaxDegree];
-            const int nt = smith_discs(c, n, wd, trial);
+            const int nt = smith_discs(c, rad, n, wd, trial);
             if (nt > nd) {
                 nd = nt;
                 for (int i = 0; i < nt; ++i) out.discs[i] = trial[i];

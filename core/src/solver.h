@@ -66,6 +66,25 @@ inline bool eval_bound(const double* c, int n, Complex<T> x, Complex<T>& value, 
     return std::isfinite(e) && is_finite(y);
 }
 
+/// Upper bound of sum_k rad_k |x|^k for a modulus bound ax >= |x| (rounded
+/// upward: every step is a sum or product of nonnegatives, each rounded up).
+/// With rad the radii of a family of polynomials {q : |q_k - c_k| <= rad_k},
+/// |q(x)| <= |p(x)| + family_up(rad, n, |x|) for every member q. rad may be
+/// null (a single polynomial): 0.
+inline double family_up(const double* rad, int n, double ax) {
+    if (rad == nullptr) return 0.0;
+    double s = rad[n];
+    for (int k = n - 1; k >= 0; --k) s = add_up(mul_up(s, ax), rad[k]);
+    return s;
+}
+
+/// Lower bound of |q_n| over the family: |c_n| - rad_n rounded down (<= 0
+/// when the family contains a polynomial of lower degree; nothing can then
+/// be proven about n roots).
+inline double lead_down(const double* c, const double* rad, int n) {
+    return rad == nullptr ? std::fabs(c[n]) : add_down(std::fabs(c[n]), -rad[n]);
+}
+
 // ---------------------------------------------------------------------------
 // Approximation: initial guesses and the Aberth-Ehrlich iteration
 // ---------------------------------------------------------------------------
@@ -280,23 +299,31 @@ inline bool exact_equal(double a, double b) { return a == b; }
 inline bool exact_equal(DoubleDouble a, DoubleDouble b) { return a.hi == b.hi && a.lo == b.lo; }
 
 /// Makes the approximations pairwise distinct (Smith's theorem needs it) by
-/// moving later duplicates a little. Returns true if anything moved.
+/// moving later duplicates a little. Bounded work: returns false (and the
+/// caller must claim nothing) if an approximation is not finite, or if the
+/// duplicates could not be separated within 4 n^2 + 16 moves (e.g. after an
+/// overflow made two of them (inf, inf), whose nudge is infinite).
 template <class T>
 inline bool separate_duplicates(Complex<T>* x, int n) {
-    bool moved = false;
+    for (int i = 0; i < n; ++i)
+        if (!is_finite(x[i])) return false;
+    int budget = 4 * n * n + 16;
     for (int i = 1; i < n; ++i) {
         for (int j = 0; j < i; ++j) {
             if (exact_equal(x[i].re, x[j].re) && exact_equal(x[i].im, x[j].im)) {
-                const double a = mag_approx(x[i]);
-                const double step = (a > 0 ? a : 1.0) * 1e-9;
+                if (--budget < 0) return false;
+                // A step of 1e-9 relative (max-norm: no overflow), at least
+                // 2^-1000 so that it moves subnormal approximations too.
+                const double a = std::fmax(std::fabs(to_double(x[i].re)), std::fabs(to_double(x[i].im)));
+                const double step = std::fmax(a * 1e-9, 0x1p-1000);
                 const double angle = 2.0 * kPi * i / n + 0.3;
                 x[i] = x[i] + Complex<T>(T(step * std::cos(angle)), T(step * std::sin(angle)));
-                moved = true;
+                if (!is_finite(x[i])) return false;
                 j = -1;  // re-check against all earlier ones
             }
         }
     }
-    return moved;
+    return true;
 }
 
 // ---------------------------------------------------------------------------
@@ -308,10 +335,15 @@ inline bool separate_duplicates(Complex<T>* x, int n) {
 /// and every connected component of their union made of m discs holds
 /// exactly m roots (with multiplicity).
 /// On true, r[i] is an upper bound of that radius, computed with rigorous
-/// error bounds. On false nothing is claimed (non-finite intermediate or
+/// error bounds; with rad (coefficient radii), an upper bound of the radius
+/// for every polynomial of the family {q : |q_k - c_k| <= rad_k}, so the
+/// discs and their counts hold for each member (larger radii keep Smith's
+/// counts: each component of the larger discs is a union of components of
+/// the smaller ones). On false nothing is claimed (non-finite intermediate or
 /// coincident approximations).
 template <class T>
-inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r, double* pair_low = nullptr) {
+inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r, double* pair_low = nullptr,
+                        const double* rad = nullptr) {
     using E = ErrorModel<T>;
     // |exact difference| >= |computed difference| * (1 - add_rel) - abs_err.
     const double shrink = next_down(1.0 - 2.0 * E::add_rel);
@@ -322,12 +354,13 @@ inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r, 
             const double d = mag_down(x[i] - x[j]);
             low[i * n + j] = low[j * n + i] = std::fmax(0.0, add_down(mul_down(d, shrink), -E::abs_err));
         }
-    const double lead = std::fabs(c[n]);
+    const double lead = lead_down(c, rad, n);
+    if (!(lead > 0.0)) return false;
     for (int i = 0; i < n; ++i) {
         Complex<T> v;
         double err;
         if (!eval_bound(c, n, x[i], v, err)) return false;
-        const double numerator = add_up(mag_up(v), err);
+        const double numerator = add_up(add_up(mag_up(v), err), family_up(rad, n, mag_up(x[i])));
         double denominator = lead;
         for (int j = 0; j < n; ++j)
             if (j != i) denominator = mul_down(denominator, low[i * n + j]);
@@ -357,7 +390,8 @@ inline bool smith_radii(const double* c, int n, const Complex<T>* x, double* r, 
 /// exact distance when nothing underflows (guard: >= 2^-450); a product of n-1
 /// of them and the leading coefficient within (1+u)^(4.5n), covered by the
 /// factor 1 - 2(5n+2)u (guard: product >= 2^-900).
-inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, double* r, double* low) {
+inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, double* r, double* low,
+                             const double* rad = nullptr) {
     constexpr double u = kUnitRoundoff;
     using E = ErrorModel<double>;
     const double relative_up = 1.0 + 2.0 * (4.0 * n + 10.0) * u;
@@ -398,9 +432,22 @@ inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, d
             ay[i] = a_next;
         }
     }
+    // The family's term sum_k rad_k |x|^k, in round-to-nearest on ax >= |x|
+    // (1 - u): the same argument as for e bounds it by relative_up and slack.
+    double fam[kMaxDegree];
+    const double lead_low = lead_down(c, rad, n);
+    if (!(lead_low > 0.0)) return false;
     for (int i = 0; i < n; ++i) {
-        const double numerator = next_up(next_up(ay[i]) + next_up(e[i] * relative_up) + slack);
-        double denominator = lead;
+        fam[i] = 0.0;
+        if (rad == nullptr) continue;
+        double s = rad[n];
+        for (int k = n - 1; k >= 0; --k) s = s * ax[i] + rad[k];
+        fam[i] = add_up(next_up(s * relative_up), slack);
+    }
+    for (int i = 0; i < n; ++i) {
+        const double numerator =
+            add_up(add_up(next_up(ay[i]), next_up(e[i] * relative_up)), add_up(slack, fam[i]));
+        double denominator = lead_low;
         for (int j = 0; j < n; ++j)
             if (j != i) denominator *= dist[i * n + j];
         if (!(denominator >= 0x1p-900) || !std::isfinite(denominator) || !std::isfinite(numerator)) return false;
@@ -424,12 +471,32 @@ struct MemberDisc {
 
 /// Lower / upper bounds of |a - b| for points given in doubles. A difference
 /// of doubles is correctly rounded (exact when subnormal), so per component
-/// |exact| is within a factor (1 +- u) of the computed one.
+/// |exact| is within a factor (1 +- u) of the computed one (overflow gives
+/// inf: still an upper bound, and next_down(inf) is a lower one). The modulus
+/// is taken on components rescaled by an exact power of two when they are
+/// tiny or huge, so that squaring neither underflows (which made the lower
+/// bound 0 and the upper bound 2^-537 for subnormal distances) nor overflows.
+inline double scaled_hypot(double dr, double di, bool up) {
+    const double big = std::fmax(dr, di);
+    if (big > 0.0 && big < 0x1p-500) {
+        // Exact: no overflow, and a product by 2^600 of a double this small is a normal double.
+        const double h = up ? hypot_up(dr * 0x1p600, di * 0x1p600) : hypot_down(dr * 0x1p600, di * 0x1p600);
+        return up ? mul_up(h, 0x1p-600) : mul_down(h, 0x1p-600);
+    }
+    if (big > 0x1p500 && std::isfinite(big)) {
+        // The smaller component may lose bits when scaled down: round it the safe way.
+        const double sr = up ? mul_up(dr, 0x1p-600) : mul_down(dr, 0x1p-600);
+        const double si = up ? mul_up(di, 0x1p-600) : mul_down(di, 0x1p-600);
+        const double h = up ? hypot_up(std::fmax(sr, 0.0), std::fmax(si, 0.0)) : hypot_down(std::fmax(sr, 0.0), std::fmax(si, 0.0));
+        return up ? mul_up(h, 0x1p600) : mul_down(h, 0x1p600);
+    }
+    return up ? hypot_up(dr, di) : hypot_down(dr, di);
+}
 inline double dist_down(double ar, double ai, double br, double bi) {
-    return mul_down(hypot_down(std::fabs(ar - br), std::fabs(ai - bi)), 1.0 - 2.0 * kUnitRoundoff);
+    return std::fmax(0.0, mul_down(scaled_hypot(std::fabs(ar - br), std::fabs(ai - bi), false), 1.0 - 2.0 * kUnitRoundoff));
 }
 inline double dist_up(double ar, double ai, double br, double bi) {
-    return mul_up(hypot_up(std::fabs(ar - br), std::fabs(ai - bi)), 1.0 + 2.0 * kUnitRoundoff);
+    return mul_up(scaled_hypot(std::fabs(ar - br), std::fabs(ai - bi), true), 1.0 + 2.0 * kUnitRoundoff);
 }
 
 /// Given a covering family (every root of p lies in some member, and every
@@ -536,7 +603,10 @@ struct KernelResult {
     RootDisc discs[kMaxDegree];
 };
 
-void solve_smith(const double* c, int n, Method method, const Complex<double>* seed, KernelResult& out);
+/// rad (nullable): coefficient radii; the discs then hold for every member of
+/// the family {q : |q_k - c_k| <= rad_k} (see smith_radii).
+void solve_smith(const double* c, const double* rad, int n, Method method, const Complex<double>* seed,
+                 KernelResult& out);
 void solve_paper(const double* c, int n, KernelResult& out);
 
 }  // namespace argand::detail

@@ -331,7 +331,7 @@ def bench_farm_cmd(
 
 
 def _farm_settings(data: Optional[Path], host: Optional[str], port: Optional[int]):
-    from argand.api.settings import Settings
+    from argand.farm.settings import Settings
 
     overrides = {}
     if data is not None:
@@ -363,17 +363,13 @@ def worker(
 ) -> None:
     """One worker that joins an existing Redis + database + store (ARGAND_REDIS_URL, ARGAND_DATABASE_URL)."""
     import os
-    import sys
 
-    from argand.worker.serve import worker_command
+    from argand.worker.app import run_worker
 
     settings = _farm_settings(data, None, None)
     if settings.redis_url is None:
         fail("set ARGAND_REDIS_URL to the farm's Redis (a worker does not start its own broker)")
-    env = dict(os.environ, ARGAND_DATA_DIR=str(settings.data_path))
-    worker_name = name or f"worker-{os.getpid()}@{os.uname().nodename}"
-    env["ARGAND_WORKER_NAME"] = worker_name
-    os.execvpe(sys.executable, worker_command(worker_name), env)
+    run_worker(settings, name or f"worker-{os.getpid()}@{os.uname().nodename}")
 
 
 @app.command()
@@ -382,14 +378,16 @@ def api(
     port: Optional[int] = typer.Option(None, "--port"),
     data: Optional[Path] = typer.Option(None, "--data"),
 ) -> None:
-    """The API alone (ARGAND_REDIS_URL and ARGAND_DATABASE_URL point at the farm)."""
+    """The API alone (ARGAND_REDIS_URL and ARGAND_DATABASE_URL point at the farm); upgrades the database's schema first."""
     import uvicorn
 
-    from argand.api.main import create_app
+    from argand.api.app import create_app
+    from argand.farm.database import upgrade
 
     settings = _farm_settings(data, host, port)
     if settings.redis_url is None:
         fail("set ARGAND_REDIS_URL to the farm's Redis (argand api does not start its own broker; argand serve does)")
+    upgrade(settings.sqlalchemy_url)
     console.print(f"Argand API on http://{settings.host}:{settings.port}/")
     uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="warning")
 

@@ -4,8 +4,9 @@
 //  * find_roots(): the safe entry point. Validates input, strips exact zero
 //    roots and roots at infinity, scales the polynomial by exact powers of
 //    two, runs the chosen method and maps the discs back.
-//  * solve_scaled_*(): the kernels. Preconditions: degree >= 1, finite
-//    coefficients, nonzero p_0 and p_n. No allocation.
+//  * detail::solve_smith() / detail::solve_paper() (core/src/solver.h): the
+//    kernels. Preconditions: degree >= 1, finite coefficients, nonzero p_0
+//    and p_n. No allocation.
 #pragma once
 
 #include <cstdint>
@@ -83,7 +84,20 @@ enum class Status : int {
 /// Degree 0 (a nonzero constant) gives no disc.
 /// `initial` (optional, length n) seeds the approximations (e.g. from a
 /// neighbouring pixel); it never affects what is proven, only speed.
+///
+/// `coeff_radius` (optional, n_coeffs finite entries >= 0; NonFinite
+/// otherwise) makes the input a family of polynomials: every guarantee above
+/// (counts with multiplicity, disjointness, `real`) then holds for EVERY real
+/// polynomial q with |q_k - coeffs[k]| <= coeff_radius[k] for all k. This is
+/// how a caller whose coefficients carry a proven error bound (the ray
+/// caster's) gets discs that are proven for the exact polynomial. A
+/// coefficient counts as exactly zero (roots at infinity, exact roots at 0)
+/// only when its radius is 0 too; if a stripped zero has a nonzero radius,
+/// or the leading coefficient's interval contains 0, nothing is verified.
+/// With radii, Method::Paper proves its roots with Smith's discs (its
+/// Krawczyk test is not extended to coefficient intervals).
 Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult& out,
-                  const double* initial_re = nullptr, const double* initial_im = nullptr);
+                  const double* initial_re = nullptr, const double* initial_im = nullptr,
+                  const double* coeff_radius = nullptr);
 
 }  // namespace argand

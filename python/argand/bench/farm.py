@@ -114,7 +114,7 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
     measurements alternate between them, ``repeat`` times: a drift of the
     machine's speed then hits both alike. Each row is the repetition with
     the median wall time."""
-    from argand.api.settings import Settings
+    from argand.farm.settings import Settings
 
     env = {"ARGAND_EXR_COMPRESSION": exr_compression} if exr_compression else {}
     defaults = Settings()

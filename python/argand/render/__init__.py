@@ -1,7 +1,7 @@
 """argand.render: frames of a scene in complex space, rendered locally.
 
 ``render_tile(scene, params, rect) -> TileAOVs`` is the unit of work (the
-farm's workers call it too); ``render_frame`` renders all tiles of a frame
+farm's workers use its planned form, ``frames.render_tile_into``); ``render_frame`` renders all tiles of a frame
 on all cores; ``argand.render.output`` writes EXR (all AOVs), PNG and JSON
 through OpenImageIO; ``argand.render.gif`` encodes each frame's GIF
 fragment and splices the animation from them.

@@ -1,8 +1,9 @@
 """Frames: plan once in C++, render tiles (in threads, GIL released), assemble.
 
-The tile function has the clean signature the farm's workers reuse:
-``render_tile(scene, params, rect) -> TileAOVs`` (scene, frame parameters,
-tile rectangle in, AOV arrays out).
+``render_tile(scene, params, rect) -> TileAOVs`` renders one tile from
+scratch (scene, frame parameters, tile rectangle in, AOV arrays out). The
+farm's workers plan a frame once (``plan``) and render their tiles with
+``render_tile_into``, straight into the EXR's interleaved layout.
 """
 
 from __future__ import annotations

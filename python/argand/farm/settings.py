@@ -1,14 +1,17 @@
-"""One configuration object for the farm: environment variables prefixed
-ARGAND_ (ARGAND_DATA_DIR, ARGAND_REDIS_URL, ARGAND_DATABASE_URL, ...)."""
+"""The farm's one configuration object. Each entry point (``argand serve``,
+``argand api``, ``argand worker``) builds it once, from its options and the
+environment variables prefixed ARGAND_ (ARGAND_DATA_DIR, ARGAND_REDIS_URL,
+ARGAND_DATABASE_URL, ...), and passes it explicitly to everything it calls;
+a child process gets it through :meth:`Settings.environment`."""
 
 from __future__ import annotations
 
-from functools import lru_cache
 from pathlib import Path
 
 from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.render.output import EXR_COMPRESSION, check_exr_compression
 
 
@@ -28,7 +31,7 @@ class Settings(BaseSettings):
     max_height: int = Field(4096, ge=1)
     max_frames: int = Field(720, ge=1)
     max_job_pixels: int = Field(512 * 512 * 720, ge=1)
-    default_tile: int = Field(64, ge=8)
+    default_tile: int = Field(64, ge=MIN_TILE, le=MAX_TILE)
     #: Most pixels in one message to a worker: a message carries a run of
     #: tiles of one frame (the tile stays the unit of state, storage and
     #: redo; the message is the unit of dispatch, so small tiles do not pay
@@ -74,7 +77,15 @@ class Settings(BaseSettings):
     def sqlalchemy_url(self) -> str:
         return self.database_url or f"sqlite:///{self.data_path / 'argand.db'}"
 
+    @property
+    def store_path(self) -> Path:
+        return self.data_path / "store"
 
-@lru_cache
-def get_settings() -> Settings:
-    return Settings()
+    def environment(self) -> dict[str, str]:
+        """These settings as ARGAND_* variables, for a child process (the
+        broker and database resolved, so the child uses the same ones)."""
+        values = self.model_dump(exclude={"data_dir", "redis_url", "database_url"})
+        env = {f"ARGAND_{k.upper()}": str(v) for k, v in values.items()}
+        env.update(ARGAND_DATA_DIR=str(self.data_path), ARGAND_REDIS_URL=self.broker_url,
+                   ARGAND_DATABASE_URL=self.sqlalchemy_url)
+        return env

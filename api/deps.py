@@ -1,0 +1,36 @@
+"""The routes' dependencies: the app's settings (given to create_app, kept on
+app.state: tests pass their own) and the job a path names."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import Depends, HTTPException, Request
+
+from argand.farm.database import session_scope
+from argand.farm.models import Job
+from argand.farm.settings import Settings
+
+
+def get_settings(request: Request) -> Settings:
+    return request.app.state.settings
+
+
+SettingsDep = Annotated[Settings, Depends(get_settings)]
+
+
+def job_or_404(s, job_id: str) -> Job:
+    job = s.get(Job, job_id)
+    if job is None:
+        raise HTTPException(404, detail=f"no job {job_id!r}")
+    return job
+
+
+def require_job(job_id: str, settings: SettingsDep) -> str:
+    """The path's job id, after a 404 if there is no such job."""
+    with session_scope(settings.sqlalchemy_url) as s:
+        job_or_404(s, job_id)
+    return job_id
+
+
+JobIdDep = Annotated[str, Depends(require_job)]

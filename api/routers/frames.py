@@ -1,0 +1,74 @@
+"""A job's files: each frame's PNG, EXR, thumbnail and channel previews, and
+the animation (GIF, or WebP made on first request). Paths: argand.farm.layout."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from fastapi import APIRouter, HTTPException
+from fastapi.responses import FileResponse
+
+from argand.api.deps import JobIdDep, SettingsDep, job_or_404
+from argand.farm.assembly import animation_webp
+from argand.farm.database import session_scope
+from argand.farm.previews import PREVIEW_CHANNELS, channel_png
+from argand.farm.store import store_for
+
+router = APIRouter(prefix="/api/jobs/{job_id}", tags=["frames"])
+
+
+def _file(path: Path, media: str) -> FileResponse:
+    if not path.exists():
+        raise HTTPException(404, detail=f"{path.name} is not ready")
+    return FileResponse(path, media_type=media)
+
+
+@router.get("/frames/{index}.png")
+def frame_png(job_id: JobIdDep, index: int, settings: SettingsDep):
+    return _file(store_for(settings).job(job_id).frame(index, "png"), "image/png")
+
+
+@router.get("/frames/{index}.exr")
+def frame_exr(job_id: JobIdDep, index: int, settings: SettingsDep):
+    return _file(store_for(settings).job(job_id).frame(index, "exr"), "image/x-exr")
+
+
+@router.get("/frames/{index}/thumbnail.png")
+def frame_thumbnail(job_id: JobIdDep, index: int, settings: SettingsDep):
+    return _file(store_for(settings).job(job_id).thumbnail(index), "image/png")
+
+
+@router.get("/frames/{index}/{channel}.png")
+def frame_channel(job_id: JobIdDep, index: int, channel: str, settings: SettingsDep):
+    """A channel of the frame in false colour (beauty: the frame's PNG)."""
+    if channel not in PREVIEW_CHANNELS:
+        raise HTTPException(422, detail=f"channel must be one of {', '.join(PREVIEW_CHANNELS)}")
+    layout = store_for(settings).job(job_id)
+    if channel == "beauty":
+        return _file(layout.frame(index, "png"), "image/png")
+    exr = layout.frame(index, "exr")
+    if not exr.exists():
+        raise HTTPException(404, detail="the frame is not ready")
+    out = layout.channel(channel, index)
+    if not out.exists():
+        channel_png(exr, channel, out)
+    return FileResponse(out, media_type="image/png")
+
+
+@router.get("/animation.gif")
+def animation_gif(job_id: JobIdDep, settings: SettingsDep):
+    return _file(store_for(settings).job(job_id).animation("gif"), "image/gif")
+
+
+@router.get("/animation.webp")
+def animation_as_webp(job_id: JobIdDep, settings: SettingsDep):
+    """The animation as a looping WebP (smaller than the GIF, full colour),
+    made from the frames' PNGs on the first request, then kept."""
+    with session_scope(settings.sqlalchemy_url) as s:
+        job = job_or_404(s, job_id)
+        status, n = job.status, len(job.frames)
+    if status != "done":
+        raise HTTPException(404, detail=f"the animation is not ready: the job is {status}")
+    if not animation_webp(settings, job_id, n):
+        raise HTTPException(501, detail="this installation's Pillow has no WebP support")
+    return FileResponse(store_for(settings).job(job_id).animation("webp"), media_type="image/webp")

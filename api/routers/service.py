@@ -1,0 +1,107 @@
+"""The service itself: presets, scene validation, workers, health, and
+/api/meta (the definitions the front end reads instead of keeping copies)."""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+
+from fastapi import APIRouter, HTTPException, Response
+from sqlalchemy import func, select
+
+from argand.api.deps import SettingsDep
+from argand.api.schemas import JobRequest
+from argand.core import METHODS
+from argand.farm.database import session_scope
+from argand.farm.models import Job
+from argand.farm.planning import MAX_TILE, MIN_TILE
+from argand.farm.previews import PREVIEW_CHANNELS, STATUS_COLOURS
+from argand.farm.queue import PRIORITIES, broker_client
+from argand.farm.states import ACTIONS, ENDED, FRAME, JOB
+from argand.farm.workers import list_workers
+from argand.render import FrameParams, render_frame
+from argand.render.frames import STATUS_NAMES
+from argand.render.output import to_srgb8, write_png
+from argand.scene import MAX_DEGREE, ExpressionError, SceneError, load_scene, parse_surface, scene_from_dict
+from argand.scene.presets import PRESETS
+
+router = APIRouter(tags=["service"])
+
+
+@router.get("/api/meta")
+def meta(settings: SettingsDep) -> dict:
+    """States, actions, pixel statuses (code, name, colour), channels,
+    methods, limits and a new job's defaults, each from where it is defined."""
+    fields = JobRequest.model_fields
+    return {
+        "job_states": list(JOB.states),
+        "ended_states": list(ENDED),
+        "frame_states": list(FRAME.states),
+        "actions": {action: list(applies_to) for action, (applies_to, _) in ACTIONS.items()},
+        "pixel_statuses": [{"code": code, "name": name, "colour": "#%02x%02x%02x" % STATUS_COLOURS[name]}
+                           for code, name in sorted(STATUS_NAMES.items())],
+        "channels": list(PREVIEW_CHANNELS),
+        "methods": list(METHODS),
+        "limits": {"max_width": settings.max_width, "max_height": settings.max_height,
+                   "max_frames": settings.max_frames, "max_job_pixels": settings.max_job_pixels,
+                   "min_tile": MIN_TILE, "max_tile": MAX_TILE, "priority": [PRIORITIES.start, PRIORITIES.stop - 1],
+                   "max_degree": MAX_DEGREE},
+        "defaults": {"width": fields["width"].default, "height": fields["height"].default,
+                     "tile": settings.default_tile, "priority": fields["priority"].default,
+                     "method": fields["method"].default},
+    }
+
+
+@router.get("/api/presets")
+def presets() -> list[dict]:
+    out = []
+    for name in PRESETS:
+        scene = load_scene(name)
+        out.append({"name": name, "scene": scene.to_dict(), "degrees": [o.polynomial.degree for o in scene.objects]})
+    return out
+
+
+_preset_thumbs: dict[str, bytes] = {}
+
+
+@router.get("/api/presets/{name}/thumbnail.png")
+def preset_thumbnail(name: str):
+    """A small render of a preset at delta = pi/18 (cached in memory)."""
+    if name not in PRESETS:
+        raise HTTPException(404, detail=f"no preset {name!r}")
+    if name not in _preset_thumbs:
+        result = render_frame(load_scene(name), FrameParams(delta=math.pi / 18, width=128, height=128), workers=1)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "t.png"
+            write_png(to_srgb8(result.rgba), path)
+            _preset_thumbs[name] = path.read_bytes()
+    return Response(_preset_thumbs[name], media_type="image/png")
+
+
+@router.post("/api/scenes/validate")
+def validate_scene(body: dict) -> dict:
+    if "surface" in body and "objects" not in body:
+        try:
+            p = parse_surface(body["surface"])
+            return {"valid": True, "degree": p.degree}
+        except ExpressionError as exc:
+            return {"valid": False, "error": exc.message, "position": exc.position, "message": str(exc)}
+    try:
+        scene = scene_from_dict(body)
+        return {"valid": True, "degrees": [o.polynomial.degree for o in scene.objects]}
+    except SceneError as exc:
+        return {"valid": False, "error": str(exc)}
+
+
+@router.get("/api/workers")
+def workers(settings: SettingsDep) -> list[dict]:
+    return list_workers(settings)
+
+
+@router.get("/healthz")
+def healthz(settings: SettingsDep) -> dict:
+    with session_scope(settings.sqlalchemy_url) as s:
+        s.scalar(select(func.count()).select_from(Job))
+    broker_client(settings).ping()
+    return {"status": "ok"}

@@ -1,0 +1,140 @@
+"""Request and response bodies of the HTTP API."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from argand.core import METHODS
+from argand.farm.models import Job
+from argand.farm.planning import MAX_TILE, MIN_TILE
+from argand.farm.progress import eta_seconds, job_progress
+from argand.farm.queue import PRIORITIES
+from argand.render.angles import parse_angle
+
+Priority = Field(5, ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
+
+
+def _angle(v: Any) -> float:
+    if isinstance(v, str):
+        return parse_angle(v)
+    f = float(v)
+    if not math.isfinite(f):
+        raise ValueError("angles must be finite")
+    return f
+
+
+class DeltaRange(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    start: float | str
+    stop: float | str
+    count: int = Field(ge=1)
+
+    @field_validator("start", "stop", mode="before")
+    @classmethod
+    def _parse(cls, v: Any) -> float:
+        return _angle(v)
+
+
+class JobRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    scene: str | dict = Field(description="A preset name or a scene object")
+    sigma: float | str = 0.0
+    deltas: list[float | str] | DeltaRange = Field(default_factory=lambda: [0.0])
+    width: int = Field(256, ge=1)
+    height: int = Field(256, ge=1)
+    tile: int | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
+    priority: int = Priority
+    method: Literal[METHODS] = "auto"
+
+    @field_validator("sigma", mode="before")
+    @classmethod
+    def _sigma(cls, v: Any) -> float:
+        return _angle(v)
+
+    @field_validator("deltas", mode="before")
+    @classmethod
+    def _deltas(cls, v: Any) -> Any:
+        if isinstance(v, list):
+            if not v:
+                raise ValueError("deltas must not be empty")
+            out = [_angle(d) for d in v]
+            if any(d < 0 for d in out):
+                raise ValueError("every delta must be >= 0")
+            return out
+        return v
+
+
+class PriorityPatch(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    priority: int = Field(ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
+
+
+class FrameOut(BaseModel):
+    index: int
+    sigma: float
+    delta: float
+    status: str
+    png_url: str | None
+    exr_url: str | None
+    thumbnail_url: str | None
+    finished: float | None
+    certified_share: float | None
+    figures: dict | None
+
+
+class JobOut(BaseModel):
+    id: str
+    status: str
+    scene_name: str
+    scene: dict
+    sigma: float
+    width: int
+    height: int
+    tile: int
+    method: str
+    priority: int
+    progress: float
+    tiles_done: int
+    tiles_total: int
+    eta_s: float | None
+    created: float
+    started: float | None
+    finished: float | None
+    error: str | None
+    frames: list[FrameOut]
+    animation_url: str | None
+    webp_url: str | None
+
+
+class JobPage(BaseModel):
+    total: int
+    page: int
+    per_page: int
+    jobs: list[JobOut]
+
+
+def frame_out(base: str, f) -> FrameOut:
+    done = f.status == "done"
+    return FrameOut(index=f.index, sigma=f.sigma, delta=f.delta, status=f.status,
+                    png_url=f"{base}/frames/{f.index}.png" if done else None,
+                    exr_url=f"{base}/frames/{f.index}.exr" if done else None,
+                    thumbnail_url=f"{base}/frames/{f.index}/thumbnail.png" if done else None,
+                    finished=f.finished, certified_share=(f.figures or {}).get("certified_share"), figures=f.figures)
+
+
+def job_out(job: Job) -> JobOut:
+    done, total = job_progress(job)
+    base = f"/api/jobs/{job.id}"
+    animated = job.status == "done" and len(job.frames) > 1
+    return JobOut(
+        id=job.id, status=job.status, scene_name=job.scene_name, scene=job.scene, sigma=job.sigma, width=job.width,
+        height=job.height, tile=job.tile, method=job.method, priority=job.priority,
+        progress=done / total if total else 0.0, tiles_done=done, tiles_total=total,
+        eta_s=eta_seconds(job, done, total), created=job.created, started=job.started, finished=job.finished,
+        error=job.error, frames=[frame_out(base, f) for f in job.frames],
+        animation_url=f"{base}/animation.gif" if animated else None,
+        webp_url=f"{base}/animation.webp" if animated else None,
+    )

@@ -1,0 +1,75 @@
+"""Engines and sessions per database URL, and the schema's upgrade through
+Alembic (``argand serve`` and ``argand api`` upgrade on start; the revisions
+are in argand/farm/migrations/versions)."""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+from alembic import command
+from alembic.config import Config
+from sqlalchemy import create_engine, event
+from sqlalchemy.engine import Engine, make_url
+from sqlalchemy.orm import Session, sessionmaker
+
+MIGRATIONS = Path(__file__).with_name("migrations")
+
+_engines: dict[str, Engine] = {}
+_factories: dict[str, sessionmaker] = {}
+
+
+def _sqlite_engine(url: str) -> Engine:
+    database = make_url(url).database
+    if database and database != ":memory:":
+        Path(database).parent.mkdir(parents=True, exist_ok=True)
+    engine = create_engine(url, connect_args={"timeout": 60, "check_same_thread": False})
+
+    @event.listens_for(engine, "connect")
+    def _pragmas(conn, _record):  # several processes share the file
+        cur = conn.cursor()
+        cur.execute("PRAGMA journal_mode=WAL")
+        # WAL + NORMAL: no fsync per commit (a crash of a process loses
+        # nothing; a power cut may roll back the last commits, and those
+        # tiles are then simply rendered again).
+        cur.execute("PRAGMA synchronous=NORMAL")
+        cur.execute("PRAGMA busy_timeout=60000")
+        cur.execute("PRAGMA foreign_keys=ON")
+        cur.close()
+
+    return engine
+
+
+def engine_for(url: str) -> Engine:
+    """One engine per URL and process (the schema is upgrade()'s)."""
+    if url not in _engines:
+        _engines[url] = _sqlite_engine(url) if url.startswith("sqlite") else create_engine(url, pool_pre_ping=True)
+    return _engines[url]
+
+
+@contextmanager
+def session_scope(url: str) -> Iterator[Session]:
+    """A session committed at the end of the block (rolled back on an error)."""
+    factory = _factories.get(url)
+    if factory is None:
+        factory = _factories[url] = sessionmaker(engine_for(url), expire_on_commit=False)
+    with factory() as s:
+        try:
+            yield s
+            s.commit()
+        except Exception:
+            s.rollback()
+            raise
+
+
+def alembic_config(url: str) -> Config:
+    config = Config()
+    config.set_main_option("script_location", str(MIGRATIONS))
+    config.attributes["engine"] = engine_for(url)
+    return config
+
+
+def upgrade(url: str, revision: str = "head") -> None:
+    """Brings the database at ``url`` to ``revision`` (creates it when empty)."""
+    command.upgrade(alembic_config(url), revision)

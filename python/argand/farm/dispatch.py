@@ -1,0 +1,42 @@
+"""Sending a job's tiles to the workers: the tiles in given states, grouped
+by argand.farm.planning into runs, sent by argand.farm.queue."""
+
+from __future__ import annotations
+
+import time
+
+from sqlalchemy import func, select
+
+from argand.farm.database import engine_for
+from argand.farm.models import Frame, Job, Tile, Worker
+from argand.farm.planning import plan_runs, tile_rects
+from argand.farm.queue import send_runs
+from argand.farm.settings import Settings
+
+
+def alive_workers(settings: Settings) -> int:
+    """Workers whose last heartbeat is recent."""
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        return int(c.execute(select(func.count()).select_from(Worker).where(
+            Worker.heartbeat > time.time() - settings.heartbeat_timeout_s)).scalar() or 0)
+
+
+def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] = ("queued",),
+                 priority: int | None = None) -> int:
+    """Sends messages for every tile of the job in one of the given states
+    (see plan_runs), at the job's priority unless ``priority`` is given.
+    Returns the number of tiles sent."""
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        job = c.execute(select(Job.priority, Job.width, Job.height, Job.tile).where(Job.id == job_id)).first()
+        if job is None:
+            return 0
+        n_frames = c.execute(select(func.count()).select_from(Frame).where(Frame.job_id == job_id)).scalar()
+        rows = c.execute(select(Tile.frame_index, Tile.tile_index).where(
+            Tile.job_id == job_id, Tile.status.in_(only_status)).order_by(Tile.frame_index, Tile.tile_index)).all()
+    by_frame: dict[int, list[int]] = {}
+    for f, t in rows:
+        by_frame.setdefault(f, []).append(t)
+    runs = plan_runs(by_frame, n_frames, tile_rects(job.width, job.height, job.tile), settings.batch_pixels,
+                     max(1, alive_workers(settings)))
+    send_runs(settings, job_id, runs, job.priority if priority is None else priority)
+    return len(rows)

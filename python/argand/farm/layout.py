@@ -1,0 +1,53 @@
+"""Where every file of a job lives in the frame store: one class, used by
+the writer of tiles, the assembler and the API.
+
+    store/jobs/<job>/frame_NNNN.exr|.png|.json   the assembled frame
+    store/jobs/<job>/thumb_NNNN.png              its thumbnail
+    store/jobs/<job>/<channel>_NNNN.png          a false-colour channel (made on request)
+    store/jobs/<job>/gif/NNNN.gif                the frame's GIF fragment
+    store/jobs/<job>/animation.gif|.webp         the animation
+    store/jobs/<job>/tiles/NNNN/<name>.chunk     tiles of an unassembled frame
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+FRAME_FILES = ("exr", "png", "json")
+
+
+@dataclass(frozen=True)
+class JobLayout:
+    store: Path
+    job_id: str
+
+    @property
+    def folder(self) -> Path:
+        return self.store / "jobs" / self.job_id
+
+    def frame(self, index: int, kind: str) -> Path:
+        """The frame's EXR (all channels), PNG (beauty, sRGB) or JSON (figures)."""
+        if kind not in FRAME_FILES:
+            raise ValueError(f"a frame file is one of {', '.join(FRAME_FILES)}, not {kind!r}")
+        return self.folder / f"frame_{index:04d}.{kind}"
+
+    def thumbnail(self, index: int) -> Path:
+        return self.folder / f"thumb_{index:04d}.png"
+
+    def channel(self, name: str, index: int) -> Path:
+        return self.folder / f"{name}_{index:04d}.png"
+
+    def gif_fragment(self, index: int) -> Path:
+        return self.folder / "gif" / f"{index:04d}.gif"
+
+    def animation(self, kind: str) -> Path:
+        if kind not in ("gif", "webp"):
+            raise ValueError(f"an animation is gif or webp, not {kind!r}")
+        return self.folder / f"animation.{kind}"
+
+    def tiles(self, index: int) -> Path:
+        return self.folder / "tiles" / f"{index:04d}"
+
+    def chunk(self, index: int, name: str) -> Path:
+        return self.tiles(index) / f"{name}.chunk"

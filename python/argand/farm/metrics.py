@@ -1,0 +1,69 @@
+"""The farm's Prometheus metrics, read from the database on each scrape (the
+workers record what the histograms need on the rows they already write):
+gauges of jobs and tiles by state and of live workers, a counter of frames
+done, and histograms of tile render time, frame assembly time and queue
+wait (a message's sending to its claim). The API adds request latency."""
+
+from __future__ import annotations
+
+import time
+
+from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, HistogramMetricFamily
+from sqlalchemy import case, func, select
+
+from argand.farm.database import session_scope
+from argand.farm.models import Frame, Job, Tile, Worker
+from argand.farm.settings import Settings
+from argand.farm.states import JOB, TILE
+
+#: Seconds: a tile renders in milliseconds to seconds; an assembly and a
+#: queue wait in tens of milliseconds to minutes.
+TILE_BUCKETS = (0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30)
+ASSEMBLY_BUCKETS = (0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30)
+WAIT_BUCKETS = (0.01, 0.05, 0.1, 0.5, 1, 5, 10, 30, 60, 300, 1800)
+
+
+def _histogram(s, name: str, doc: str, column, where, buckets) -> HistogramMetricFamily:
+    """Cumulative bucket counts and the sum of ``column`` over the rows of ``where``, in one query."""
+    row = s.execute(select(*[func.sum(case((column <= b, 1), else_=0)) for b in buckets],
+                           func.count(column), func.sum(column)).where(where, column.is_not(None))).one()
+    counts, total, sum_ = row[:len(buckets)], row[len(buckets)] or 0, row[len(buckets) + 1] or 0.0
+    values = [(str(b), int(c or 0)) for b, c in zip(buckets, counts)] + [("+Inf", int(total))]
+    return HistogramMetricFamily(name, doc, buckets=values, sum_value=float(sum_))
+
+
+def _by_status(s, name: str, doc: str, model, states) -> GaugeMetricFamily:
+    counts = dict(s.execute(select(model.status, func.count()).group_by(model.status)).all())
+    g = GaugeMetricFamily(name, doc, labels=["status"])
+    for status in states:
+        g.add_metric([status], counts.get(status, 0))
+    return g
+
+
+class FarmCollector:
+    """A prometheus_client collector over the farm's database."""
+
+    def __init__(self, settings: Settings) -> None:
+        self.settings = settings
+
+    def describe(self):  # no description up front: collect() is called on scrape only
+        return []
+
+    def collect(self):
+        now = time.time()
+        with session_scope(self.settings.sqlalchemy_url) as s:
+            yield _by_status(s, "argand_jobs", "Jobs by status", Job, JOB.states)
+            yield _by_status(s, "argand_tiles", "Tiles by status", Tile, TILE.states)
+            done = CounterMetricFamily("argand_frames_done", "Frames assembled")
+            done.add_metric([], s.scalar(select(func.count()).select_from(Frame).where(Frame.status == "done")))
+            yield done
+            alive = GaugeMetricFamily("argand_workers_alive", "Workers with a recent heartbeat")
+            alive.add_metric([], s.scalar(select(func.count()).select_from(Worker).where(
+                Worker.heartbeat > now - self.settings.heartbeat_timeout_s)))
+            yield alive
+            yield _histogram(s, "argand_tile_render_seconds", "Render time of a tile (its run's mean)",
+                             Tile.seconds, Tile.status == "done", TILE_BUCKETS)
+            yield _histogram(s, "argand_frame_assembly_seconds", "Assembly time of a frame",
+                             Frame.assembly_s, Frame.status == "done", ASSEMBLY_BUCKETS)
+            yield _histogram(s, "argand_queue_wait_seconds", "From a message's sending to its tile's claim",
+                             Tile.waited, Tile.status.in_(TILE.states), WAIT_BUCKETS)

@@ -1,0 +1,60 @@
+"""How a job's tiles become messages (pure functions, no I/O): the tile
+rectangles, the frames' sending order, and runs of tiles of one frame."""
+
+from __future__ import annotations
+
+from argand.render.frames import tiles
+
+Rect = tuple[int, int, int, int]
+
+#: A job's tile size, in pixels (a side).
+MIN_TILE, MAX_TILE = 8, 4096
+
+
+def preview_order(n_frames: int, stride: int = 4) -> list[int]:
+    """Every stride-th frame first, then the gaps: a coarse preview of the
+    whole animation appears early."""
+    order: list[int] = []
+    for start in range(stride):
+        order += list(range(start, n_frames, stride))
+    return order
+
+
+def tile_rects(width: int, height: int, tile: int) -> list[Rect]:
+    """The renderer's tiles (argand.render.frames.tiles, whose order gives
+    the tile indices) as (x0, y0, x1, y1)."""
+    return [(r.x0, r.y0, r.x1, r.y1) for r in tiles(width, height, tile)]
+
+
+def _area(rect: Rect) -> int:
+    x0, y0, x1, y1 = rect
+    return (x1 - x0) * (y1 - y0)
+
+
+def batch_runs(tile_indices: list[int], rects: list[Rect], target_pixels: int) -> list[list[int]]:
+    """Splits a frame's tile indices (in order) into runs of about
+    ``target_pixels`` pixels (one tile at least)."""
+    runs: list[list[int]] = []
+    run: list[int] = []
+    pixels = 0
+    for t in tile_indices:
+        run.append(t)
+        pixels += _area(rects[t])
+        if pixels >= target_pixels:
+            runs.append(run)
+            run, pixels = [], 0
+    if run:
+        runs.append(run)
+    return runs
+
+
+def plan_runs(by_frame: dict[int, list[int]], n_frames: int, rects: list[Rect], batch_pixels: int,
+              workers: int) -> list[tuple[int, list[int]]]:
+    """The messages, in sending order, as (frame, tiles): frames in preview
+    order, runs of at most ``batch_pixels``, small enough that every worker
+    gets four or more. (Cutting the last runs smaller, so that the workers
+    finish together, was measured: the tiles' trip through the store costs
+    what the balance saves, 36 frames of 512x512 on two workers.)"""
+    pixels = sum(_area(rects[t]) for ts in by_frame.values() for t in ts)
+    target = max(1, min(batch_pixels, pixels // (4 * workers)))
+    return [(f, run) for f in preview_order(n_frames) for run in batch_runs(by_frame.get(f, []), rects, target)]

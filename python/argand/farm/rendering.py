@@ -1,0 +1,297 @@
+"""The body of a worker's task: a run of tiles of one frame.
+
+* The database is the source of truth; a tile is rendered by whichever
+  worker claims its row (compare-and-set), written atomically to the store,
+  and counted once (a compare-and-set on its row, and the frame's counter in
+  the same transaction). A redelivered tile that is done is a no-op.
+* Completions are committed every ``COMMIT_INTERVAL_S`` within a run, so
+  progress is smooth and a crash loses at most that much work.
+* The tiles are rendered by argand.render.frames.render_tile_into straight
+  into the EXR's interleaved layout; a run that holds its whole frame renders
+  into the frame's buffer and assembles it from memory.
+* A run stops between tiles (checked every ``STOP_CHECK_S``) when its job is
+  cancelled or paused, and gives back what it did not render.
+"""
+
+from __future__ import annotations
+
+import time
+import uuid
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from sqlalchemy import select, update
+
+from argand.farm import assembly
+from argand.farm.database import engine_for
+from argand.farm.models import Frame, Job, Tile
+from argand.farm.planning import Rect, tile_rects
+from argand.farm.queue import send_runs
+from argand.farm.settings import Settings
+from argand.farm.states import FRAME, JOB, STOPPED, TILE
+from argand.farm.store import store_for
+from argand.render.convert import to_core_scene
+from argand.render.frames import INTERLEAVED_CHANNELS, FrameParams, TileRect, plan, render_tile_into
+from argand.scene import scene_from_dict
+
+#: Within a run of tiles: how often to look for a cancel or pause, and how
+#: often to commit the tiles finished so far.
+STOP_CHECK_S = 0.05
+COMMIT_INTERVAL_S = 0.5
+
+#: What this worker process is doing; its heartbeat thread reports it (so a
+#: tile costs no extra database writes for bookkeeping).
+ACTIVITY: dict[str, Any] = {"tile": None, "done": 0}
+
+_plan_cache: dict[tuple[str, int], Any] = {}
+_job_cache: dict[str, Any] = {}
+_marked: set[tuple[str, int]] = set()  # (job, frame) this process already marked as rendering
+
+
+def _frame_plan(url: str, job_id: str, frame_index: int):
+    """The frame's C++ plan, tile rectangles and tile count, built once per
+    worker process and frame (the job's scene is converted once per job)."""
+    key = (job_id, frame_index)
+    if key not in _plan_cache:
+        if len(_plan_cache) > 16:
+            _plan_cache.clear()
+        with engine_for(url).connect() as c:
+            if job_id not in _job_cache:
+                if len(_job_cache) > 8:
+                    _job_cache.clear()
+                job = c.execute(select(Job.scene, Job.width, Job.height, Job.tile, Job.method).where(Job.id == job_id)).one()
+                _job_cache[job_id] = (to_core_scene(scene_from_dict(job.scene)), job.width, job.height, job.tile, job.method)
+            sigma, delta, tiles_total = c.execute(select(Frame.sigma, Frame.delta, Frame.tiles_total).where(
+                Frame.job_id == job_id, Frame.index == frame_index)).one()
+        core_scene, w, h, tile, method = _job_cache[job_id]
+        params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=method)
+        _plan_cache[key] = (plan(core_scene, params), tile_rects(w, h, tile), tiles_total)
+    return _plan_cache[key]
+
+
+def tile_key(job_id: str, frame_index: int):
+    return (Tile.job_id == job_id, Tile.frame_index == frame_index)
+
+
+@dataclass
+class TileRun:
+    """One message's tiles, as this worker renders them."""
+
+    settings: Settings
+    job_id: str
+    frame_index: int
+    worker: str
+    claimed: list[int]
+    plan: Any = None
+    rects: list[Rect] = field(default_factory=list)
+    total: int = 0
+    #: The whole frame's buffer when the run holds every tile of the frame.
+    frame_px: np.ndarray | None = None
+    #: tile -> (pixels, escalations, root calls, stats), for this process's own assembly.
+    local: dict[int, Any] = field(default_factory=dict)
+    #: tile -> render seconds, rendered but not yet committed.
+    pending: dict[int, float] = field(default_factory=dict)
+    done: int = 0
+
+    def unrendered(self) -> list[int]:
+        return [t for t in self.claimed if t not in self.local]
+
+    def commit(self) -> None:
+        if self.pending:
+            self.done, self.total = _complete(self)
+            self.pending = {}
+
+
+def claim(settings: Settings, job_id: str, frame_index: int, tile_indices: list[int], worker: str,
+          sent_at: float | None) -> tuple[str | None, list[int]]:
+    """Claims the queued tiles among ``tile_indices`` (compare-and-set) and
+    marks the job and frame started. Returns (why nothing was claimed or
+    None, the claimed tiles in order)."""
+    now = time.time()
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        status = c.execute(select(Job.status).where(Job.id == job_id)).scalar()
+        if status is None or status in STOPPED:
+            return status or "gone", []
+        claimed = sorted(c.execute(
+            update(Tile)
+            .where(*tile_key(job_id, frame_index), Tile.tile_index.in_(tile_indices),
+                   Tile.status.in_(TILE.sources("running")))
+            .values(status="running", worker=worker, started=now, attempts=Tile.attempts + 1,
+                    waited=None if sent_at is None else max(0.0, now - sent_at))
+            .returning(Tile.tile_index)
+        ).scalars().all())
+        if not claimed:
+            return "taken or done", []
+        if (job_id, frame_index) not in _marked:
+            c.execute(update(Job).where(Job.id == job_id, Job.status == JOB.step("queued", "running"))
+                      .values(status="running", started=now))
+            c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index,
+                                          Frame.status == FRAME.step("queued", "rendering")).values(status="rendering"))
+            _marked.add((job_id, frame_index))
+    return None, claimed
+
+
+def _job_status(settings: Settings, job_id: str) -> str | None:
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        return c.execute(select(Job.status).where(Job.id == job_id)).scalar()
+
+
+def _render_claimed(run: TileRun) -> str | None:
+    """Renders the run's tiles, committing on the way. Returns why it
+    stopped early (the job's state, or "gone"), or None."""
+    channels = len(INTERLEAVED_CHANNELS)
+    last_check = last_commit = time.monotonic()
+    for i in run.claimed:
+        if time.monotonic() - last_check > STOP_CHECK_S:
+            status = _job_status(run.settings, run.job_id)
+            last_check = time.monotonic()
+            if status is None or status in STOPPED:
+                return status or "gone"
+        ACTIVITY["tile"] = f"{run.job_id}/{run.frame_index}/{i}"
+        x0, y0, x1, y1 = run.rects[i]
+        if run.frame_px is not None:
+            block, ox, oy = run.frame_px, x0, y0
+        else:
+            block, ox, oy = np.empty((y1 - y0, x1 - x0, channels), np.float32), 0, 0
+        start = time.perf_counter()
+        esc, calls, stats = render_tile_into(run.plan, TileRect(x0, y0, x1, y1), block, ox, oy)
+        run.pending[i] = time.perf_counter() - start
+        run.local[i] = (block[y0:y1, x0:x1] if run.frame_px is not None else block, esc, calls, stats)
+        if time.monotonic() - last_commit > COMMIT_INTERVAL_S:
+            run.commit()
+            last_commit = time.monotonic()
+    return None
+
+
+def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: list[int], worker: str,
+              sent_at: float | None = None) -> str:
+    """Renders a run of tiles of one frame, skipping those done or held by
+    another worker, and stopping between tiles when the job is cancelled or
+    paused. Returns what happened (for logs and tests)."""
+    why, claimed = claim(settings, job_id, frame_index, tile_indices, worker, sent_at)
+    if why:
+        return why
+    fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index)
+    run = TileRun(settings, job_id, frame_index, worker, claimed, fplan, rects, total)
+    # A run that holds the whole frame renders straight into the frame's
+    # buffer (the EXR's layout); otherwise each tile gets a block of its own.
+    if len(claimed) == total:
+        run.frame_px = np.empty((fplan.height, fplan.width, len(INTERLEAVED_CHANNELS)), np.float32)
+    try:
+        stopped = _render_claimed(run)
+    except BaseException:
+        # A time limit or an error: keep what is written, give back the rest.
+        run.commit()
+        release(settings, job_id, frame_index, worker, run.unrendered(), resend=True)
+        raise
+    finally:
+        ACTIVITY["tile"] = None
+    return _finish_run(run, stopped)
+
+
+def _finish_run(run: TileRun, stopped: str | None) -> str:
+    if run.pending and not stopped and len(run.local) == len(run.pending) == run.total:
+        # The run rendered the whole frame: assemble from memory, then count
+        # the tiles and the frame done in one transaction (no tile files).
+        if _finish_whole_frame(run):
+            return "rendered"
+    run.commit()
+    if stopped:
+        release(run.settings, run.job_id, run.frame_index, run.worker, run.unrendered(), resend=False)
+        return stopped
+    if run.done >= run.total:  # a whole frame with commits on the way still assembles from its own buffer
+        whole = run.frame_px if run.frame_px is not None and len(run.local) == run.total else None
+        assembly.maybe_assemble(run.settings, run.job_id, run.frame_index, run.worker, run.local, whole)
+    return "rendered"
+
+
+def _tile_arrays(t: tuple[np.ndarray, int, int, np.ndarray]) -> dict[str, np.ndarray]:
+    """A tile as stored: its pixels, and meta = [escalations, root calls,
+    pixels per status code, hits]."""
+    block, esc, calls, stats = t
+    return {"px": np.ascontiguousarray(block), "meta": np.array([esc, calls, *stats], dtype=np.int64)}
+
+
+def _complete(run: TileRun) -> tuple[int, int]:
+    """Writes the run's pending tiles to the store (one chunk file), then
+    marks them done (only those this worker still holds: a tile the reaper
+    gave to another worker is theirs to count) and adds them to the frame's
+    counter, in one transaction. Returns (frame's tiles done, in all)."""
+    chunk = f"{min(run.pending):05d}-{uuid.uuid4().hex[:10]}"
+    store_for(run.settings).write_chunk(run.job_id, run.frame_index, chunk,
+                                        {i: _tile_arrays(run.local[i]) for i in run.pending})
+    with engine_for(run.settings.sqlalchemy_url).begin() as c:
+        won = _mark_done(c, run, chunk)
+        q = update(Frame).where(Frame.job_id == run.job_id, Frame.index == run.frame_index)
+        done, total = c.execute(q.values(tiles_done=Frame.tiles_done + len(won))
+                                .returning(Frame.tiles_done, Frame.tiles_total)).one()
+    ACTIVITY["done"] += len(won)
+    return done, total
+
+
+def _mark_done(c, run: TileRun, chunk: str) -> list[int]:
+    """In the caller's transaction: the pending tiles that this worker still
+    holds become done, stored in ``chunk``. Returns them. A tile's recorded
+    render time is its run's mean (one value for the statement, so it
+    compiles once however many tiles; the frame's sum is the same)."""
+    seconds = run.pending
+    return c.execute(
+        update(Tile)
+        .where(*tile_key(run.job_id, run.frame_index), Tile.tile_index.in_(list(seconds)),
+               Tile.status == TILE.step("running", "done"), Tile.worker == run.worker)
+        .values(status="done", seconds=sum(seconds.values()) / len(seconds), renders=Tile.renders + 1, chunk=chunk)
+        .returning(Tile.tile_index)
+    ).scalars().all()
+
+
+class _Lost(Exception):
+    """Some tile of the run is no longer this worker's (the reaper gave it away)."""
+
+
+def _finish_whole_frame(run: TileRun) -> bool:
+    """Assembles a frame this worker rendered alone, then marks its tiles and
+    the frame done in one transaction: a crash before the commit leaves the
+    tiles claimed by a dead worker, and the reaper has them rendered again;
+    a crash after it leaves a finished frame. Returns False (nothing
+    committed; the caller goes the usual way) if any tile was taken away."""
+    figures = assembly.assemble_frame(run.settings, run.job_id, run.frame_index, run.local,
+                                      seconds=sum(run.pending.values()), commit=False, frame_px=run.frame_px)
+    try:
+        with engine_for(run.settings.sqlalchemy_url).begin() as c:
+            won = _mark_done(c, run, "frame")
+            if len(won) < len(run.pending):
+                raise _Lost
+            n = c.execute(update(Frame).where(
+                Frame.job_id == run.job_id, Frame.index == run.frame_index, Frame.status.in_(FRAME.sources("done", among=("queued", "rendering"))),
+            ).values(tiles_done=len(won), status="done", assembler=run.worker, figures=figures,
+                     assembly_s=figures["assembly_s"], finished=time.time())).rowcount
+            if n != 1:
+                raise _Lost
+    except _Lost:
+        return False
+    ACTIVITY["done"] += len(won)
+    run.pending = {}
+    assembly.finish_job_if_last(run.settings, run.job_id)
+    return True
+
+
+def release(settings: Settings, job_id: str, frame_index: int, worker: str, tiles: list[int], resend: bool) -> None:
+    """Gives tiles this worker claimed but did not finish back to the queue
+    (a pause, a cancel, a time limit or an error), and sends them again if
+    the job goes on; after an error, a tile that failed too often fails
+    its job instead."""
+    if not tiles:
+        return
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        mine = (*tile_key(job_id, frame_index), Tile.tile_index.in_(tiles), Tile.status == "running", Tile.worker == worker)
+        if resend:
+            failed = c.execute(update(Tile).where(*mine, Tile.attempts >= settings.max_tile_attempts)
+                               .values(status=TILE.check("running", "failed")).returning(Tile.tile_index)).scalars().all()
+            if failed:
+                c.execute(update(Job).where(Job.id == job_id, Job.status.in_(JOB.sources("failed"))).values(
+                    status="failed", error=f"tile {frame_index}/{failed[0]} failed {settings.max_tile_attempts} times"))
+                resend = False
+        c.execute(update(Tile).where(*mine).values(status=TILE.check("running", "queued"), worker=None))
+    if resend:
+        send_runs(settings, job_id, [(frame_index, tiles)], priority=9)

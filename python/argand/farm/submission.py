@@ -1,0 +1,92 @@
+"""A new job: its limits checked, its rows stored (job, frames, tiles) and
+its first messages sent."""
+
+from __future__ import annotations
+
+import time
+import uuid
+from dataclasses import dataclass
+from typing import Any
+
+from sqlalchemy import insert
+
+from argand.farm.database import engine_for
+from argand.farm.dispatch import alive_workers
+from argand.farm.models import Frame, Job, Tile
+from argand.farm.planning import plan_runs, preview_order, tile_rects
+from argand.farm.queue import send_runs
+from argand.farm.settings import Settings
+from argand.render.frames import delta_sweep
+
+
+class JobRefused(ValueError):
+    """A job the farm does not take; the message says which limit and why."""
+
+
+@dataclass(frozen=True)
+class JobSpec:
+    scene_name: str
+    scene: dict
+    sigma: float
+    deltas: list[float]
+    width: int
+    height: int
+    tile: int
+    priority: int = 5
+    method: str = "auto"
+
+
+def sweep_deltas(deltas: Any) -> list[float]:
+    """A job's deltas: a list, or {start, stop, count} swept as `argand
+    render --deltas` sweeps it (the same values to the last bit)."""
+    if isinstance(deltas, dict):
+        return delta_sweep(float(deltas["start"]), float(deltas["stop"]), int(deltas["count"]))
+    return [float(d) for d in deltas]
+
+
+def check_limits(settings: Settings, spec: JobSpec) -> None:
+    """Raises JobRefused, naming the limit, for a job above the settings' limits."""
+    if any(d < 0 for d in spec.deltas):
+        raise JobRefused("every delta must be >= 0")
+    if spec.width > settings.max_width or spec.height > settings.max_height:
+        raise JobRefused(f"frame size {spec.width}x{spec.height} exceeds the limit "
+                         f"{settings.max_width}x{settings.max_height}")
+    if len(spec.deltas) > settings.max_frames:
+        raise JobRefused(f"{len(spec.deltas)} frames exceed the limit of {settings.max_frames}")
+    pixels = spec.width * spec.height * len(spec.deltas)
+    if pixels > settings.max_job_pixels:
+        raise JobRefused(f"the job has {pixels} pixels, above the limit of {settings.max_job_pixels}")
+
+
+def create_job(settings: Settings, spec: JobSpec) -> str:
+    """Checks the limits, stores the job, its frames and tiles, and sends its
+    messages. The first frames' tiles are stored and sent first, so workers
+    start while the rest is written. Returns the job's id."""
+    check_limits(settings, spec)
+    job_id = uuid.uuid4().hex[:12]
+    rects = tile_rects(spec.width, spec.height, spec.tile)
+    n_frames = len(spec.deltas)
+    workers = max(1, alive_workers(settings))
+    runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects, settings.batch_pixels, workers)
+    early = set(preview_order(n_frames)[:2 * workers])
+    split = next((k for k, (f, _) in enumerate(runs) if f not in early), len(runs))
+
+    def tiles_of(frames):
+        return [dict(job_id=job_id, frame_index=i, tile_index=t, status="queued", attempts=0, renders=0)
+                for i in sorted(frames) for t in range(len(rects))]
+
+    eng = engine_for(settings.sqlalchemy_url)
+    with eng.begin() as c:
+        c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=spec.scene,
+                                     sigma=spec.sigma, width=spec.width, height=spec.height, tile=spec.tile,
+                                     method=spec.method, priority=spec.priority, created=time.time()))
+        c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=spec.sigma, delta=d, status="queued",
+                                       tiles_total=len(rects), tiles_done=0) for i, d in enumerate(spec.deltas)])
+        c.execute(insert(Tile), tiles_of(early))
+    send_runs(settings, job_id, runs[:split], spec.priority)
+    rest = set(range(n_frames)) - early
+    if rest:
+        with eng.begin() as c:
+            c.execute(insert(Tile), tiles_of(rest))
+        send_runs(settings, job_id, runs[split:], spec.priority)
+    return job_id

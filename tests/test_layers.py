@@ -1,0 +1,136 @@
+"""The package's shape, checked: every module imports alone, no module
+imports another that imports it back (no cycle), imports point down the
+layers `cli/api/worker -> argand.farm -> argand.render/argand.scene ->
+argand.core`, argand.farm imports at the top only, and no function of the
+farm, the API or the workers is longer than 60 lines."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+#: Where each part of the `argand` package lives in the repository (pyproject's wheel.packages).
+ROOTS = {"argand": REPO / "python" / "argand", "argand.core": REPO / "core", "argand.api": REPO / "api",
+         "argand.worker": REPO / "worker"}
+#: Layer of each part: a module may import its own layer and the ones below.
+LAYERS = {"argand.cli": 3, "argand.bench": 3, "argand.api": 3, "argand.worker": 3, "argand.farm": 2,
+          "argand.render": 1, "argand.scene": 1, "argand.core": 0, "argand": 0}
+MAX_FUNCTION_LINES = 60
+
+
+def modules() -> dict[str, Path]:
+    found: dict[str, Path] = {}
+    for prefix, root in ROOTS.items():
+        for path in sorted(root.rglob("*.py")):
+            rel = path.relative_to(root).with_suffix("")
+            if "tests" not in rel.parts and "migrations" not in rel.parts:
+                found[".".join([prefix, *[p for p in rel.parts if p != "__init__"]])] = path
+    return found
+
+
+MODULES = modules()
+
+
+def layer(name: str) -> int:
+    return max((v, len(k)) for k, v in LAYERS.items() if name == k or name.startswith(k + "."))[0]
+
+
+def imports(name: str, path: Path, top_level_only: bool) -> set[str]:
+    """The argand modules that ``name`` imports (at the top, or anywhere)."""
+    tree = ast.parse(path.read_text())
+    nodes = tree.body if top_level_only else list(ast.walk(tree))
+    out: set[str] = set()
+    for node in nodes:
+        if isinstance(node, ast.Import):
+            out |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            base = node.module
+            out.add(base)
+            out |= {f"{base}.{a.name}" for a in node.names if f"{base}.{a.name}" in MODULES}
+    return {m for m in out if m in MODULES}
+
+
+def test_the_layout_is_found():
+    assert {"argand.farm.states", "argand.api.app", "argand.worker.tasks", "argand.render.frames", "argand.core.roots",
+            "argand.cli"} <= set(MODULES)
+
+
+def test_each_module_imports_alone():
+    """Each module of the farm, the API and the workers in a fresh interpreter
+    (an import that only works after another module was imported fails)."""
+    names = [m for m in MODULES if m.startswith(("argand.farm", "argand.api", "argand.worker"))]
+
+    def run(name: str) -> tuple[str, subprocess.CompletedProcess]:
+        return name, subprocess.run([sys.executable, "-c", f"import {name}"], capture_output=True, text=True,
+                                    cwd=REPO / "tests")
+
+    with ThreadPoolExecutor(4) as pool:
+        failed = {name: r.stderr[-400:] for name, r in pool.map(run, names) if r.returncode != 0}
+    assert len(names) > 20 and failed == {}
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """A cycle of the graph as a list of nodes (first == last), or None."""
+    state: dict[str, int] = {}  # 1: on the path, 2: done
+    path: list[str] = []
+
+    def visit(n: str) -> list[str] | None:
+        state[n] = 1
+        path.append(n)
+        for m in sorted(graph.get(n, ())):
+            if state.get(m) == 1:
+                return path[path.index(m):] + [m]
+            if m not in state and (found := visit(m)):
+                return found
+        path.pop()
+        state[n] = 2
+        return None
+
+    for n in sorted(graph):
+        if n not in state and (found := visit(n)):
+            return found
+    return None
+
+
+def test_the_cycle_finder_finds_cycles():
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) is None
+
+
+def test_no_import_cycles():
+    graph = {name: imports(name, path, top_level_only=True) - {name} for name, path in MODULES.items()}
+    # A package's __init__ importing its own modules is not a cycle with them.
+    for name in graph:
+        graph[name] = {m for m in graph[name] if not name.startswith(m + ".")}
+    assert find_cycle(graph) is None, find_cycle(graph)
+
+
+def test_imports_point_down_the_layers():
+    wrong = [(name, m) for name, path in MODULES.items() for m in imports(name, path, top_level_only=False)
+             if layer(m) > layer(name)]
+    assert wrong == []
+    farm = [n for n in MODULES if n.startswith("argand.farm")]
+    assert len(farm) > 10
+    for name in farm:
+        assert not {m for m in imports(name, MODULES[name], False) if m.startswith(("argand.api", "argand.worker"))}
+
+
+def test_the_farm_imports_at_the_top_only():
+    for name in [n for n in MODULES if n.startswith("argand.farm")]:
+        assert imports(name, MODULES[name], True) == imports(name, MODULES[name], False), name
+
+
+def test_no_function_of_the_farm_api_or_workers_is_long():
+    long = []
+    for name, path in MODULES.items():
+        if name.startswith(("argand.farm", "argand.api", "argand.worker")):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                    n = node.end_lineno - node.lineno + 1
+                    if n > MAX_FUNCTION_LINES:
+                        long.append(f"{name}.{node.name}: {n} lines")
+    assert long == []
