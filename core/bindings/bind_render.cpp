@@ -1,8 +1,10 @@
 // bind_render.cpp: plan a frame from plain Python data, render tiles.
+#include <pybind11/complex.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <complex>
 #include <stdexcept>
 #include <string>
 
@@ -68,7 +70,10 @@ SceneSpec scene_from(const py::dict& d) {
     return sc;
 }
 
-constexpr int kInterleavedChannels = 10;
+/// The farm's interleaved layout (the EXR's channel order); Python's
+/// argand.render.frames.INTERLEAVED_CHANNELS must equal it (tested).
+constexpr const char* kInterleavedNames[] = {"R", "G", "B", "A", "Z", "arg", "re", "im", "count", "status", "escalation"};
+constexpr int kInterleavedChannels = sizeof(kInterleavedNames) / sizeof(kInterleavedNames[0]);
 
 template <class T>
 py::array_t<T> as_image(const std::vector<T>& v, int h, int w, int channels) {
@@ -123,6 +128,7 @@ void init_render(py::module_& m) {
             out["im"] = as_image(t.im, t.height, t.width, 1);
             out["count"] = as_image(t.count, t.height, t.width, 1);
             out["status"] = as_image(t.status, t.height, t.width, 1);
+            out["escalation"] = as_image(t.escalation, t.height, t.width, 1);
             out["escalations"] = t.escalations;
             out["root_calls"] = t.root_calls;
             return out;
@@ -142,7 +148,8 @@ void init_render(py::module_& m) {
                                       std::to_string(y0) + ", " + std::to_string(y1) + ") is not inside the " +
                                       std::to_string(W) + "x" + std::to_string(H) + " frame");
             if (out.ndim() != 3 || out.shape(2) != kInterleavedChannels)
-                throw py::value_error("out must be a C-contiguous (h, w, 10) float32 array");
+                throw py::value_error("out must be a C-contiguous (h, w, " + std::to_string(kInterleavedChannels) +
+                                      ") float32 array");
             const py::ssize_t oh = out.shape(0), ow = out.shape(1);
             if (ox < 0 || oy < 0 || ox + (x1 - x0) > ow || oy + (y1 - y0) > oh)
                 throw py::value_error("the tile does not fit in out at the given offset");
@@ -163,6 +170,7 @@ void init_render(py::module_& m) {
                         p[7] = t.im[i];
                         p[8] = static_cast<float>(t.count[i]);
                         p[9] = static_cast<float>(t.status[i]);
+                        p[10] = static_cast<float>(t.escalation[i]);
                         ++by_status[t.status[i] & 3];
                         hits += p[3] > 0.0f;
                     }
@@ -171,31 +179,98 @@ void init_render(py::module_& m) {
             return py::make_tuple(t.escalations, t.root_calls, py::make_tuple(by_status[0], by_status[1], by_status[2], by_status[3]),
                                   hits);
         },
-        "Renders the tile [x0, x1) x [y0, y1) into out[oy:, ox:] as 10 interleaved float32 channels (R, G, B, A, "
-        "Z, arg, re, im, count, status: the EXR's layout). Returns (escalations, root_calls, pixels per status "
+        "Renders the tile [x0, x1) x [y0, y1) into out[oy:, ox:] as 11 interleaved float32 channels (R, G, B, A, "
+        "Z, arg, re, im, count, status, escalation: INTERLEAVED_CHANNELS, the EXR's layout). Returns (escalations, root_calls, pixels per status "
         "code 0..3, pixels that hit a surface).",
         py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("out").noconvert(), py::arg("ox") = 0,
         py::arg("oy") = 0);
     m.def(
         "ray_polynomial",
-        [](const FramePlan& plan, int object, std::array<double, 3> origin, std::array<double, 3> direction) {
-            const int n = plan.scene.objects.at(object).degree;
-            py::array_t<double> c(n + 1);
-            ray_polynomial(plan, object, origin.data(), direction.data(), c.mutable_data());
-            return c;
+        [](const FramePlan& plan, int object, std::array<double, 3> origin, std::array<double, 3> direction,
+           bool with_radius) -> py::object {
+            if (object < 0 || object >= static_cast<int>(plan.scene.objects.size()))
+                throw py::value_error("object must be in 0.." + std::to_string(plan.scene.objects.size() - 1));
+            const int n = plan.scene.objects[object].degree;
+            py::array_t<double> c(n + 1), r(n + 1);
+            ray_polynomial(plan, object, origin.data(), direction.data(), c.mutable_data(), r.mutable_data());
+            if (with_radius) return py::make_tuple(c, r);
+            return std::move(c);
         },
-        py::arg("plan"), py::arg("object"), py::arg("origin"), py::arg("direction"));
+        "The ray polynomial F(o + t d) of one object, lowest degree first; with_radius: (coeffs, radius) where "
+        "radius[k] bounds |exact coefficient - coeffs[k]|.",
+        py::arg("plan"), py::arg("object"), py::arg("origin"), py::arg("direction"), py::arg("with_radius") = false);
+    auto primary = [](const FramePlan& p, int x, int y) {
+        if (x < 0 || x >= p.params.width || y < 0 || y >= p.params.height)
+            throw py::value_error("pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is not inside the " +
+                                  std::to_string(p.params.width) + "x" + std::to_string(p.params.height) + " frame");
+        const Ray r = primary_ray(p, x, y);
+        return py::make_tuple(std::array<double, 3>{r.origin[0], r.origin[1], r.origin[2]},
+                              std::array<double, 3>{r.direction[0], r.direction[1], r.direction[2]});
+    };
+    m.def("primary_ray", primary,
+          "The primary ray (origin, unit direction) of pixel (x, y): the exact doubles render_tile uses.",
+          py::arg("plan"), py::arg("x"), py::arg("y"));
+    m.def("pixel_direction", primary, "Alias of primary_ray (kept for callers of the old name).", py::arg("plan"),
+          py::arg("x"), py::arg("y"));
     m.def(
-        "pixel_direction",
-        [](const FramePlan& p, double x, double y) {
-            const double aspect = static_cast<double>(p.params.width) / p.params.height;
-            const double sx = (2.0 * (x + 0.5) / p.params.width - 1.0) * p.tan_half_fov * aspect;
-            const double sy = (1.0 - 2.0 * (y + 0.5) / p.params.height) * p.tan_half_fov;
-            std::array<double, 3> d;
-            for (int a = 0; a < 3; ++a) d[a] = p.forward[a] + sx * p.right[a] + sy * p.up[a];
-            const double n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            for (double& v : d) v /= n;
-            return py::make_tuple(std::array<double, 3>{p.eye[0], p.eye[1], p.eye[2]}, d);
+        "explain_pixel",
+        [](const FramePlan& plan, int x, int y, int row_start) {
+            PixelExplanation e;
+            try {
+                e = explain_pixel(plan, x, y, row_start);
+            } catch (const std::invalid_argument& err) {
+                throw py::value_error(err.what());
+            }
+            py::dict out;
+            out["origin"] = std::array<double, 3>{e.ray.origin[0], e.ray.origin[1], e.ray.origin[2]};
+            out["direction"] = std::array<double, 3>{e.ray.direction[0], e.ray.direction[1], e.ray.direction[2]};
+            py::list polys;
+            for (const auto& p : e.polynomials) {
+                py::dict d;
+                d["object"] = p.object;
+                d["coeffs"] = p.coeffs;
+                d["radius"] = p.radius;
+                d["roots_status"] = p.roots_status;
+                d["seeded"] = p.seeded;
+                d["root_escalation"] = p.root_escalation;
+                d["complete"] = p.complete;
+                polys.append(d);
+            }
+            out["polynomials"] = polys;
+            static const char* verdict[] = {"yes", "no", "unknown", "not needed"};
+            py::list discs;
+            for (const auto& d : e.discs) {
+                py::dict o;
+                o["object"] = d.object;
+                o["center"] = std::complex<double>(d.disc.re, d.disc.im);
+                o["radius"] = d.disc.radius;
+                o["count"] = d.disc.count;
+                o["verified"] = d.disc.verified;
+                o["real"] = d.real;
+                o["modulus"] = py::make_tuple(d.modulus_lo, d.modulus_hi);
+                o["at_origin"] = d.at_origin;
+                o["in_band"] = verdict[d.band];
+                o["inside_clip"] = verdict[d.clip];
+                o["live"] = d.live;
+                o["eligible"] = d.eligible;
+                discs.append(o);
+            }
+            out["discs"] = discs;
+            out["chosen"] = e.chosen;
+            out["hit"] = e.hit;
+            out["status"] = static_cast<int>(e.status);
+            out["escalation"] = static_cast<int>(e.level);
+            out["reason"] = e.reason;
+            return out;
         },
-        "The primary ray (eye, unit direction) through the centre of pixel (x, y).");
+        "Runs render_tile's code path for pixel (x, y) of a tile whose rows start at column row_start, and returns "
+        "its ray, ray polynomials (with coefficient radii), discs, each decision, the status and the ladder level.",
+        py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("row_start"));
+    m.attr("MAX_OBJECTS") = kMaxObjects;
+    m.attr("BAND_RULE") = kBandRule;
+    m.def("band_rule_holds", &band_rule_holds, "True iff (sigma, delta) satisfy BAND_RULE (decided exactly).",
+          py::arg("sigma"), py::arg("delta"));
+    py::list names;
+    for (const char* n : kInterleavedNames) names.append(n);
+    m.attr("INTERLEAVED_CHANNELS") = py::tuple(names);
 }

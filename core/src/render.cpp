@@ -1,4 +1,13 @@
-// render.cpp: the complex-space ray caster.
+// render.cpp: the complex-space ray caster: plan a frame, trace pixels,
+// decide each pixel with proofs and an escalation ladder, shade.
+//
+// A pixel's decision (pixel_decision.h) is proven for the exact ray
+// polynomial of its ray (ray_polynomial.h): the root discs come from
+// find_roots with the coefficients' error radii, and every comparison
+// (band, clipping sphere, ordering by modulus, realness) is outward-rounded.
+// When a decision is not proven the pixel climbs the ladder (LadderLevel):
+// the root core's double-double tier, a retry without neighbour seeds, then
+// double-double ray coefficients that shrink the deciding discs.
 #include "argand/render.h"
 
 #include <algorithm>
@@ -8,15 +17,21 @@
 #include <string>
 
 #include "argand/arith.h"
+#include "pixel_decision.h"
+#include "ray_polynomial.h"
 
 namespace argand {
 namespace {
+
+using detail::ObjectRay;
+using detail::RayCoefficients;
+using detail::Verdict;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // ---------------------------------------------------------------------------
-// Small vector helpers
+// Small vector helpers (shading and the camera: no proof depends on them)
 // ---------------------------------------------------------------------------
 inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 inline void normalize3(double* v) {
@@ -41,44 +56,15 @@ inline void to_object(const SurfaceSpec& s, const double* world_point, double* o
     mat_vec(s.linear, d, out);
 }
 
-double binomial(int n, int k) {
-    double r = 1.0;
-    for (int i = 1; i <= k; ++i) r = r * (n - k + i) / i;
-    return r;
-}
-
-// ---------------------------------------------------------------------------
-// Ray polynomials
-// ---------------------------------------------------------------------------
-
-/// p(t) = F(o + t d) for object-space o, d by direct expansion of each term
-/// (used for secondary rays, whose origins vary).
-void expand_general(const SurfaceSpec& s, const double* o, const double* d, double* coeffs) {
-    const int n = s.degree;
-    for (int k = 0; k <= n; ++k) coeffs[k] = 0.0;
-    // Powers (o_i + t d_i)^a as polynomials in t, for a = 0..n.
-    double pw[3][kMaxDegree + 1][kMaxDegree + 1];
-    for (int axis = 0; axis < 3; ++axis) {
-        pw[axis][0][0] = 1.0;
-        for (int k = 1; k <= n; ++k) pw[axis][0][k] = 0.0;
-        for (int a = 1; a <= n; ++a) {
-            pw[axis][a][0] = pw[axis][a - 1][0] * o[axis];
-            for (int k = 1; k <= a; ++k) pw[axis][a][k] = pw[axis][a - 1][k] * o[axis] + pw[axis][a - 1][k - 1] * d[axis];
-            for (int k = a + 1; k <= n; ++k) pw[axis][a][k] = 0.0;
-        }
-    }
-    double tmp[kMaxDegree + 1];
-    for (const Term& term : s.terms) {
-        // (x part) * (y part) * (z part), truncated at degree n.
-        for (int k = 0; k <= n; ++k) tmp[k] = 0.0;
-        for (int i = 0; i <= term.ex; ++i)
-            for (int j = 0; j <= term.ey; ++j) {
-                const double xy = pw[0][term.ex][i] * pw[1][term.ey][j];
-                if (xy == 0.0) continue;
-                for (int l = 0; l <= term.ez; ++l) tmp[i + j + l] += xy * pw[2][term.ez][l];
-            }
-        for (int k = 0; k <= n; ++k) coeffs[k] += term.coeff * tmp[k];
-    }
+/// Pixel centre -> unit world direction (the one formula for render_tile,
+/// primary_ray and explain_pixel).
+void pixel_direction(const FramePlan& plan, int x, int y, double* d) {
+    const FrameParams& fp = plan.params;
+    const double aspect = static_cast<double>(fp.width) / fp.height;
+    const double sx = (2.0 * (x + 0.5) / fp.width - 1.0) * plan.tan_half_fov * aspect;
+    const double sy = (1.0 - 2.0 * (y + 0.5) / fp.height) * plan.tan_half_fov;
+    for (int a = 0; a < 3; ++a) d[a] = plan.forward[a] + sx * plan.right[a] + sy * plan.up[a];
+    normalize3(d);
 }
 
 /// Gradient of F at a complex object-space point (for the normal).
@@ -101,88 +87,29 @@ void gradient(const SurfaceSpec& s, const Complex<double>* z, Complex<double>* g
 }
 
 // ---------------------------------------------------------------------------
-// Band membership of a disc
-// ---------------------------------------------------------------------------
-enum Membership { kInBand = 0, kOutOfBand = 1, kBandUndecided = 2 };
-
-/// Where the roots in a verified disc lie relative to the band
-/// [sigma, sigma+delta] U [-sigma-delta, -sigma]. A disc proven to hold one
-/// real root is placed exactly (theta = 0 or pi), so delta = 0, sigma = 0
-/// selects exactly the positive real roots.
-Membership classify(const RootDisc& d, double sigma, double delta, bool complex_space) {
-    const bool exact_real = d.real && d.count == 1;
-    if (!complex_space || exact_real) {
-        if (exact_real) {
-            if (d.re - d.radius > 0.0) return (sigma <= 0.0 || !complex_space) ? kInBand : kOutOfBand;
-            if (d.re + d.radius < 0.0) return (complex_space && sigma + delta >= kPi) ? kInBand : kOutOfBand;
-            return kBandUndecided;
-        }
-        // A real object shows positive real roots only.
-        if (std::fabs(d.im) > d.radius || d.re + d.radius <= 0.0) return kOutOfBand;
-        return kBandUndecided;
-    }
-    const double rho = std::hypot(d.re, d.im);
-    if (!(rho > d.radius)) return kBandUndecided;
-    // Angular interval covered by the disc, widened by a margin that covers
-    // the rounding of atan2 and asin (a few ulps of pi).
-    const double margin = 1e-13;
-    const double centre = std::atan2(d.im, d.re);
-    const double half = std::asin(std::min(1.0, d.radius / rho));
-    const double lo = centre - half - margin, hi = centre + half + margin;
-    const double b1lo = sigma, b1hi = sigma + delta, b2lo = -sigma - delta, b2hi = -sigma;
-    if ((lo >= b1lo && hi <= b1hi) || (lo >= b2lo && hi <= b2hi)) return kInBand;
-    // Disjoint from both bands (checking the interval shifted by -2pi, 0, 2pi)?
-    for (int shift = -1; shift <= 1; ++shift) {
-        const double l = lo + 2 * kPi * shift, h = hi + 2 * kPi * shift;
-        if (!(h < b1lo || l > b1hi) || !(h < b2lo || l > b2hi)) return kBandUndecided;
-    }
-    return kOutOfBand;
-}
-
-/// Approximate membership of an unverified root's centre.
-bool centre_in_band(const RootDisc& d, double sigma, double delta, bool complex_space) {
-    if (!complex_space) return std::fabs(d.im) <= 1e-9 * std::fabs(d.re) && d.re > 0.0;
-    const double theta = std::atan2(d.im, d.re);
-    return (theta >= sigma && theta <= sigma + delta) || (theta >= -sigma - delta && theta <= -sigma);
-}
-
-// ---------------------------------------------------------------------------
 // Tracing
 // ---------------------------------------------------------------------------
-struct Candidate {
-    int object;
-    RootDisc disc;
-    double mod, lo, hi;
-    Membership membership;
-    bool unverified;
+
+/// One object's roots along the current ray.
+struct ObjectRoots {
+    RayCoefficients<double> poly;
+    ObjectRay ray;
+    RootsResult res;
+    Status status = Status::Ok;
+    bool seeded = false;
+    bool complete = false;   // status Ok, finite, every disc verified
+    bool have_dd = false;
+    RayCoefficients<DoubleDouble> poly_dd;
 };
 
-/// A disc of one object's polynomial, kept to reason about conjugates.
-struct ObjectDisc {
+/// Per-disc decisions of the current ray.
+struct DiscInfo {
     int object;
-    RootDisc disc;
+    int index;               // into the object's res.discs
+    double lo, hi;           // modulus bounds
+    bool real, at_origin, live, eligible;
+    Verdict band, clip;
 };
-
-/// True iff candidate i holds exactly the conjugate of the root in candidate
-/// `best` (so both have the same modulus). Proof: p is real, so conj(root)
-/// is a root and lies in the mirror image M of best's disc. When every disc
-/// of that object's polynomial is verified, the discs cover all its roots,
-/// so conj(root) lies in a disc meeting M; if candidate i's disc is the only
-/// one that meets M and it holds exactly one root, that root is conj(root).
-bool is_mirror_twin(const Candidate* cand, int best, int i, const ObjectDisc* all, int n_all,
-                    const bool* object_all_verified) {
-    const RootDisc& b = cand[best].disc;
-    const int obj = cand[i].object;
-    if (!object_all_verified[obj]) return false;
-    auto meets_mirror = [&](const RootDisc& d) {
-        return std::hypot(d.re - b.re, d.im + b.im) <= (d.radius + b.radius) * (1 + 1e-12) + 1e-300;
-    };
-    if (!cand[i].disc.verified || cand[i].disc.count != 1 || !meets_mirror(cand[i].disc)) return false;
-    int meeting = 0;
-    for (int j = 0; j < n_all; ++j)
-        if (all[j].object == obj && meets_mirror(all[j].disc)) ++meeting;
-    return meeting == 1;
-}
 
 struct HitInfo {
     bool hit = false;
@@ -191,138 +118,89 @@ struct HitInfo {
     double modulus = kInf;
     int eligible = 0;
     std::uint8_t status = kCertified;
-    bool escalated = false;
+    std::uint8_t level = kLevelFirst;
 };
 
 struct Seeds {
-    // Per object, the previous pixel's roots (scaled coordinates are not
-    // needed: find_roots takes them in t).
+    // Per object, the previous pixel's roots (in t).
     double re[kMaxDegree], im[kMaxDegree];
     bool valid = false;
 };
 
+/// Approximate band test of a disc's centre (for the picture of an
+/// undecided pixel only; proves nothing).
+bool centre_in_band(const RootDisc& d, double sigma, double delta, bool complex_space) {
+    if (!complex_space) return std::fabs(d.im) <= 1e-9 * std::fabs(d.re) && d.re > 0.0;
+    const double theta = std::fabs(std::atan2(d.im, d.re));
+    return theta >= sigma && theta <= sigma + delta;
+}
+
 class Tracer {
 public:
-    Tracer(const FramePlan& plan) : plan_(plan) {}
+    explicit Tracer(const FramePlan& plan) : plan_(plan) {
+        const int levels = plan.params.max_depth + 2;
+        scratch_.resize(static_cast<std::size_t>(levels) * plan.scene.objects.size());
+        infos_.resize(static_cast<std::size_t>(levels));
+    }
 
-    /// Intersects a ray with every object and chooses the pixel's root.
-    /// `primary` selects the per-frame Taylor coefficients.
-    HitInfo intersect(const double* o, const double* d, bool primary, Seeds* seeds, std::int64_t* calls) const {
-        const FrameParams& fp = plan_.params;
-        Candidate cand[4 * kMaxDegree];
-        int n_cand = 0;
-        ObjectDisc all[4 * kMaxDegree];
-        int n_all = 0;
-        bool object_all_verified[16] = {};
-        bool unverified_seen = false;
-        int eligible = 0;
-        bool escalated = false;
-        for (int obj = 0; obj < static_cast<int>(plan_.scene.objects.size()); ++obj) {
+    std::int64_t root_calls = 0;
+
+    /// Intersects a ray with every object and decides the pixel's root,
+    /// climbing the ladder while the decision is not proven. `primary`: the
+    /// ray is a primary ray (the plan's eye, the Taylor plan). `trace`
+    /// (optional) receives every decision.
+    HitInfo intersect(const double* o, const double* d, bool primary, Seeds* seeds, int depth, PixelExplanation* trace) {
+        const int n_obj = static_cast<int>(plan_.scene.objects.size());
+        const int slot = std::min(depth, plan_.params.max_depth + 1);
+        ObjectRoots* roots = scratch_.data() + static_cast<std::size_t>(slot) * n_obj;
+        std::vector<DiscInfo>& infos = infos_[slot];
+        bool any_seeded = false;
+        std::uint8_t level = kLevelFirst;
+        recording_ = trace != nullptr;
+        for (int obj = 0; obj < n_obj; ++obj) {
             const SurfaceSpec& s = plan_.scene.objects[obj];
-            double coeffs[kMaxDegree + 1];
-            double od[3], oo[3];
-            mat_vec(s.linear, d, od);
-            if (primary) {
-                primary_coefficients(obj, od, coeffs);
-                for (int a = 0; a < 3; ++a) oo[a] = plan_.objects[obj].origin[a];
-            } else {
-                to_object(s, o, oo);
-                expand_general(s, oo, od, coeffs);
-            }
-            RootsResult res;
-            const bool use_seed = seeds && seeds[obj].valid && fp.seed_from_neighbour && s.degree > 4;
-            const Status st = find_roots(coeffs, s.degree + 1, fp.method, res, use_seed ? seeds[obj].re : nullptr,
-                                         use_seed ? seeds[obj].im : nullptr);
-            if (calls) ++*calls;
-            if (st != Status::Ok) {  // the ray misses in every sense (F constant along it)
-                if (seeds) seeds[obj].valid = false;
-                continue;
-            }
-            if (res.escalation > 0 || res.wants_exact) escalated = true;
-            if (obj < 16) {
-                object_all_verified[obj] = true;
-                for (int i = 0; i < res.n_discs; ++i) {
-                    object_all_verified[obj] = object_all_verified[obj] && res.discs[i].verified;
-                    if (n_all < 4 * kMaxDegree) all[n_all++] = {obj, res.discs[i]};
-                    else object_all_verified[obj] = false;
-                }
-            }
-            // Seed the next pixel with these approximations when complete.
-            if (seeds) {
+            ObjectRoots& r = roots[obj];
+            if (primary) detail::primary_ray_polynomial(s, plan_.objects[obj], d, r.poly, r.ray);
+            else detail::general_ray_polynomial(s, o, d, r.poly, r.ray);
+            r.have_dd = false;
+            const bool use_seed = seeds && seeds[obj].valid && plan_.params.seed_from_neighbour && s.degree > 4;
+            solve(r, s.degree, use_seed ? seeds + obj : nullptr);
+            any_seeded = any_seeded || r.seeded;
+            if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
+        }
+        HitInfo h = decide(roots, infos);
+        if (h.status != kCertified && any_seeded) {
+            level = kLevelUnseeded;
+            for (int obj = 0; obj < n_obj; ++obj)
+                if (roots[obj].seeded) solve(roots[obj], plan_.scene.objects[obj].degree, nullptr);
+            h = decide(roots, infos);
+        }
+        if (h.status != kCertified && primary && refine(roots, infos)) {
+            level = kLevelDoubleDouble;
+            h = decide(roots, infos);
+        }
+        h.level = level;
+        if (seeds) {
+            for (int obj = 0; obj < n_obj; ++obj) {
+                const ObjectRoots& r = roots[obj];
+                const int n = plan_.scene.objects[obj].degree;
                 int m = 0;
-                for (int i = 0; i < res.n_discs && m < s.degree; ++i)
-                    for (int c = 0; c < std::max(1, static_cast<int>(res.discs[i].count)) && m < s.degree; ++c) {
-                        seeds[obj].re[m] = res.discs[i].re;
-                        seeds[obj].im[m] = res.discs[i].im;
+                for (int i = 0; i < r.res.n_discs && m < n; ++i)
+                    for (int c = 0; c < std::max(1, static_cast<int>(r.res.discs[i].count)) && m < n; ++c) {
+                        seeds[obj].re[m] = r.res.discs[i].re;
+                        seeds[obj].im[m] = r.res.discs[i].im;
                         ++m;
                     }
-                seeds[obj].valid = (m == s.degree && res.n_infinite == 0);
-            }
-            for (int i = 0; i < res.n_discs; ++i) {
-                const RootDisc& disc = res.discs[i];
-                if (disc.count <= 0) continue;
-                const double mod = std::hypot(disc.re, disc.im);
-                if (!(mod > 1e-9)) continue;  // the camera sits on the surface
-                // Clipping sphere (object space), judged at the centre.
-                if (s.clip_radius > 0.0) {
-                    double p[3];
-                    for (int a = 0; a < 3; ++a) p[a] = oo[a] + mod * od[a];
-                    if (dot3(p, p) > s.clip_radius * s.clip_radius) continue;
-                }
-                Candidate c{obj, disc, mod, mod - disc.radius, mod + disc.radius, kOutOfBand, false};
-                if (!disc.verified) {
-                    if (!centre_in_band(disc, fp.sigma, fp.delta, s.complex_space)) {
-                        unverified_seen = true;
-                        continue;
-                    }
-                    c.unverified = true;
-                    c.membership = kBandUndecided;
-                } else {
-                    c.membership = classify(disc, fp.sigma, fp.delta, s.complex_space);
-                    if (c.membership == kOutOfBand) continue;
-                    if (c.membership == kInBand) eligible += disc.count;
-                }
-                if (n_cand < 4 * kMaxDegree) cand[n_cand++] = c;
+                seeds[obj].valid = r.status == Status::Ok && m == n && r.res.n_infinite == 0;
             }
         }
-        HitInfo h;
-        h.eligible = eligible;
-        h.escalated = escalated;
-        if (n_cand == 0) {
-            h.status = unverified_seen ? kUnverified : kCertified;
-            return h;
-        }
-        int best = 0;
-        for (int i = 1; i < n_cand; ++i)
-            if (cand[i].mod < cand[best].mod) best = i;
-        const Candidate& c = cand[best];
-        h.hit = true;
-        h.object = c.object;
-        h.disc = c.disc;
-        h.modulus = c.mod;
-        if (c.unverified) h.status = kUnverified;
-        else if (c.disc.count > 1) h.status = kCluster;
-        else if (c.membership != kInBand) h.status = kUndecided;
-        else {
-            // Proven smallest: its largest modulus is below every other
-            // candidate's smallest, except the conjugate of the chosen root
-            // itself (same modulus): a disc of the same real polynomial that
-            // is the only one meeting the chosen disc's mirror image holds
-            // exactly that conjugate.
-            bool smallest = true;
-            for (int i = 0; i < n_cand && smallest; ++i) {
-                if (i == best || c.hi < cand[i].lo) continue;
-                if (cand[i].object == c.object && is_mirror_twin(cand, best, i, all, n_all, object_all_verified)) continue;
-                smallest = false;
-            }
-            h.status = smallest ? (unverified_seen ? kUnverified : kCertified) : kUndecided;
-        }
+        if (trace) record(roots, infos, h, trace);
         return h;
     }
 
     /// Colour seen along a ray (recursion for real reflective / transparent
     /// objects). `hit` is the already computed intersection.
-    void shade(const double* o, const double* d, const HitInfo& hit, int depth, double* rgb) const {
+    void shade(const double* o, const double* d, const HitInfo& hit, int depth, double* rgb) {
         const SceneSpec& sc = plan_.scene;
         if (!hit.hit) {
             for (int a = 0; a < 3; ++a) rgb[a] = sc.background[a];
@@ -395,7 +273,7 @@ public:
             for (int a = 0; a < 3; ++a) rd[a] = d[a] + 2 * cosi * n[a];
             normalize3(rd);
             for (int a = 0; a < 3; ++a) ro[a] = p[a] + eps * n[a];
-            const HitInfo h2 = intersect(ro, rd, false, nullptr, nullptr);
+            const HitInfo h2 = intersect(ro, rd, false, nullptr, depth + 1, nullptr);
             shade(ro, rd, h2, depth + 1, col);
             for (int a = 0; a < 3; ++a) rgb[a] += m.reflectivity * col[a];
         }
@@ -414,38 +292,268 @@ public:
             }
             normalize3(td);
             for (int a = 0; a < 3; ++a) to[a] = p[a] + eps * td[a];
-            const HitInfo h2 = intersect(to, td, false, nullptr, nullptr);
+            const HitInfo h2 = intersect(to, td, false, nullptr, depth + 1, nullptr);
             shade(to, td, h2, depth + 1, col);
             for (int a = 0; a < 3; ++a) rgb[a] += m.transparency * col[a] * (0.6 + 0.4 * base[a]);
         }
     }
 
-    void primary_coefficients(int obj, const double* od, double* coeffs) const {
-        const FramePlan::ObjectPlan& op = plan_.objects[obj];
-        const int n = plan_.scene.objects[obj].degree;
-        double px[kMaxDegree + 1], py[kMaxDegree + 1], pz[kMaxDegree + 1];
-        px[0] = py[0] = pz[0] = 1.0;
-        for (int k = 1; k <= n; ++k) {
-            px[k] = px[k - 1] * od[0];
-            py[k] = py[k - 1] * od[1];
-            pz[k] = pz[k - 1] * od[2];
+
+private:
+    /// find_roots on the object's ray polynomial (with its coefficient radii).
+    void solve(ObjectRoots& r, int degree, const Seeds* seed) {
+        r.seeded = seed != nullptr;
+        ++root_calls;
+        if (!r.poly.finite) {
+            r.status = Status::NonFinite;
+            r.res.n_discs = 0;
+            r.complete = false;
+            return;
         }
-        for (int k = 0; k <= n; ++k) {
-            double sum = 0.0;
-            for (int i = op.k_begin[k]; i < op.k_begin[k + 1]; ++i) sum += op.g[i] * px[op.ex[i]] * py[op.ey[i]] * pz[op.ez[i]];
-            coeffs[k] = sum;
-        }
+        r.status = find_roots(r.poly.c, degree + 1, plan_.params.method, r.res, seed ? seed->re : nullptr,
+                              seed ? seed->im : nullptr, r.poly.r);
+        r.complete = r.status == Status::Ok;
+        for (int i = 0; i < r.res.n_discs && r.complete; ++i) r.complete = r.res.discs[i].verified;
     }
+
+    /// Level 3: double-double ray coefficients; a polynomial with a live
+    /// cluster is re-isolated from scratch (isolate_dd), and every live
+    /// verified count-1 disc is shrunk. True if any disc changed.
+    bool refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos) {
+        bool changed = false;
+        auto ensure_dd = [&](int obj) {
+            ObjectRoots& r = roots[obj];
+            if (!r.have_dd) {
+                detail::primary_ray_polynomial_dd(plan_.scene.objects[obj], plan_.objects[obj], current_direction_,
+                                                  r.poly_dd);
+                r.have_dd = true;
+            }
+        };
+        const int n_obj = static_cast<int>(plan_.scene.objects.size());
+        std::vector<bool> isolated(n_obj, false);
+        for (const DiscInfo& info : infos) {
+            ObjectRoots& r = roots[info.object];
+            if (!info.live || isolated[info.object] || !r.complete) continue;
+            if (r.res.discs[info.index].count < 2) continue;
+            ensure_dd(info.object);
+            if (detail::isolate_dd(r.poly_dd, r.res)) {
+                isolated[info.object] = true;
+                changed = true;
+            }
+        }
+        for (const DiscInfo& info : infos) {
+            if (!info.live || info.at_origin || isolated[info.object]) continue;
+            ObjectRoots& r = roots[info.object];
+            RootDisc& disc = r.res.discs[info.index];
+            if (!r.complete || disc.count != 1) continue;
+            ensure_dd(info.object);
+            const bool real_before = info.real;
+            if (detail::refine_disc_dd(r.poly_dd, real_before, disc)) {
+                // A proven real root stays real: its disc is now centred on
+                // the axis (Newton on the real line) and symmetric.
+                if (real_before) disc.real = true;
+                changed = true;
+            }
+        }
+        return changed;
+    }
+
+    /// The pixel's decision from the current discs (see PixelStatus).
+    HitInfo decide(ObjectRoots* roots, std::vector<DiscInfo>& infos) {
+        const FrameParams& fp = plan_.params;
+        const int n_obj = static_cast<int>(plan_.scene.objects.size());
+        infos.clear();
+        bool incomplete = false, degenerate = false;
+        for (int obj = 0; obj < n_obj; ++obj) {
+            const ObjectRoots& r = roots[obj];
+            const SurfaceSpec& s = plan_.scene.objects[obj];
+            if (r.status == Status::ZeroPolynomial) {  // the ray lies in the surface
+                degenerate = true;
+                continue;
+            }
+            if (!r.complete) incomplete = true;
+            if (r.status != Status::Ok) continue;
+            for (int i = 0; i < r.res.n_discs; ++i) {
+                const RootDisc& disc = r.res.discs[i];
+                if (disc.count <= 0) continue;
+                DiscInfo info{};
+                info.object = obj;
+                info.index = i;
+                if (!disc.verified) {
+                    info.lo = detail::modulus_down(disc);
+                    info.hi = detail::modulus_up(disc);
+                    // Not enclosed: may be anywhere.
+                    info.band = info.clip = Verdict::Unknown;
+                    info.live = true;
+                    infos.push_back(info);
+                    continue;
+                }
+                // The exact root t = 0 (an exactly zero constant term): the
+                // camera on the surface. Not a root the pixel shows.
+                info.at_origin = disc.re == 0.0 && disc.im == 0.0 && disc.radius == 0.0;
+                info.real = detail::proven_real(r.res.discs, r.res.n_discs, i, r.complete);
+                info.band = detail::band_membership(disc, info.real, plan_, s.complex_space);
+                // (Moduli and the sphere only matter for a root that may be in
+                // the band.)
+                if (info.band != Verdict::No) {
+                    info.lo = detail::modulus_down(disc);
+                    info.hi = detail::modulus_up(disc);
+                }
+                info.clip = s.clip_radius <= 0.0 || info.band == Verdict::No
+                                ? Verdict::Yes
+                                : detail::inside_clip(r.ray, info.lo, info.hi, s.clip_radius);
+                info.live = !info.at_origin && info.clip != Verdict::No && info.band != Verdict::No;
+                info.eligible = info.live && info.clip == Verdict::Yes && info.band == Verdict::Yes;
+                // (A disc proven out plays no further part; kept only for
+                // --explain.)
+                if (info.live || recording_) infos.push_back(info);
+            }
+        }
+        HitInfo h;
+        int best = -1;
+        for (int i = 0; i < static_cast<int>(infos.size()); ++i) {
+            if (!infos[i].eligible) continue;
+            h.eligible += roots[infos[i].object].res.discs[infos[i].index].count;
+            if (best < 0 || infos[i].hi < infos[best].hi) best = i;
+        }
+        // Proof of the choice: every other live disc lies beyond the chosen
+        // one, or holds exactly its conjugate.
+        bool blocked = false, cluster_blocks = false;
+        for (int i = 0; i < static_cast<int>(infos.size()); ++i) {
+            const DiscInfo& j = infos[i];
+            if (!j.live || i == best) continue;
+            if (best >= 0) {
+                const DiscInfo& b = infos[best];
+                if (b.hi < j.lo) continue;
+                const ObjectRoots& r = roots[j.object];
+                if (j.object == b.object &&
+                    detail::is_mirror_twin(r.res.discs[b.index], r.res.discs[j.index], r.res.discs, r.res.n_discs, r.complete))
+                    continue;
+            }
+            blocked = true;
+            if (roots[j.object].res.discs[j.index].count > 1) cluster_blocks = true;
+        }
+        const bool best_cluster = best >= 0 && roots[infos[best].object].res.discs[infos[best].index].count > 1;
+        if (degenerate) h.status = kCluster;
+        else if (incomplete) h.status = kUnverified;
+        else if (blocked) h.status = cluster_blocks ? kCluster : kUndecided;
+        else if (best_cluster) h.status = kCluster;
+        else h.status = kCertified;
+        chosen_ = -1;
+        if (!blocked && !incomplete && !degenerate) {
+            chosen_ = best;
+        } else {
+            // Not proven: show the likeliest root (smallest centre modulus
+            // among live discs whose centre looks eligible).
+            double best_mod = kInf;
+            for (int i = 0; i < static_cast<int>(infos.size()); ++i) {
+                const DiscInfo& j = infos[i];
+                if (!j.live) continue;
+                const RootDisc& disc = roots[j.object].res.discs[j.index];
+                const SurfaceSpec& s = plan_.scene.objects[j.object];
+                if (j.band == Verdict::Unknown && !centre_in_band(disc, fp.sigma, fp.delta, s.complex_space)) continue;
+                if (j.clip == Verdict::Unknown && s.clip_radius > 0.0) {
+                    const double m = std::hypot(disc.re, disc.im);
+                    double p = 0.0;
+                    for (int a = 0; a < 3; ++a) {
+                        const double v = roots[j.object].ray.origin[a].mid + m * roots[j.object].ray.direction[a].mid;
+                        p += v * v;
+                    }
+                    if (p > s.clip_radius * s.clip_radius) continue;
+                }
+                const double m = std::hypot(disc.re, disc.im);
+                if (m < best_mod) {
+                    best_mod = m;
+                    chosen_ = i;
+                }
+            }
+        }
+        if (chosen_ >= 0) {
+            const DiscInfo& c = infos[chosen_];
+            h.hit = true;
+            h.object = c.object;
+            h.disc = roots[c.object].res.discs[c.index];
+            h.modulus = std::hypot(h.disc.re, h.disc.im);
+        }
+        return h;
+    }
+
+    void record(const ObjectRoots* roots, const std::vector<DiscInfo>& infos, const HitInfo& h, PixelExplanation* t) const {
+        const int n_obj = static_cast<int>(plan_.scene.objects.size());
+        t->polynomials.clear();
+        t->discs.clear();
+        for (int obj = 0; obj < n_obj; ++obj) {
+            const ObjectRoots& r = roots[obj];
+            ExplainedPolynomial p;
+            p.object = obj;
+            p.coeffs.assign(r.poly.c, r.poly.c + plan_.scene.objects[obj].degree + 1);
+            p.radius.assign(r.poly.r, r.poly.r + plan_.scene.objects[obj].degree + 1);
+            p.roots_status = static_cast<int>(r.status);
+            p.seeded = r.seeded;
+            p.root_escalation = r.res.escalation;
+            p.complete = r.complete;
+            t->polynomials.push_back(std::move(p));
+        }
+        for (const DiscInfo& i : infos) {
+            ExplainedDisc e;
+            e.object = i.object;
+            e.disc = roots[i.object].res.discs[i.index];
+            e.modulus_lo = i.lo;
+            e.modulus_hi = i.hi;
+            e.real = i.real;
+            e.at_origin = i.at_origin;
+            e.band = static_cast<std::uint8_t>(i.band);
+            // (The sphere is not evaluated for a disc proven out of the band.)
+            e.clip = i.band == Verdict::No ? 3 : static_cast<std::uint8_t>(i.clip);
+            e.live = i.live;
+            e.eligible = i.eligible;
+            t->discs.push_back(e);
+        }
+        t->chosen = chosen_;
+        t->hit = h.hit;
+        t->status = h.status;
+        t->level = h.level;
+    }
+
+public:
+    double current_direction_[3] = {0, 0, 0};
 
 private:
     const FramePlan& plan_;
+    std::vector<ObjectRoots> scratch_;
+    std::vector<std::vector<DiscInfo>> infos_;
+    int chosen_ = -1;
+    bool recording_ = false;  // keep every disc's decisions (explain_pixel)
 };
 
 }  // namespace
 
+bool band_rule_holds(double sigma, double delta) {
+    if (!std::isfinite(sigma) || !std::isfinite(delta) || !(sigma >= 0.0) || !(delta >= 0.0)) return false;
+    // Compare the exact sum s + err (TwoSum) with pi. kPiHi is the double
+    // nearest pi; pi - kPiHi lies strictly between the double before kPiLo
+    // and kPiLo (checked in core/tests/render_test.cpp with 60 digits). In
+    // the binade of pi, s < kPiHi gives s + err <= s + ulp/2 < kPiHi, and
+    // s > kPiHi gives s + err >= kPiHi + ulp/2 > pi.
+    constexpr double kPiHi = 3.141592653589793116, kPiLo = 1.2246467991473532e-16;
+    const double s = sigma + delta;
+    if (s < kPiHi) return true;
+    if (s > kPiHi) return false;
+    const double bb = s - sigma;
+    const double err = (sigma - (s - bb)) + (delta - bb);
+    return err < kPiLo;
+}
+
 FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
     if (scene.objects.empty()) throw std::invalid_argument("the scene has no objects");
+    if (static_cast<int>(scene.objects.size()) > kMaxObjects)
+        throw std::invalid_argument("the scene has " + std::to_string(scene.objects.size()) + " objects; at most " +
+                                    std::to_string(kMaxObjects) + " are allowed");
     if (params.width < 1 || params.height < 1) throw std::invalid_argument("frame size must be at least 1x1");
+    if (!band_rule_holds(params.sigma, params.delta))
+        throw std::invalid_argument("the band (sigma = " + std::to_string(params.sigma) + ", delta = " +
+                                    std::to_string(params.delta) + ") breaks the band rule: " + kBandRule);
+    if (params.max_depth < 0 || params.max_depth > 16) throw std::invalid_argument("max_depth must be in 0..16");
     FramePlan plan;
     plan.scene = scene;
     plan.params = params;
@@ -464,58 +572,73 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
     double to_target[3];
     for (int a = 0; a < 3; ++a) to_target[a] = cam.look_at[a] - cam.position[a];
     plan.scene_distance = std::max(1e-9, std::sqrt(dot3(to_target, to_target)));
+    plan.lower_edge = detail::band_edge(params.sigma, 0.0);
+    plan.upper_edge = detail::band_edge(params.sigma, params.delta);
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
         const SurfaceSpec& s = scene.objects[i];
         if (s.degree < 1 || s.degree > kMaxDegree)
             throw std::invalid_argument("object " + std::to_string(i) + ": degree must be in 1.." + std::to_string(kMaxDegree));
-        const int n = s.degree;
         FramePlan::ObjectPlan op;
-        to_object(s, plan.eye, op.origin);
-        // Taylor coefficients of F(o' + v): binomial expansion of each term.
-        // Dense index over (a, b, c) with a, b, c <= n.
-        const int side = n + 1;
-        std::vector<double> dense(side * side * side, 0.0);
-        for (const Term& t : s.terms) {
-            if (t.ex + t.ey + t.ez > n) throw std::invalid_argument("a term exceeds the declared degree");
-            for (int a = 0; a <= t.ex; ++a)
-                for (int b = 0; b <= t.ey; ++b)
-                    for (int c = 0; c <= t.ez; ++c)
-                        dense[(a * side + b) * side + c] +=
-                            t.coeff * binomial(t.ex, a) * std::pow(op.origin[0], t.ex - a) * binomial(t.ey, b) *
-                            std::pow(op.origin[1], t.ey - b) * binomial(t.ez, c) * std::pow(op.origin[2], t.ez - c);
+        try {
+            detail::plan_object(s, plan.eye, op);
+        } catch (const std::invalid_argument& e) {
+            throw std::invalid_argument("object " + std::to_string(i) + ": " + e.what());
         }
-        op.k_begin.assign(n + 2, 0);
-        for (int k = 0; k <= n; ++k) {
-            op.k_begin[k] = static_cast<int>(op.g.size());
-            for (int a = 0; a <= k; ++a)
-                for (int b = 0; a + b <= k; ++b) {
-                    const int c = k - a - b;
-                    const double v = dense[(a * side + b) * side + c];
-                    if (v == 0.0) continue;
-                    op.ex.push_back(a);
-                    op.ey.push_back(b);
-                    op.ez.push_back(c);
-                    op.g.push_back(v);
-                }
-        }
-        op.k_begin[n + 1] = static_cast<int>(op.g.size());
         plan.objects.push_back(std::move(op));
     }
     return plan;
 }
 
-void ray_polynomial(const FramePlan& plan, int object, const double origin[3], const double direction[3], double* coeffs) {
-    const SurfaceSpec& s = plan.scene.objects.at(object);
-    double oo[3], od[3];
-    to_object(s, origin, oo);
-    mat_vec(s.linear, direction, od);
-    expand_general(s, oo, od, coeffs);
+Ray primary_ray(const FramePlan& plan, int x, int y) {
+    Ray r;
+    for (int a = 0; a < 3; ++a) r.origin[a] = plan.eye[a];
+    pixel_direction(plan, x, y, r.direction);
+    return r;
 }
 
-void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out) {
-    const FrameParams& fp = plan.params;
-    TileRect r{std::max(0, rect_in.x0), std::max(0, rect_in.y0), std::min(fp.width, rect_in.x1), std::min(fp.height, rect_in.y1)};
-    const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
+void ray_polynomial(const FramePlan& plan, int object, const double origin[3], const double direction[3], double* coeffs,
+                    double* radius) {
+    const SurfaceSpec& s = plan.scene.objects.at(object);
+    RayCoefficients<double> p;
+    ObjectRay ray;
+    detail::general_ray_polynomial(s, origin, direction, p, ray);
+    for (int k = 0; k <= s.degree; ++k) {
+        coeffs[k] = p.c[k];
+        if (radius) radius[k] = p.r[k];
+    }
+}
+
+namespace {
+
+/// One pixel of a primary ray: trace, shade, write the AOVs at index i.
+void render_pixel(const FramePlan& plan, Tracer& tracer, int x, int y, Seeds* seeds, TileAOVs& out, std::size_t i,
+                  PixelExplanation* trace) {
+    const Ray ray = primary_ray(plan, x, y);
+    for (int a = 0; a < 3; ++a) tracer.current_direction_[a] = ray.direction[a];
+    const HitInfo hit = tracer.intersect(ray.origin, ray.direction, true, seeds, 0, trace);
+    if (trace) {
+        trace->ray = ray;
+    }
+    out.status[i] = hit.status;
+    out.escalation[i] = hit.level;
+    out.count[i] = hit.eligible;
+    if (hit.level > kLevelFirst) ++out.escalations;
+    if (!hit.hit) {
+        for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = static_cast<float>(plan.scene.background[a]);
+        out.rgba[4 * i + 3] = 0.0f;
+        return;
+    }
+    double rgb[3];
+    tracer.shade(ray.origin, ray.direction, hit, 0, rgb);
+    for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = static_cast<float>(rgb[a]);
+    out.rgba[4 * i + 3] = 1.0f;
+    out.modulus[i] = static_cast<float>(hit.modulus);
+    out.argument[i] = static_cast<float>(std::atan2(hit.disc.im, hit.disc.re));
+    out.re[i] = static_cast<float>(hit.disc.re);
+    out.im[i] = static_cast<float>(hit.disc.im);
+}
+
+void allocate(TileAOVs& out, int w, int h) {
     out.width = w;
     out.height = h;
     const std::size_t np = static_cast<std::size_t>(w) * h;
@@ -526,40 +649,54 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out) 
     out.im.assign(np, 0.0f);
     out.count.assign(np, 0);
     out.status.assign(np, kCertified);
+    out.escalation.assign(np, kLevelFirst);
     out.escalations = 0;
     out.root_calls = 0;
+}
+
+const char* status_reason(std::uint8_t status) {
+    switch (status) {
+        case kCertified: return "every decision proven";
+        case kCluster: return "a deciding disc holds several roots (or the ray lies in the surface)";
+        case kUnverified: return "a root of the ray polynomial is not enclosed (or a coefficient overflowed)";
+        default: return "a band edge, the clipping sphere or another root's modulus lies within a deciding disc";
+    }
+}
+
+}  // namespace
+
+void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out) {
+    const FrameParams& fp = plan.params;
+    TileRect r{std::max(0, rect_in.x0), std::max(0, rect_in.y0), std::min(fp.width, rect_in.x1), std::min(fp.height, rect_in.y1)};
+    const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
+    allocate(out, w, h);
     Tracer tracer(plan);
-    const double aspect = static_cast<double>(fp.width) / fp.height;
     std::vector<Seeds> seeds(plan.scene.objects.size());
     for (int y = r.y0; y < r.y1; ++y) {
         for (Seeds& s : seeds) s.valid = false;
-        for (int x = r.x0; x < r.x1; ++x) {
-            // Pixel centre -> unit world direction.
-            const double sx = (2.0 * (x + 0.5) / fp.width - 1.0) * plan.tan_half_fov * aspect;
-            const double sy = (1.0 - 2.0 * (y + 0.5) / fp.height) * plan.tan_half_fov;
-            double d[3];
-            for (int a = 0; a < 3; ++a) d[a] = plan.forward[a] + sx * plan.right[a] + sy * plan.up[a];
-            normalize3(d);
-            const HitInfo hit = tracer.intersect(plan.eye, d, true, seeds.data(), &out.root_calls);
-            const std::size_t i = static_cast<std::size_t>(y - r.y0) * w + (x - r.x0);
-            out.status[i] = hit.status;
-            out.count[i] = hit.eligible;
-            if (hit.escalated) ++out.escalations;
-            if (!hit.hit) {
-                for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = static_cast<float>(plan.scene.background[a]);
-                out.rgba[4 * i + 3] = 0.0f;
-                continue;
-            }
-            double rgb[3];
-            tracer.shade(plan.eye, d, hit, 0, rgb);
-            for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = static_cast<float>(rgb[a]);
-            out.rgba[4 * i + 3] = 1.0f;
-            out.modulus[i] = static_cast<float>(hit.modulus);
-            out.argument[i] = static_cast<float>(std::atan2(hit.disc.im, hit.disc.re));
-            out.re[i] = static_cast<float>(hit.disc.re);
-            out.im[i] = static_cast<float>(hit.disc.im);
-        }
+        for (int x = r.x0; x < r.x1; ++x)
+            render_pixel(plan, tracer, x, y, seeds.data(), out, static_cast<std::size_t>(y - r.y0) * w + (x - r.x0), nullptr);
     }
+    out.root_calls = tracer.root_calls;
+}
+
+PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start) {
+    const FrameParams& fp = plan.params;
+    if (x < 0 || x >= fp.width || y < 0 || y >= fp.height)
+        throw std::invalid_argument("pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is not inside the " +
+                                    std::to_string(fp.width) + "x" + std::to_string(fp.height) + " frame");
+    if (row_start < 0 || row_start > x) throw std::invalid_argument("row_start must be in 0..x");
+    // Replay the row of the tile from its first pixel (the neighbour seeds
+    // render_tile would have), then trace pixel (x, y).
+    Tracer tracer(plan);
+    std::vector<Seeds> seeds(plan.scene.objects.size());
+    TileAOVs scratch;
+    allocate(scratch, 1, 1);
+    PixelExplanation e;
+    for (int px = row_start; px <= x; ++px)
+        render_pixel(plan, tracer, px, y, seeds.data(), scratch, 0, px == x ? &e : nullptr);
+    e.reason = status_reason(e.status);
+    return e;
 }
 
 }  // namespace argand

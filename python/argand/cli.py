@@ -119,6 +119,9 @@ def render(
     fps: float = typer.Option(8.0, "--fps", help="Frames per second of the animation."),
     exr_compression: str = typer.Option("zip", "--exr-compression",
                                         help=EXR_COMPRESSION_HELP),
+    explain: Optional[str] = typer.Option(
+        None, "--explain", help="X,Y: print that pixel's ray, ray polynomial with coefficient radii, discs, "
+        "decisions and status (first frame only), and render nothing."),
 ) -> None:
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, and animation.gif."""
     from argand.render import FrameParams, delta_sweep, parse_angle, parse_sweep
@@ -153,6 +156,9 @@ def render(
         ]
     except ValueError as exc:
         fail(str(exc))
+    if explain is not None:
+        _explain(loaded, params[0], explain, tile)
+        return
     tiles_per_frame = math.ceil(width / tile) * math.ceil(height / tile)
     with Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("tiles"),
@@ -172,6 +178,23 @@ def render(
             f"certified {100 * f['certified_share']:.3f}%, escalated {100 * f['escalated_share']:.3f}%"
         )
     console.print(f"wrote {len(params)} frame(s) to {out}/" + (" and animation.gif" if len(params) > 1 else ""))
+
+
+def _explain(scene, params, where: str, tile: int) -> None:
+    from argand.render.explain import explain_pixel, format_explanation
+
+    try:
+        x, y = (int(v) for v in where.split(","))
+    except ValueError:
+        fail(f"--explain must look like X,Y (pixel column, row), got {where!r}")
+    try:
+        e = explain_pixel(scene, params, x, y, tile=tile)
+    except ValueError as exc:
+        fail(str(exc))
+    console.print(f"pixel ({x}, {y}) of {params.width}x{params.height}, sigma={params.sigma!r}, delta={params.delta!r}, "
+                  f"method {params.method}, tile {tile}")
+    for line in format_explanation(e):
+        console.print(line, markup=False, highlight=False, soft_wrap=True)
 
 
 @app.command()

@@ -15,8 +15,10 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
+#include "argand/interval.h"
 #include "argand/roots.h"
 
 namespace argand {
@@ -79,17 +81,45 @@ struct FrameParams {
     bool seed_from_neighbour = true;
 };
 
+/// Most objects in one scene (plan_frame refuses more).
+constexpr int kMaxObjects = 32;
+
+/// The band rule, checked by plan_frame: the band [sigma, sigma + delta]
+/// (and its conjugate) lies in [0, pi]. The sum is the exact sum of the two
+/// doubles and pi the exact pi.
+constexpr const char* kBandRule = "sigma >= 0, delta >= 0 and sigma + delta <= pi";
+/// True iff (sigma, delta) satisfy kBandRule (finite, decided exactly).
+bool band_rule_holds(double sigma, double delta);
+
 struct TileRect {
     int x0, y0, x1, y1;  // [x0, x1) x [y0, y1)
 };
 
 /// Pixel status (the `status` AOV).
+/// All decisions are about the exact ray polynomial of the pixel's ray (exact
+/// double origin and direction) through the surface with its exact double
+/// coefficients; docs/rendering.md says what that covers.
 enum PixelStatus : std::uint8_t {
-    kCertified = 0,   // the chosen root is proven in the band and proven the smallest
-                      // (for a miss: every root proven outside the band or clipped)
-    kCluster = 1,     // chosen among a cluster (a disc holding several roots)
-    kUnverified = 2,  // chosen root (or a root that might be eligible) unverified
-    kUndecided = 3,   // band membership or the ordering by modulus undecided
+    kCertified = 0,   // proven: the chosen root is in the band, inside the clipping
+                      // sphere, of one root, and the smallest such (up to its
+                      // conjugate); for a miss: every root proven out of the band
+                      // or clipped
+    kCluster = 1,     // the deciding disc holds several roots that no tier of the
+                      // ladder separated (a tangent ray, a singular point), or the
+                      // ray lies in the surface
+    kUnverified = 2,  // some root of the ray polynomial is not enclosed (root core
+                      // gave an unverified entry) or a coefficient overflowed
+    kUndecided = 3,   // band, clipping or ordering undecided after the whole ladder:
+                      // a band edge, the sphere or another root's modulus lies
+                      // within the final discs
+};
+
+/// Ladder levels (the `escalation` AOV): how far a pixel had to go.
+enum LadderLevel : std::uint8_t {
+    kLevelFirst = 0,      // decided from the first root discs
+    kLevelRootTier = 1,   // the root core needed its double-double tier
+    kLevelUnseeded = 2,   // retried without the neighbouring pixel's seeds
+    kLevelDoubleDouble = 3,  // discs refined with double-double ray coefficients
 };
 
 /// AOVs of one tile, row-major, (y1 - y0) rows of (x1 - x0) pixels.
@@ -102,8 +132,9 @@ struct TileAOVs {
     std::vector<float> re, im;    // the chosen root
     std::vector<std::int32_t> count;   // eligible roots in the band (with multiplicity)
     std::vector<std::uint8_t> status;  // PixelStatus
+    std::vector<std::uint8_t> escalation;  // LadderLevel
     // Figures.
-    std::int64_t escalations = 0;      // pixels whose roots needed double-double or more
+    std::int64_t escalations = 0;      // pixels whose ladder level is above 0
     std::int64_t root_calls = 0;
 };
 
@@ -118,27 +149,96 @@ struct FramePlan {
     struct ObjectPlan {
         // Taylor coefficients of F(o' + v) as dense monomials up to degree n,
         // grouped by total degree: for k, the monomials (a, b, c) with
-        // a + b + c = k and their coefficients.
+        // a + b + c = k. Each coefficient is a ball: the exact coefficient
+        // of F(o' + v) at the exact o' = linear (eye - translate) lies in
+        // [g - g_rad, g + g_rad] (and in [g_dd - g_dd_rad, g_dd + g_dd_rad]).
         std::vector<int> k_begin;          // size n + 2
         std::vector<int> ex, ey, ez;
-        std::vector<double> g;
-        double origin[3];                  // o' (object space camera origin)
+        std::vector<double> g, g_rad;
+        std::vector<DoubleDouble> g_dd;
+        std::vector<double> g_dd_rad;
+        // Per total degree k: the factors of the per-pixel error bound
+        // (ray_polynomial.cpp), in double and in double-double.
+        std::vector<double> weight_factor, radius_factor, weight_factor_dd, radius_factor_dd;
+        // Per k: max over the monomials of |g| + g_rad, for the underflow slack.
+        std::vector<double> magnitude;
+        // Nonzero |direction'| components at least this large keep every
+        // nonzero product above 2^-1000 (no underflow: no slack needed).
+        double no_underflow_threshold = 0.0;
+        // linear is a signed permutation (entries 0 and +-1): the object-space
+        // direction is exact.
+        bool direction_exact = false;
+        Ball origin[3];                    // o' (object space camera origin), enclosed
+        BallDD origin_dd[3];
     };
     std::vector<ObjectPlan> objects;
+    // The band's edges (sigma and the exact sum sigma + delta), with
+    // enclosures of their cosine and sine (pixel_decision.cpp).
+    struct BandEdge {
+        double cos_mid, sin_mid, err;  // |cos - cos_mid|, |sin - sin_mid| <= err
+    };
+    BandEdge lower_edge, upper_edge;
 };
 
-/// Validates the scene for rendering (degree 1..kMaxDegree per object, at
-/// least one object, finite numbers). Throws std::invalid_argument with the
-/// reason.
+/// Validates the scene and the frame for rendering (1..kMaxObjects objects,
+/// degree 1..kMaxDegree per object, kBandRule, a valid camera). Throws
+/// std::invalid_argument with the reason.
 FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params);
 
 /// Renders the pixels of `rect` (clamped to the frame). Thread-safe for
 /// distinct tiles of the same plan. Never touches Python.
 void render_tile(const FramePlan& plan, const TileRect& rect, TileAOVs& out);
 
+/// A ray: exact double origin and (unit, up to rounding) direction.
+struct Ray {
+    double origin[3];
+    double direction[3];
+};
+
+/// The primary ray of pixel (x, y): the very doubles render_tile uses.
+Ray primary_ray(const FramePlan& plan, int x, int y);
+
 /// The ray polynomial p(t) = F(o + t d) of object i for a world ray (exposed
-/// for tests and the reference renderer). coeffs gets degree + 1 entries.
+/// for tests and the reference renderer): coeffs gets degree + 1 entries and,
+/// when radius is given, radius[k] bounds |exact p_k - coeffs[k]|.
 void ray_polynomial(const FramePlan& plan, int object, const double origin[3], const double direction[3],
-                    double* coeffs);
+                    double* coeffs, double* radius = nullptr);
+
+/// Everything render_tile decided for one pixel (`argand render --explain`).
+struct ExplainedDisc {
+    int object;
+    RootDisc disc;           // the final disc (after any refinement)
+    double modulus_lo, modulus_hi;
+    bool real;               // its single root proven real
+    bool at_origin;          // the exact root t = 0 (not shown)
+    std::uint8_t band;       // 0 yes, 1 no, 2 unknown (all roots in the band?)
+    std::uint8_t clip;       // 0 inside, 1 outside, 2 straddling (no sphere: 0), 3 not
+                             // evaluated (the disc is out of the band)
+    bool live;               // may be the pixel's root
+    bool eligible;           // proven in the band and inside
+};
+struct ExplainedPolynomial {
+    int object;
+    std::vector<double> coeffs, radius;  // the ray polynomial and its coefficient radii
+    int roots_status;        // argand::Status of find_roots
+    bool seeded;             // started from the neighbouring pixel's roots
+    int root_escalation;     // the root core's own tier (0 double, 1 double-double)
+    bool complete;           // every disc verified (they cover every root)
+};
+struct PixelExplanation {
+    Ray ray;
+    std::vector<ExplainedPolynomial> polynomials;
+    std::vector<ExplainedDisc> discs;
+    int chosen = -1;         // index into discs of the pixel's root, -1 for a miss
+    bool hit = false;
+    std::uint8_t status = kCertified;
+    std::uint8_t level = kLevelFirst;
+    std::string reason;      // why the status is what it is
+};
+
+/// Runs render_tile's code path for pixel (x, y), as part of a tile whose
+/// rows start at column row_start (the neighbour seeds of that row are
+/// replayed), and records every decision.
+PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start);
 
 }  // namespace argand

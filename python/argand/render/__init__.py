@@ -12,6 +12,9 @@ pixel's ray, so anyone can check a pixel against the surface itself.
 from argand.render.angles import parse_angle, parse_sweep
 from argand.render.frames import (
     AOV_CHANNELS,
+    BAND_RULE,
+    ESCALATION_NAMES,
+    MAX_OBJECTS,
     STATUS_NAMES,
     FrameParams,
     FrameResult,
@@ -26,6 +29,9 @@ from argand.render.rays import primary_ray
 
 __all__ = [
     "AOV_CHANNELS",
+    "BAND_RULE",
+    "ESCALATION_NAMES",
+    "MAX_OBJECTS",
     "STATUS_NAMES",
     "FrameParams",
     "FrameResult",

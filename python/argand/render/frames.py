@@ -20,11 +20,22 @@ import numpy as np
 
 from argand.core import _core
 
-#: AOV names, in the order they are stored in EXR files after R, G, B, A.
-AOV_CHANNELS = ("Z", "arg", "re", "im", "count", "status")
+#: AOV names, in the order they are stored in EXR files after R, G, B, A
+#: (the one channel list: the farm, the EXR writer and the tests read it).
+#: ``escalation`` is the ladder level a pixel needed (ESCALATION_NAMES).
+AOV_CHANNELS = ("Z", "arg", "re", "im", "count", "status", "escalation")
 
-#: Pixel status codes (the ``status`` AOV).
+#: Pixel status codes (the ``status`` AOV); docs/rendering.md says what each
+#: one proves.
 STATUS_NAMES = {0: "certified", 1: "cluster", 2: "unverified", 3: "undecided"}
+
+#: Ladder levels (the ``escalation`` AOV): how far a pixel had to go before
+#: its decision was proven (or the ladder ran out).
+ESCALATION_NAMES = {0: "first", 1: "root double-double", 2: "unseeded retry", 3: "double-double ray"}
+
+#: Most objects in one scene, and the band rule (both defined in C++).
+MAX_OBJECTS: int = _core.MAX_OBJECTS
+BAND_RULE: str = _core.BAND_RULE
 
 
 @dataclass(frozen=True)
@@ -42,8 +53,8 @@ class FrameParams:
     def __post_init__(self) -> None:
         if not (math.isfinite(self.sigma) and math.isfinite(self.delta)):
             raise ValueError("sigma and delta must be finite numbers")
-        if self.delta < 0:
-            raise ValueError(f"delta must be >= 0, got {self.delta}")
+        if not _core.band_rule_holds(float(self.sigma), float(self.delta)):
+            raise ValueError(f"sigma = {self.sigma!r}, delta = {self.delta!r} breaks the band rule: {BAND_RULE}")
         if not (1 <= self.width <= 8192 and 1 <= self.height <= 8192):
             raise ValueError(f"frame size must be between 1x1 and 8192x8192, got {self.width}x{self.height}")
 
@@ -124,22 +135,25 @@ def render_tile_planned(frame_plan: Any, rect: TileRect) -> TileAOVs:
     return TileAOVs(rect, out["rgba"], aovs, int(out["escalations"]), int(out["root_calls"]))
 
 
-#: The farm's interleaved layout (the EXR's channel order).
+#: The farm's interleaved layout (the EXR's channel order); the C++ writer
+#: (render_tile_into) must agree, which the import checks.
 INTERLEAVED_CHANNELS = ("R", "G", "B", "A") + AOV_CHANNELS
+if tuple(_core.INTERLEAVED_CHANNELS) != INTERLEAVED_CHANNELS:  # pragma: no cover - a build mismatch
+    raise ImportError(f"argand.core._core writes channels {_core.INTERLEAVED_CHANNELS}, expected {INTERLEAVED_CHANNELS}")
 
 
 def interleave(rgba: np.ndarray, aovs: Any) -> np.ndarray:
     """(h, w, 4) RGBA and the AOV planes (a mapping by name) -> one
-    C-contiguous (h, w, 10) float32 array in the order of INTERLEAVED_CHANNELS."""
+    C-contiguous (h, w, len(INTERLEAVED_CHANNELS)) float32 array in that order."""
     planes = [rgba[..., c] for c in range(4)] + [np.asarray(aovs[name], np.float32) for name in AOV_CHANNELS]
     return np.stack(planes, axis=-1).astype(np.float32, copy=False)
 
 
 def render_tile_into(frame_plan: Any, rect: TileRect, out: np.ndarray, ox: int = 0,
                      oy: int = 0) -> tuple[int, int, np.ndarray]:
-    """Renders ``rect`` into ``out[oy:, ox:]``, a C-contiguous (h, w, 10)
-    float32 array in the order of INTERLEAVED_CHANNELS (count and status as
-    floats, exactly). Returns (escalations, root_calls, stats) with stats
+    """Renders ``rect`` into ``out[oy:, ox:]``, a C-contiguous
+    (h, w, len(INTERLEAVED_CHANNELS)) float32 array in that order (count,
+    status and escalation as floats, exactly). Returns (escalations, root_calls, stats) with stats
     = [pixels per status code 0..3, pixels that hit] (int64)."""
     esc, calls, counts, hits = _core.render_tile_into(frame_plan, rect.x0, rect.y0, rect.x1, rect.y1, out, ox, oy)
     return int(esc), int(calls), np.array([*counts, hits], np.int64)
@@ -185,6 +199,7 @@ def render_frame(
         "im": np.zeros((h, w), np.float32),
         "count": np.zeros((h, w), np.int32),
         "status": np.zeros((h, w), np.uint8),
+        "escalation": np.zeros((h, w), np.uint8),
     }
     escalations = calls = 0
     rects = tiles(w, h, tile)

@@ -40,7 +40,7 @@ def to_srgb8(rgba: np.ndarray) -> np.ndarray:
 
 
 def exr_pixels(result: FrameResult) -> np.ndarray:
-    """(h, w, 10) float32: R, G, B, A, Z, arg, re, im, count, status."""
+    """(h, w, len(EXR_CHANNELS)) float32 in the order of EXR_CHANNELS."""
     return interleave(result.rgba, result.aovs)
 
 
@@ -101,7 +101,7 @@ def check_exr_compression(value: str) -> str:
 
 def write_exr(result: FrameResult, path: Path, pixels: np.ndarray | None = None,
               compression: str = EXR_COMPRESSION) -> None:
-    """``pixels``: the (h, w, 10) buffer when the caller assembled it already
+    """``pixels``: the (h, w, len(EXR_CHANNELS)) buffer when the caller assembled it already
     (else it is stacked from the result)."""
     oiio = _oiio()
     h, w = result.rgba.shape[:2]

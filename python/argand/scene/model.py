@@ -20,6 +20,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from argand.core._core import MAX_OBJECTS
 from argand.scene.expression import ExpressionError, SurfacePolynomial, parse_surface
 
 RGB = tuple[float, float, float]
@@ -184,7 +185,8 @@ FRAMING_MARGIN = 1.1
 
 
 class Scene(_Strict):
-    objects: list[SceneObject] = Field(min_length=1)
+    #: At most MAX_OBJECTS (the renderer's limit, defined in C++).
+    objects: list[SceneObject] = Field(min_length=1, max_length=MAX_OBJECTS)
     camera: Camera | None = None
     lights: list[Light] | None = None
     background: Color = (0.08, 0.08, 0.1)

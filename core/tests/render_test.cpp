@@ -1,0 +1,386 @@
+// render_test.cpp: the renderer's proven pieces on their own: the band rule
+// on every edge, balls against exact integer arithmetic, band membership and
+// the clipping sphere on discs placed at the edges on purpose, the trig
+// assumption behind the band edges, the ray coefficients' radii against a
+// long double reference, the double-double refinement, and whole tiles
+// (objects up to kMaxObjects, the refusal above it). Also the program the
+// sanitizer build runs.
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+#include "../src/pixel_decision.h"
+#include "../src/ray_polynomial.h"
+#include "argand/render.h"
+
+using namespace argand;
+using namespace argand::detail;
+
+static int failures = 0;
+#define CHECK(cond)                                                                        \
+    do {                                                                                   \
+        if (!(cond)) {                                                                     \
+            std::fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
+            ++failures;                                                                    \
+        }                                                                                  \
+    } while (0)
+
+static constexpr double kPiDouble = 3.141592653589793;  // just below pi
+
+static SceneSpec sphere_scene(double clip = 0.0, int copies = 1) {
+    SceneSpec sc;
+    for (int i = 0; i < copies; ++i) {
+        SurfaceSpec s;
+        s.degree = 2;
+        s.terms = {{2, 0, 0, 1.0}, {0, 2, 0, 1.0}, {0, 0, 2, 1.0}, {0, 0, 0, -1.0}};
+        s.clip_radius = clip;
+        s.translate[0] = 0.5 * i;
+        sc.objects.push_back(s);
+    }
+    sc.camera.position[0] = 0.3;
+    sc.camera.position[1] = -4.0;
+    sc.camera.position[2] = 0.7;
+    return sc;
+}
+
+static FramePlan plan_with(double sigma, double delta, const SceneSpec& sc = sphere_scene()) {
+    FrameParams fp;
+    fp.sigma = sigma;
+    fp.delta = delta;
+    fp.width = fp.height = 16;
+    return plan_frame(sc, fp);
+}
+
+static RootDisc disc(double re, double im, double r, bool real = false) { return RootDisc{re, im, r, 1, true, real}; }
+
+static void test_band_rule() {
+    CHECK(band_rule_holds(0.0, 0.0));
+    CHECK(band_rule_holds(0.0, kPiDouble));            // sigma + delta = fl(pi) < pi
+    CHECK(band_rule_holds(kPiDouble, 0.0));
+    CHECK(!band_rule_holds(0.0, std::nextafter(kPiDouble, 4.0)));  // above pi
+    CHECK(!band_rule_holds(-0.5, 0.2));               // the sigma = -0.5
+    CHECK(!band_rule_holds(-1e-300, 0.0));
+    CHECK(!band_rule_holds(0.1, -1e-300));
+    CHECK(!band_rule_holds(NAN, 0.0));
+    CHECK(!band_rule_holds(0.0, INFINITY));
+    // Exact sums that round to fl(pi) (half an ulp of pi is 2^-52 ~ 2.2e-16;
+    // pi - fl(pi) ~ 1.2246e-16): decided on the exact sum.
+    CHECK(kPiDouble + 1e-16 == kPiDouble && band_rule_holds(kPiDouble, 1e-16));
+    CHECK(kPiDouble + 1.3e-16 == kPiDouble && !band_rule_holds(kPiDouble, 1.3e-16));
+    const double pi_lo = 1.2246467991473532e-16;  // just above pi - fl(pi)
+    CHECK(!band_rule_holds(kPiDouble, pi_lo));
+    CHECK(band_rule_holds(kPiDouble, std::nextafter(pi_lo, 0.0)));
+    CHECK(band_rule_holds(1.5, kPiDouble - 1.5));
+    bool threw = false;
+    try {
+        plan_with(-0.5, 0.2);
+    } catch (const std::invalid_argument& e) {
+        threw = std::string(e.what()).find(kBandRule) != std::string::npos;
+    }
+    CHECK(threw);
+}
+
+static void test_balls() {
+    // Products and sums of integers below 2^40 against exact 128-bit results.
+    std::mt19937_64 rng(3);
+    for (int t = 0; t < 20000; ++t) {
+        const std::int64_t a = static_cast<std::int64_t>(rng() >> 24) - (1LL << 39);
+        const std::int64_t b = static_cast<std::int64_t>(rng() >> 24) - (1LL << 39);
+        const Ball p = Ball(static_cast<double>(a)) * Ball(static_cast<double>(b));
+        const __int128 exact = static_cast<__int128>(a) * b;
+        const long double diff = static_cast<long double>(exact - static_cast<__int128>(p.mid));
+        CHECK(std::fabs(static_cast<double>(diff)) <= p.rad);
+        // A sum spanning 60 bits: exact in long double (64), rounded in double.
+        const Ball s = Ball(static_cast<double>(a) * 0x1p10) + Ball(static_cast<double>(b) * 0x1p-10);
+        const long double se = static_cast<long double>(a) * 0x1p10L + static_cast<long double>(b) * 0x1p-10L;
+        CHECK(std::fabs(se - static_cast<long double>(s.mid)) <= s.rad);
+    }
+    // Exact operations keep radius 0; zero stays exact.
+    CHECK((Ball(3.0) * Ball(0.25)).rad == 0.0);
+    CHECK((Ball(0.0) * Ball(1e300, 1e290)).rad == 0.0);
+    CHECK((Ball(1.0) + Ball(2.0)).rad == 0.0);
+    CHECK((Ball(1.0) + Ball(0x1p-60)).rad > 0.0);
+    // Subnormal products carry the absolute term.
+    const Ball tiny = Ball(0x1p-540) * Ball(0x1.8p-540);
+    CHECK(tiny.rad >= 0x1p-1074);
+}
+
+static void test_band_membership() {
+    // sigma = delta = 0: the positive real axis exactly.
+    FramePlan p0 = plan_with(0.0, 0.0);
+    CHECK(band_membership(disc(2.0, 0.0, 0.1, true), true, p0, true) == Verdict::Yes);
+    CHECK(band_membership(disc(-2.0, 0.0, 0.1, true), true, p0, true) == Verdict::No);      // negative real root
+    CHECK(band_membership(disc(2.0, 0.3, 0.1), false, p0, true) == Verdict::No);            // off the axis
+    CHECK(band_membership(disc(2.0, 0.05, 0.1), false, p0, true) == Verdict::Unknown);      // straddles, not proven real
+    CHECK(band_membership(disc(0.05, 0.0, 0.1, true), true, p0, true) == Verdict::Unknown); // contains 0
+    // sigma = 0, delta > 0: the wedge |arg| <= delta (one wedge across the axis).
+    const double delta = 0.2;
+    FramePlan p1 = plan_with(0.0, delta);
+    CHECK(band_membership(disc(3.0, 0.01, 0.05), false, p1, true) == Verdict::Yes);         // straddles the axis
+    CHECK(band_membership(disc(3.0, -0.3, 0.05), false, p1, true) == Verdict::Yes);         // conjugate side
+    CHECK(band_membership(disc(-3.0, 0.0, 0.1, true), true, p1, true) == Verdict::No);      // negative real root
+    // Discs touching the edge ray at angle delta: undecided; just inside / outside: decided.
+    const double c = std::cos(delta), s = std::sin(delta);
+    CHECK(band_membership(disc(5 * c, 5 * s, 1e-3), false, p1, true) == Verdict::Unknown);
+    const double in = delta - 1e-3, out = delta + 1e-3;
+    CHECK(band_membership(disc(5 * std::cos(in), 5 * std::sin(in), 1e-3), false, p1, true) == Verdict::Yes);
+    CHECK(band_membership(disc(5 * std::cos(out), 5 * std::sin(out), 1e-3), false, p1, true) == Verdict::No);
+    // sigma > 0: real roots excluded, the lower edge decided the same way.
+    FramePlan p2 = plan_with(0.1, 0.2);
+    CHECK(band_membership(disc(2.0, 0.0, 0.01, true), true, p2, true) == Verdict::No);
+    CHECK(band_membership(disc(2.0, 0.0, 0.01), false, p2, true) == Verdict::No);           // near-real: angle < 0.1
+    const double mid = 0.2;
+    CHECK(band_membership(disc(4 * std::cos(mid), -4 * std::sin(mid), 1e-2), false, p2, true) == Verdict::Yes);
+    CHECK(band_membership(disc(4 * std::cos(0.1), 4 * std::sin(0.1), 1e-6), false, p2, true) == Verdict::Unknown);
+    // sigma + delta = fl(pi): every non-real root of |arg| >= sigma, negative real roots excluded
+    // (arg pi is above fl(pi)).
+    FramePlan p3 = plan_with(0.0, kPiDouble);
+    CHECK(band_membership(disc(-3.0, 0.5, 0.1), false, p3, true) == Verdict::Yes);
+    CHECK(band_membership(disc(-3.0, 0.0, 0.1, true), true, p3, true) == Verdict::No);
+    CHECK(band_membership(disc(-3.0, 1e-30, 1e-20), false, p3, true) == Verdict::Unknown);
+    // A real object: only proven positive real roots.
+    CHECK(band_membership(disc(2.0, 0.0, 0.1, true), true, p2, false) == Verdict::Yes);
+    CHECK(band_membership(disc(2.0, 0.5, 0.1), false, p2, false) == Verdict::No);
+}
+
+static void test_trig_assumption() {
+    // band_edge assumes |cos - cos_exact|, |sin - sin_exact| <= 2^-50 on [0, pi].
+    for (int i = 0; i <= 100000; ++i) {
+        const double a = kPiDouble * i / 100000.0;
+        const long double cl = std::cos(static_cast<long double>(a)), sl = std::sin(static_cast<long double>(a));
+        CHECK(std::fabs(static_cast<long double>(std::cos(a)) - cl) <= 0x1p-51L);
+        CHECK(std::fabs(static_cast<long double>(std::sin(a)) - sl) <= 0x1p-51L);
+    }
+}
+
+static void test_clip() {
+    ObjectRay ray;
+    for (int a = 0; a < 3; ++a) {
+        ray.origin[a] = Ball(0.0);
+        ray.direction[a] = Ball(a == 0 ? 1.0 : 0.0);
+    }
+    ray.origin[0] = Ball(-5.0);
+    // Points -5 + s on the x axis; sphere radius 2: inside for s in [3, 7].
+    CHECK(inside_clip(ray, 4.0, 6.0, 2.0) == Verdict::Yes);
+    CHECK(inside_clip(ray, 7.5, 8.0, 2.0) == Verdict::No);
+    CHECK(inside_clip(ray, 6.9, 7.1, 2.0) == Verdict::Unknown);  // straddles
+    CHECK(inside_clip(ray, 7.0, 7.0, 2.0) == Verdict::Yes);       // exactly on the sphere: kept (closed ball)
+    CHECK(inside_clip(ray, 2.0, 2.9999999, 2.0) == Verdict::No);
+}
+
+/// p(t) = F(o + t d) in long double (a reference for the radii).
+static void reference_coefficients(const SurfaceSpec& s, const double* o, const double* d, long double* out) {
+    for (int k = 0; k <= s.degree; ++k) out[k] = 0;
+    long double oo[3], od[3];
+    for (int r = 0; r < 3; ++r) {
+        oo[r] = od[r] = 0;
+        for (int c = 0; c < 3; ++c) {
+            oo[r] += static_cast<long double>(s.linear[3 * r + c]) * (static_cast<long double>(o[c]) - s.translate[c]);
+            od[r] += static_cast<long double>(s.linear[3 * r + c]) * d[c];
+        }
+    }
+    for (const Term& t : s.terms) {
+        long double poly[kMaxDegree + 1] = {1};
+        int deg = 0;
+        const int e[3] = {t.ex, t.ey, t.ez};
+        for (int a = 0; a < 3; ++a)
+            for (int m = 0; m < e[a]; ++m) {
+                for (int k = deg + 1; k >= 1; --k) poly[k] = poly[k] * oo[a] + poly[k - 1] * od[a];
+                poly[0] *= oo[a];
+                ++deg;
+            }
+        for (int k = 0; k <= deg; ++k) out[k] += t.coeff * poly[k];
+    }
+}
+
+static void test_ray_coefficients() {
+    // A sextic with a rotated, translated transform: the general direction path.
+    SceneSpec sc;
+    SurfaceSpec s;
+    s.degree = 6;
+    s.terms = {{6, 0, 0, 1.0}, {0, 6, 0, 1.0}, {0, 0, 6, 1.0}, {2, 2, 2, -3.1}, {1, 1, 0, 0.7}, {0, 0, 0, -1.0}};
+    const double ca = std::cos(0.3), sa = std::sin(0.3);
+    const double L[9] = {ca, -sa, 0, sa, ca, 0, 0, 0, 1.25};
+    for (int i = 0; i < 9; ++i) s.linear[i] = L[i];
+    s.translate[0] = 0.1;
+    s.translate[2] = -0.2;
+    sc.objects.push_back(s);
+    sc.camera.position[0] = 3.3;
+    sc.camera.position[1] = -2.9;
+    sc.camera.position[2] = 1.7;
+    FrameParams fp;
+    fp.width = fp.height = 9;
+    const FramePlan plan = plan_frame(sc, fp);
+    for (int y = 0; y < 9; ++y)
+        for (int x = 0; x < 9; ++x) {
+            const Ray ray = primary_ray(plan, x, y);
+            RayCoefficients<double> p;
+            ObjectRay oray;
+            primary_ray_polynomial(plan.scene.objects[0], plan.objects[0], ray.direction, p, oray);
+            RayCoefficients<DoubleDouble> pd;
+            primary_ray_polynomial_dd(plan.scene.objects[0], plan.objects[0], ray.direction, pd);
+            long double ref[kMaxDegree + 1];
+            reference_coefficients(plan.scene.objects[0], ray.origin, ray.direction, ref);
+            CHECK(p.finite && pd.finite);
+            // The secondary-ray expansion from a point off the eye.
+            const double off[3] = {ray.origin[0] + 0.37, ray.origin[1] - 1.1, ray.origin[2] + 0.05};
+            RayCoefficients<double> pg;
+            ObjectRay gray;
+            general_ray_polynomial(plan.scene.objects[0], off, ray.direction, pg, gray);
+            long double gref[kMaxDegree + 1];
+            reference_coefficients(plan.scene.objects[0], off, ray.direction, gref);
+            CHECK(pg.finite);
+            for (int k = 0; k <= 6; ++k) {
+                CHECK(std::fabs(gref[k] - pg.c[k]) <= pg.r[k] + 1e-17L * (1 + std::fabs(gref[k])));
+                CHECK(pg.r[k] < 1e-11 * (1 + std::fabs(static_cast<double>(gref[k]))));
+            }
+            for (int k = 0; k <= 6; ++k) {
+                // long double's own error is ~1e-19 relative: allow it on top.
+                const long double slack = 1e-17L * (1 + std::fabs(ref[k]));
+                CHECK(std::fabs(ref[k] - p.c[k]) <= p.r[k] + slack);
+                CHECK(p.r[k] < 1e-12 * (1 + std::fabs(static_cast<double>(ref[k]))));  // and it is tight
+                CHECK(pd.r[k] < 1e-25 * (1 + std::fabs(static_cast<double>(ref[k]))));
+                const long double dd = static_cast<long double>(pd.c[k].hi) + pd.c[k].lo;
+                CHECK(std::fabs(ref[k] - dd) <= pd.r[k] + slack);
+            }
+        }
+    // Exact zeros stay exact: x y + z - 1 along the y axis (d = (0, 1, 0)):
+    // the t^2 coefficient G_xy d_x d_y is an exact zero (a root at infinity).
+    SceneSpec sp;
+    SurfaceSpec q;
+    q.degree = 2;
+    q.terms = {{1, 1, 0, 1.0}, {0, 0, 1, 1.0}, {0, 0, 0, -1.0}};
+    sp.objects.push_back(q);
+    sp.camera.position[0] = 0.0;
+    sp.camera.position[1] = -4.0;
+    sp.camera.position[2] = 0.0;
+    FrameParams f1;
+    f1.width = f1.height = 1;
+    const FramePlan pl = plan_frame(sp, f1);
+    const Ray ray = primary_ray(pl, 0, 0);
+    RayCoefficients<double> p;
+    ObjectRay oray;
+    primary_ray_polynomial(pl.scene.objects[0], pl.objects[0], ray.direction, p, oray);
+    CHECK(ray.direction[0] == 0.0 && ray.direction[2] == 0.0 && ray.direction[1] == 1.0);
+    CHECK(p.c[2] == 0.0 && p.r[2] == 0.0);
+    CHECK(p.c[0] == -1.0);
+}
+
+static void test_refinement() {
+    // (t - 2)(t - 2 - 1e-9)(t + 1): a disc around 2 refined in double-double
+    // must still hold exactly the root 2 (not the one at 2 + 1e-9).
+    RayCoefficients<DoubleDouble> p;
+    p.n = 3;
+    const long double a = 2, b = 2 + 1e-9L, c = -1;
+    const long double k0 = -a * b * c, k1 = a * b + a * c + b * c, k2 = -(a + b + c);
+    const long double coeffs[4] = {k0, k1, k2, 1};
+    for (int k = 0; k <= 3; ++k) {
+        const double hi = static_cast<double>(coeffs[k]);
+        p.c[k] = DoubleDouble(hi, static_cast<double>(coeffs[k] - hi));
+        p.r[k] = 1e-30;  // covers long double's rounding of the coefficients
+    }
+    p.finite = true;
+    RootDisc d = disc(2.0 - 1e-10, 0.0, 4e-10);  // holds 2 only
+    const bool ok = refine_disc_dd(p, true, d);
+    CHECK(ok);
+    CHECK(d.radius < 1e-15);
+    CHECK(std::fabs(d.re - 2.0) <= d.radius + 1e-300);
+    // A disc holding both roots is not a count-1 disc: refinement refuses clusters.
+    RootDisc cluster{2.0, 0.0, 1e-8, 2, true, false};
+    CHECK(!refine_disc_dd(p, false, cluster));
+}
+
+static void test_isolation() {
+    // (t - 2)(t - 2 - 1e-9)(t + 1) with coefficient radii 1e-30: one double
+    // disc holding both roots near 2 is split into two proven discs.
+    RayCoefficients<DoubleDouble> p;
+    p.n = 3;
+    const long double a = 2, b = 2 + 1e-9L, c = -1;
+    const long double coeffs[4] = {-a * b * c, a * b + a * c + b * c, -(a + b + c), 1};
+    for (int k = 0; k <= 3; ++k) {
+        const double hi = static_cast<double>(coeffs[k]);
+        p.c[k] = DoubleDouble(hi, static_cast<double>(coeffs[k] - hi));
+        p.r[k] = 1e-30;
+    }
+    p.finite = true;
+    RootsResult res;
+    res.n_infinite = 0;
+    res.n_discs = 2;
+    res.discs[0] = RootDisc{2.0, 0.0, 1e-7, 2, true, false};
+    res.discs[1] = RootDisc{-1.0, 0.0, 1e-12, 1, true, true};
+    CHECK(isolate_dd(p, res));
+    CHECK(res.n_discs == 3);
+    int near2 = 0;
+    for (int i = 0; i < res.n_discs; ++i) {
+        const RootDisc& d = res.discs[i];
+        CHECK(d.verified && d.count == 1 && d.radius < 1e-12);
+        const bool holds_a = std::hypot(d.re - 2.0, d.im) <= d.radius;
+        const bool holds_b = std::hypot(d.re - static_cast<double>(b), d.im) <= d.radius + 1e-18;
+        const bool holds_c = std::hypot(d.re + 1.0, d.im) <= d.radius;
+        CHECK(holds_a + holds_b + holds_c == 1);
+        near2 += holds_a || holds_b;
+    }
+    CHECK(near2 == 2);
+    // Radii that blur the two roots together: refused, res untouched.
+    for (int k = 0; k <= 3; ++k) p.r[k] = 1e-12;
+    res.n_discs = 2;
+    res.discs[0] = RootDisc{2.0, 0.0, 1e-5, 2, true, false};
+    res.discs[1] = RootDisc{-1.0, 0.0, 1e-12, 1, true, true};
+    CHECK(!isolate_dd(p, res));
+    CHECK(res.n_discs == 2 && res.discs[0].count == 2);
+}
+
+static void test_tiles_and_limits() {
+    // 18 objects (the old 16-entry array overflowed) render, clipped and not.
+    for (double clip : {0.0, 1.5}) {
+        FramePlan pl = plan_with(0.0, 0.3, sphere_scene(clip, 18));
+        TileAOVs t;
+        render_tile(pl, TileRect{0, 0, 16, 16}, t);
+        CHECK(t.width == 16 && t.height == 16 && t.status.size() == 256 && t.escalation.size() == 256);
+        int certified = 0;
+        for (auto v : t.status) certified += v == kCertified;
+        CHECK(certified > 200);
+    }
+    FramePlan full = plan_with(0.0, 0.0, sphere_scene(0.0, kMaxObjects));
+    TileAOVs t;
+    render_tile(full, TileRect{0, 0, 16, 16}, t);
+    CHECK(t.status.size() == 256);
+    bool threw = false;
+    try {
+        plan_with(0.0, 0.0, sphere_scene(0.0, kMaxObjects + 1));
+    } catch (const std::invalid_argument& e) {
+        threw = std::string(e.what()).find(std::to_string(kMaxObjects)) != std::string::npos;
+    }
+    CHECK(threw);
+    // explain_pixel runs render_tile's path: same status and escalation.
+    FramePlan pl = plan_with(0.0, 0.2, sphere_scene(1.2, 3));
+    TileAOVs all;
+    render_tile(pl, TileRect{0, 0, 16, 16}, all);
+    for (int y = 0; y < 16; y += 5)
+        for (int x = 0; x < 16; x += 3) {
+            const PixelExplanation e = explain_pixel(pl, x, y, 0);
+            CHECK(e.status == all.status[y * 16 + x]);
+            CHECK(e.level == all.escalation[y * 16 + x]);
+            CHECK(e.hit == (all.rgba[4 * (y * 16 + x) + 3] > 0));
+        }
+}
+
+int main() {
+    test_band_rule();
+    test_balls();
+    test_band_membership();
+    test_trig_assumption();
+    test_clip();
+    test_ray_coefficients();
+    test_refinement();
+    test_isolation();
+    test_tiles_and_limits();
+    if (failures) {
+        std::fprintf(stderr, "render_test: %d failure(s)\n", failures);
+        return 1;
+    }
+    std::printf("render_test: all passed\n");
+    return 0;
+}
