@@ -55,7 +55,8 @@ def share_table(build_dir):
     for degree in sorted(SHARES):
         cert, total = SHARES[degree]
         lines.append(f"| {degree} | {total} | {100 * cert / total:.2f}% |")
-    lines += ["", f"Certified pixels with the right root but AOVs off by more than float32: {len(IMPRECISE)}", ""]
+    lines += ["", "Imprecise AOVs of certified pixels (the right root, but re/im or Z farther from it than float32 "
+              f"allows; each AOV counted): {len(IMPRECISE)}", ""]
     lines += [f"- {p}" for p in IMPRECISE[:50]]
     text = "\n".join(lines) + "\n"
     (build_dir / "render_truth.md").write_text(text)
