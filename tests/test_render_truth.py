@@ -37,6 +37,8 @@ SHARES: dict[int, list[int]] = defaultdict(lambda: [0, 0])
 #: exact root than float32 allows (not a false claim: the AOV is the disc's
 #: centre, and the disc may be wide), reported in build/render_truth.md.
 IMPRECISE: list[str] = []
+#: Grazing case -> (certified, checked) centre pixels within ~2^-40 of the silhouette.
+GRAZING_CERTIFIED: dict[str, tuple[int, int]] = {}
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -55,6 +57,9 @@ def share_table(build_dir):
     for degree in sorted(SHARES):
         cert, total = SHARES[degree]
         lines.append(f"| {degree} | {total} | {100 * cert / total:.2f}% |")
+    if GRAZING_CERTIFIED:
+        lines += ["", "Grazing rays (the last look_ats of the bisection): certified / checked", ""]
+        lines += [f"- {name}: {c} / {n}" for name, (c, n) in sorted(GRAZING_CERTIFIED.items())]
     lines += ["", "Imprecise AOVs of certified pixels (the right root, but re/im or Z farther from it than float32 "
               f"allows; each AOV counted): {len(IMPRECISE)}", ""]
     lines += [f"- {p}" for p in IMPRECISE[:50]]
@@ -290,6 +295,7 @@ def test_rays_grazing_a_silhouette_are_never_certified_wrongly(name, make_scene,
     look_ats = bisect_to_tangency(scene, params, hit_at, miss_at, objects)
     # The last 12 are within ~2^-40 of the silhouette, the final pair within an ulp.
     certified, problems = check_centre_pixels(scene, params, look_ats[-12:], objects)
+    GRAZING_CERTIFIED[name] = (certified, len(look_ats[-12:]))
     assert_never_wrong([f"{name}: {p}" for p in problems])
 
 
