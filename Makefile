@@ -8,7 +8,7 @@ PIP     := $(PY) -m pip
 STAMP   := $(VENV)/.argand-deps
 SOURCES := $(shell find core python api worker web -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name '*.mako' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: setup build run test test-cpp test-py bench bench-render bench-smoke clean
+.PHONY: setup build run test test-cpp test-py bench bench-render bench-smoke bench-all load clean
 
 setup: $(VENV)/.argand-built
 
@@ -51,6 +51,13 @@ run: setup
 bench-render: setup
 	$(VENV)/bin/argand bench render
 
+# The load test: simulated users (Locust) against argand serve --workers 2 on
+# a free loopback port (its own data folder): ramp, steady, drain, probes.
+# A few minutes; writes docs/bench/load.{json,md,png}. Its smoke version
+# runs in make test (tests/test_load.py).
+load: setup
+	$(VENV)/bin/argand bench load
+
 # C++ unit tests of the arithmetic, with the CMake that setup installed.
 test-cpp: $(STAMP)
 	$(VENV)/bin/cmake -S . -B build/cpp -DCMAKE_BUILD_TYPE=Release >/dev/null
@@ -60,14 +67,19 @@ test-cpp: $(STAMP)
 test-py: setup
 	$(VENV)/bin/pytest
 
-test: test-cpp test-py
+test: test-cpp test-py bench-smoke
 
 bench: setup
 	$(VENV)/bin/argand bench roots
 
+# Every benchmark at its smoke size and the report page made from them
+# (build/bench-smoke/benchmarks.md): about two minutes, so none of them rots.
 bench-smoke: setup
-	$(VENV)/bin/argand bench roots --smoke --out build/bench-smoke
-	$(VENV)/bin/argand bench render --smoke --out build/bench-smoke
+	$(VENV)/bin/argand bench all --smoke --out build/bench-smoke
+
+# The full report, docs/benchmarks.md (tens of minutes on 2 cores).
+bench-all: setup
+	$(VENV)/bin/argand bench all
 
 clean:
 	rm -rf build dist $(VENV)

@@ -168,6 +168,13 @@ def test_bench_roots_smoke(tmp_path):
         for name, ratio in data["slowdown_vs_auto"].items():
             assert _finite_positive(ratio), name
     assert any("times faster than python-flint acb_poly.roots() on quartics" in line for line in report["headline"])
+    # The real ray polynomials: every scene, silhouettes among them, every contender run on them.
+    rays = report["suites"]["rays"]["results"]
+    assert set(ours + alternatives) <= set(rays)
+    assert rays["argand-auto"]["fully_verified_share"] > 0.5
+    assert len(report["rays"]["by_scene"]) == 10 and report["rays"]["by_kind"]["silhouette"] > 0
+    assert {"5", "6", "8"} <= set(report["rays"]["by_degree"])
+    assert 0 <= rays["flint-acb_poly.roots"]["failed_share"] <= 1
     assert "auto" in (tmp_path / "roots.md").read_text()
     assert (tmp_path / "roots.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
@@ -182,7 +189,8 @@ def test_bench_render_smoke(tmp_path):
     r = run("bench", "render", "--smoke", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     report = json.loads((tmp_path / "render.json").read_text())
-    assert len(report["frames"]) == 6 * 2 * 3
+    assert len(report["frames"]) == 10 * 2 * 3  # six presets and four surfaces of degree 5-8
+    assert {f["degree"] for f in report["frames"]} >= {"3", "4", "3+2", "5", "6", "8"}
     for f in report["frames"]:
         assert f["ms"] > 0 and f["unverified_ms"] > 0 and 0 <= f["certified_share"] <= 1
     assert (tmp_path / "render_contact.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -196,6 +204,24 @@ def test_bench_render_smoke(tmp_path):
     text = (tmp_path / "render.md").read_text()
     assert "| chmutov-octic | 8 | 64×64 |" in text and "Per degree" in text
     assert (tmp_path / "render_contact_classic.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("args, message", [
+    (("bench", "load", "--users", "0,5"), "--users"),
+    (("bench", "load", "--users", "a,b"), "--users"),
+    (("bench", "load", "--steady-s", "1"), "--steady-s"),
+    (("bench", "load", "--steady-users", "0"), "--steady-users"),
+    (("bench", "all", "--reuse", "roots,nope"), "nope"),
+])
+def test_bench_load_and_all_refuse_bad_options(tmp_path, args, message):
+    r = run(*args, "--out", str(tmp_path))
+    assert r.returncode == 2 and message in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert not list(tmp_path.iterdir())
+
+
+def test_bench_all_reuse_needs_the_sections_json(tmp_path):
+    r = run("bench", "all", "--reuse", "farm", "--out", str(tmp_path), "--page", str(tmp_path / "b.md"))
+    assert r.returncode == 2 and "farm.json" in r.stderr and "Traceback" not in r.stderr, r.stderr
 
 
 def test_bench_farm_smoke(tmp_path):

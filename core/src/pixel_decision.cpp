@@ -166,42 +166,31 @@ Verdict clip_verdict_exact(const ObjectRay& ray, double mod_lo, double mod_hi, d
     return Verdict::Unknown;
 }
 
-/// The same interval evaluation in round-to-nearest, with one error bound
-/// for all its roundings: every intermediate is bounded in magnitude by
-/// M_a = |o_a| + rad(o_a) + mod_hi (|d_a| + rad(d_a)) per axis (its square by
-/// M_a^2), each of the at most 12 roundings on a path costs at most u of
-/// such a magnitude, so |computed - exact| <= 16 u sum M_a^2 (+ underflow).
+/// A cheaper first test: the point P_c = o' + m d' at the middle modulus m,
+/// computed in round-to-nearest, and a bound e on the distance from P_c to
+/// every P(s) = o' + s d' (s in [mod_lo, mod_hi], o' and d' anywhere in
+/// their balls): |s - m| |d'| + rad(o') + m rad(d') + the roundings of P_c
+/// (at most 4u (|o'| + m |d'|) per axis), with 1-norms bounding 2-norms.
+/// Then every |P(s)| lies in [|P_c| - e, |P_c| + e], |P_c| within 3u.
 Verdict clip_verdict_fast(const ObjectRay& ray, double mod_lo, double mod_hi, double radius) {
-    double qlo = 0.0, qhi = 0.0, mag = 0.0;
+    const double m = 0.5 * (mod_lo + mod_hi);
+    const double w = (mod_hi - m > m - mod_lo ? mod_hi - m : m - mod_lo) * (1.0 + 4.0 * kU);
+    double q = 0.0, spread = 0.0, size = 0.0;
     for (int a = 0; a < 3; ++a) {
-        const double om = ray.origin[a].mid, orad = ray.origin[a].rad;
-        const double dm = ray.direction[a].mid, drad = ray.direction[a].rad;
-        const double dlo_v = dm - drad, dhi_v = dm + drad;
-        const double dlo = dlo_v >= 0 ? dlo_v * mod_lo : dlo_v * mod_hi;
-        const double dhi = dhi_v >= 0 ? dhi_v * mod_hi : dhi_v * mod_lo;
-        const double plo = om - orad + dlo, phi = om + orad + dhi;
-        double slo, shi;
-        if (plo >= 0) {
-            slo = plo * plo;
-            shi = phi * phi;
-        } else if (phi <= 0) {
-            slo = phi * phi;
-            shi = plo * plo;
-        } else {
-            const double m = -plo > phi ? -plo : phi;
-            slo = 0.0;
-            shi = m * m;
-        }
-        qlo += slo;
-        qhi += shi;
-        const double m = std::fabs(om) + orad + mod_hi * (std::fabs(dm) + drad);
-        mag += m * m;
+        const double om = ray.origin[a].mid, dm = ray.direction[a].mid;
+        const double p = om + m * dm;
+        q += p * p;
+        const double dabs = std::fabs(dm) + ray.direction[a].rad;
+        spread += w * dabs + ray.origin[a].rad + mod_hi * ray.direction[a].rad;
+        size += std::fabs(om) + mod_hi * dabs;
     }
-    const double err = next_up(mag * (32.0 * kU) + 64.0 * kDenormMin);
-    if (!(err < INFINITY)) return Verdict::Unknown;
-    const double r2 = radius * radius;  // within u r2
-    if (next_up(qhi + err) <= r2 * (1.0 - 4.0 * kU)) return Verdict::Yes;
-    if (next_down(qlo - err) > r2 * (1.0 + 4.0 * kU)) return Verdict::No;
+    // Each sum/product above of nonnegatives is within 1 + u: inflate by
+    // 1 + 16u, then round up.
+    const double e = next_up((spread + 8.0 * kU * size) * (1.0 + 16.0 * kU) + 64.0 * kDenormMin);
+    const double norm = std::sqrt(q);
+    if (!(e < INFINITY) || !(norm < INFINITY)) return Verdict::Unknown;
+    if (next_up(norm * (1.0 + 4.0 * kU) + e) <= radius * (1.0 - 2.0 * kU)) return Verdict::Yes;
+    if (next_down(norm * (1.0 - 4.0 * kU) - e) > radius * (1.0 + 2.0 * kU)) return Verdict::No;
     return Verdict::Unknown;
 }
 

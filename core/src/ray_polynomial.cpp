@@ -320,10 +320,11 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
     // Direct expansion of each term in round-to-nearest, with a magnitude
     // expansion beside it (the same recurrences on bounds A of |o'_a|,
     // |d'_a|): every coefficient's error is at most
-    //   factor * M_k,  factor = 2 (n eps + (2n + 6 + (n + 1)^2 + terms) u),
-    // where M_k is the magnitude expansion's coefficient, eps = 5u the
-    // A-relative error of o' and d' (as object_direction), and the rest
-    // the roundings on any path (powers, the triple products, the sums).
+    //   factor_k * M_k,  factor_k = 2 (n eps + (2n + 6 + N_k) u),
+    // where M_k is the magnitude expansion's coefficient, eps = 5u (6u
+    // charged) the A-relative error of o' and d' (as object_direction), 2n
+    // the roundings of the powers on any path, 6 those of the triple
+    // products, and N_k the number of summands added into coefficient k.
     const int n = s.degree;
     double om[3], oa[3], orad[3], dm[3], da[3], drad[3];
     const double diff[3] = {o[0] - s.translate[0], o[1] - s.translate[1], o[2] - s.translate[2]};
@@ -371,7 +372,11 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
         }
     }
     double sum[kMaxDegree + 1], mag[kMaxDegree + 1];
-    for (int k = 0; k <= n; ++k) sum[k] = mag[k] = 0.0;
+    int added[kMaxDegree + 1];  // summands of each coefficient (roundings of its sum)
+    for (int k = 0; k <= n; ++k) {
+        sum[k] = mag[k] = 0.0;
+        added[k] = 0;
+    }
     double lowest = INFINITY, highest = 0.0;
     for (const Term& term : s.terms) {
         if (term.coeff == 0.0) continue;
@@ -386,6 +391,7 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
                 for (int l = 0; l <= term.ez; ++l) {
                     sum[i + j + l] += xy * pw[2][term.ez][l];
                     mag[i + j + l] += xym * pm[2][term.ez][l];
+                    ++added[i + j + l];
                 }
             }
     }
@@ -404,15 +410,14 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
         slack = !(p >= kProductFloor);
     }
     const double terms = static_cast<double>(s.terms.size());
-    const double factor = mul_up(2.0, add_up(mul_up(n, 5.0 * kU), mul_up(2.0 * n + 6.0 + (n + 1.0) * (n + 1.0) + terms, kU)));
-    const double radius_factor = add_up(1.0, factor);
     double grow = 1.0;
     for (int k = 0; k <= n; ++k) grow = mul_up(grow, amax);
     out.n = n;
     out.finite = true;
     for (int k = 0; k <= n; ++k) {
         out.c[k] = sum[k];
-        double r = mag[k] == 0.0 ? 0.0 : next_up(mul_up(radius_factor, mag[k]) * factor);
+        const double factor = mul_up(2.0, add_up(mul_up(n, 5.0 * kU), mul_up(2.0 * n + 6.0 + added[k], kU)));
+        double r = mag[k] == 0.0 ? 0.0 : next_up(mul_up(add_up(1.0, factor), mag[k]) * factor);
         // (An absolute loss in one product is carried by the coefficient and
         // the remaining factors: at most max(1, |coeff|) max(1, A)^n.)
         if (slack) r = add_up(r, mul_up(mul_up((3.0 * n + terms + 8.0) * kSlackPerOp, 1.0 + highest), grow));

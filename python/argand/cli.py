@@ -348,6 +348,91 @@ def bench_farm_cmd(
     console.print(f"wrote {out / 'farm.json'}, {out / 'farm.md'} and {out / 'farm.png'}")
 
 
+@bench_app.command("load")
+def bench_load_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for load.json, load.md and load.png."),
+    url: Optional[str] = typer.Option(None, "--url", help="An existing farm (default: start argand serve --workers 2 "
+                                      "on a free loopback port with its own data folder)."),
+    smoke: bool = typer.Option(False, "--smoke", help="Seconds, not minutes: keeps the harness alive in CI."),
+    users: Optional[str] = typer.Option(None, "--users", help="The ramp's steps, e.g. 1,5,10,20,40,60."),
+    step_s: Optional[float] = typer.Option(None, "--step-s", help="Seconds per ramp step (default 20, smoke 4)."),
+    steady_s: Optional[float] = typer.Option(None, "--steady-s", help="Seconds of the steady phase (default 90, smoke 6)."),
+    steady_users: Optional[int] = typer.Option(None, "--steady-users", help="Users in the steady phase "
+                                               "(default: the sustainable level the ramp found)."),
+    profile: bool = typer.Option(False, "--profile", help="Sample the API with py-spy during the steady phase."),
+    probes: Optional[bool] = typer.Option(None, "--probes/--no-probes", help="After the drain, time the list and "
+                                          "status requests under conditions that isolate the causes (default: on, "
+                                          "off with --smoke)."),
+    seed: int = typer.Option(1, "--seed", help="Seed of the users' choices."),
+) -> None:
+    """Simulated users (Locust) against a two-worker farm: ramp, steady, drain; latency per endpoint, lost jobs, throughput."""
+    from argand.bench.load import bench_load
+
+    ramp = None
+    if users is not None:
+        try:
+            ramp = tuple(int(u) for u in users.split(","))
+        except ValueError:
+            fail(f"--users must be user counts separated by commas (e.g. 1,5,10), got {users!r}")
+        if not ramp or min(ramp) < 1:
+            fail(f"--users: every step needs at least 1 user, got {users!r}")
+    for name, value in (("--step-s", step_s), ("--steady-s", steady_s)):
+        if value is not None and value <= 2:
+            fail(f"{name} must be above 2 seconds (a step's first 2 s are left out), got {value}")
+    if steady_users is not None and steady_users < 1:
+        fail(f"--steady-users must be at least 1, got {steady_users}")
+    with console.status("load test") as status:
+        report = bench_load(out_dir=out, url=url, smoke=smoke, ramp_users=ramp, step_s=step_s, steady_s=steady_s,
+                            steady_users=steady_users, seed=seed, profile=profile, probes=probes,
+                            progress=lambda m: status.update(m))
+    from argand.bench.load_report import markdown
+
+    console.print(markdown(report), soft_wrap=True, markup=False, highlight=False)
+    console.print(f"wrote {out / 'load.json'}, {out / 'load.md'} and {out / 'load.png'}")
+
+
+@bench_app.command("stability")
+def bench_stability_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for stability.json, stability.md and stability.png."),
+    smoke: bool = typer.Option(False, "--smoke", help="A small picture, for CI."),
+) -> None:
+    """The named stability suite: every method (argand's, numpy, python-flint, mpmath, MPSolve) on every case, classed."""
+    from argand.bench.stability import bench_stability, markdown
+
+    with console.status("stability suite") as status:
+        report = bench_stability(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+    console.print(markdown(report), soft_wrap=True, markup=False, highlight=False)
+    console.print(f"wrote {out / 'stability.json'}, {out / 'stability.md'} and {out / 'stability.png'}")
+
+
+@bench_app.command("all")
+def bench_all_cmd(
+    out: Path = typer.Option(None, "--out", help="Folder for every section's files (default docs/bench, "
+                             "smoke build/bench-smoke)."),
+    page: Path = typer.Option(None, "--page", help="The report (default docs/benchmarks.md, smoke "
+                              "build/bench-smoke/benchmarks.md)."),
+    smoke: bool = typer.Option(False, "--smoke", help="Every section at its smoke size (minutes): keeps them alive in CI."),
+    reuse: Optional[str] = typer.Option(None, "--reuse", help="Sections taken from their last JSON instead of run "
+                                        "again, e.g. farm,render (of: roots, stability, render, farm, load)."),
+) -> None:
+    """Every benchmark, then docs/benchmarks.md: machine and versions, roots, stability, render, farm, load."""
+    from argand.bench.report import SECTIONS, bench_all
+
+    default_out = Path("build/bench-smoke") if smoke else Path("docs/bench")
+    out = out or default_out
+    page = page or (out / "benchmarks.md" if smoke else Path("docs/benchmarks.md"))
+    chosen = tuple(s.strip() for s in reuse.split(",") if s.strip()) if reuse else ()
+    bad = [s for s in chosen if s not in SECTIONS]
+    if bad:
+        fail(f"--reuse: unknown section(s) {', '.join(bad)}; sections: {', '.join(SECTIONS)}")
+    with console.status("benchmarks") as status:
+        try:
+            bench_all(out_dir=out, page=page, smoke=smoke, reuse=chosen, progress=lambda m: status.update(m))
+        except FileNotFoundError as exc:
+            fail(str(exc))
+    console.print(f"wrote {page} (sections' files in {out}/)")
+
+
 # ---------------------------------------------------------------------------
 # The farm
 # ---------------------------------------------------------------------------

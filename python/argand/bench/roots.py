@@ -21,6 +21,8 @@ from argand.bench import machine_info, median_time
 from argand.core import find_roots_batch
 
 OUR_METHODS = ("auto", "smith", "paper", "unverified")
+#: How the headline names each suite.
+SUITE_LABELS = {"quartic": "quartics", "mixed_2_8": "mixed degrees 2-8", "rays": "real ray polynomials"}
 #: What each row measures (written into roots.json).
 CONTENDERS = {
     "argand-*": "argand.core.find_roots_batch(matrix, method) on one (N, n+1) batch per degree",
@@ -149,15 +151,19 @@ def run_flint(polys: list[np.ndarray], repeats: int, tol: float | None = None):
     prepared = [flint.acb_poly([flint.acb(float(c)) for c in p]) for p in polys]
 
     def solve(p):
-        return p.roots(tol, maxprec=1024) if tol is not None else p.roots()
+        try:
+            return p.roots(tol, maxprec=1024) if tol is not None else p.roots()
+        except ValueError:  # "failed to converge": a multiple root or a cluster it cannot isolate
+            return None
 
     seconds = median_time(lambda: [solve(p) for p in prepared], repeats)
-    approx, radii = [], []
+    approx, radii, failed = [], [], 0
     for p in prepared:
         r = solve(p)
-        approx.append(np.array([complex(float(z.real.mid()), float(z.imag.mid())) for z in r]))
-        radii.append(np.array([float(z.rad()) for z in r]))
-    return seconds, approx, radii
+        failed += r is None
+        approx.append(np.array([complex(float(z.real.mid()), float(z.imag.mid())) for z in r or []]))
+        radii.append(np.array([float(z.rad()) for z in r or []]))
+    return seconds, approx, radii, failed / max(len(prepared), 1)
 
 
 def run_mpmath(polys: list[np.ndarray], repeats: int):
@@ -168,7 +174,10 @@ def run_mpmath(polys: list[np.ndarray], repeats: int):
         try:
             return mpmath.polyroots(coeffs, maxsteps=200, extraprec=30)
         except mpmath.libmp.NoConvergence:  # rare: give it more room, as its docs advise
-            return mpmath.polyroots(coeffs, maxsteps=2000, extraprec=200)
+            try:
+                return mpmath.polyroots(coeffs, maxsteps=2000, extraprec=200)
+            except mpmath.libmp.NoConvergence:  # no answer (the accuracy counts none for it)
+                return []
 
     seconds = median_time(lambda: [solve(p) for p in polys], repeats)
     approx = [np.array([complex(z) for z in solve(p)]) for p in polys]
@@ -233,16 +242,24 @@ def bench_roots(
     repeats = 3 if smoke else 5
     # Timed repetitions after one untimed warm-up run; the median is kept.
     timed_runs = {"ours": repeats, "numpy": repeats, "flint": 3, "mpsolve": 3, "mpmath": 1}
+    from argand.bench.rays import ray_polynomials, summary
+
+    # Real ray polynomials: every preset and surfaces of degree 5 to 8,
+    # silhouettes and uncertified pixels included (argand.bench.rays).
+    rays, ray_origin = ray_polynomials(per_kind=3 if smoke else 40, size=48 if smoke else 96)
+    order = rng.permutation(len(rays))  # the contenders run on leading subsets: every scene in each
+    rays, ray_origin = [rays[i] for i in order], [ray_origin[i] for i in order]
     suites = {
         "quartic": random_polys(rng, count, (4, 4)),
         "mixed_2_8": random_polys(rng, count, (2, 8)),
+        "rays": rays,
     }
     have_mpsolve, mpsolve_note = mpsolve_available()
     report: dict = {
         "benchmark": "roots",
         "machine": machine_info(),
         "versions": versions(),
-        "sizes": sizes,
+        "sizes": sizes,  # per suite: at most these, at most the suite's size
         "repeats": timed_runs,
         "mpsolve": {"available": have_mpsolve, "note": mpsolve_note},
         "contenders": CONTENDERS,
@@ -254,6 +271,9 @@ def bench_roots(
             "rounded double"
         ),
         "suites": {},
+        "rays": dict(summary(ray_origin), note="the rays suite: primary rays of every preset and of surfaces of "
+                     "degree 5 to 8 (argand.bench.rays.HIGH_DEGREE) at delta 0, pi/18, pi/9; silhouette, uncertified, "
+                     "random-hit and random pixels; one polynomial per object"),
     }
     steps_per_suite = 2 + len(OUR_METHODS) + 4 + (1 if have_mpsolve else 0)
     total = steps_per_suite * len(suites) + 1
@@ -264,7 +284,9 @@ def bench_roots(
         progress(message, done, total)
         done += 1
 
+    full_sizes = dict(sizes)
     for suite, polys in suites.items():
+        sizes = {k: min(v, len(polys)) for k, v in full_sizes.items()}
         step(f"{suite}: truth for {sizes['truth']} polynomials (python-flint, 128 bits, exact rationals)")
         truth_idx = list(range(sizes["truth"]))
         truth = [true_roots(polys[i]) for i in truth_idx]
@@ -290,11 +312,11 @@ def bench_roots(
         seconds, approx, radii = run_numpy(polys[: sizes["numpy"]], repeats)
         record("numpy-eigvals", sizes["numpy"], seconds, approx, None)
         step(f"{suite}: python-flint acb_poly.roots")
-        seconds, approx, radii = run_flint(polys[: sizes["flint"]], timed_runs["flint"])
-        record("flint-acb_poly.roots", sizes["flint"], seconds, approx, radii)
+        seconds, approx, radii, failed = run_flint(polys[: sizes["flint"]], timed_runs["flint"])
+        record("flint-acb_poly.roots", sizes["flint"], seconds, approx, radii, {"failed_share": failed})
         step(f"{suite}: python-flint acb_poly.roots(tol=1e-14), accuracy matched")
-        seconds, approx, radii = run_flint(polys[: sizes["flint"]], timed_runs["flint"], tol=1e-14)
-        record("flint-acb_poly.roots(tol=1e-14)", sizes["flint"], seconds, approx, radii)
+        seconds, approx, radii, failed = run_flint(polys[: sizes["flint"]], timed_runs["flint"], tol=1e-14)
+        record("flint-acb_poly.roots(tol=1e-14)", sizes["flint"], seconds, approx, radii, {"failed_share": failed})
         step(f"{suite}: mpmath polyroots")
         seconds, approx, radii = run_mpmath(polys[: sizes["mpmath"]], timed_runs["mpmath"])
         record("mpmath-polyroots", sizes["mpmath"], seconds, approx, None)
@@ -334,7 +356,7 @@ def headline(report: dict) -> list[str]:
     }
     lines = []
     for suite, data in report["suites"].items():
-        label = "quartics" if suite == "quartic" else "mixed degrees 2-8"
+        label = SUITE_LABELS.get(suite, suite)
         ratios = data["slowdown_vs_auto"]
         for key, text in names.items():
             if key in ratios:
@@ -353,8 +375,8 @@ def markdown(report: dict) -> str:
         lines += [
             f"**{suite}** ({rows['argand-auto']['polynomials']} polynomials; accuracy against the exact roots)",
             "",
-            "| method | ns / polynomial | time ÷ auto | median radius / \\|root\\| | median error | max error | fully verified |",
-            "|---|---:|---:|---:|---:|---:|---:|",
+            "| method | ns / polynomial | time ÷ auto | median radius / \\|root\\| | median error | max error | fully verified | no answer |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for name, row in rows.items():
             def fmt(key):
@@ -363,7 +385,8 @@ def markdown(report: dict) -> str:
             verified = f"{100 * row['fully_verified_share']:.2f}%" if "fully_verified_share" in row else ""
             lines.append(
                 f"| {name} | {row['ns_per_poly']:.0f} | {row['ns_per_poly'] / auto:.1f} | {fmt('median_rel_radius')} "
-                f"| {fmt('median_rel_error')} | {fmt('max_rel_error')} | {verified} |"
+                f"| {fmt('median_rel_error')} | {fmt('max_rel_error')} | {verified} | "
+                + (f"{100 * row['failed_share']:.1f}%" if "failed_share" in row else "") + " |"
             )
         lines.append("")
     return "\n".join(lines)
