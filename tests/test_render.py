@@ -15,12 +15,13 @@ from argand.core import _core
 from argand.render import FrameParams, render_frame
 from argand.render.convert import to_core_scene
 from argand.render.frames import plan
-from argand.scene import PRESETS, load_scene, scene_from_dict
+from argand.scene import load_scene, scene_from_dict
+from argand.scene.presets import PAPER_PRESETS
 
 DELTAS = [0.0, math.pi / 36, math.pi / 18, math.pi / 9]
 
 
-@pytest.mark.parametrize("name", PRESETS)
+@pytest.mark.parametrize("name", PAPER_PRESETS)
 def test_growing_delta_never_shrinks_the_mask_nor_grows_the_modulus(name):
     scene = load_scene(name)
     frames = [render_frame(scene, FrameParams(delta=d, width=40, height=40), workers=1) for d in DELTAS]
@@ -150,7 +151,7 @@ def reference_pixel(scene, eye, d, sigma, delta):
     return True, best, clear
 
 
-@pytest.mark.parametrize("name", PRESETS)
+@pytest.mark.parametrize("name", PAPER_PRESETS)
 @pytest.mark.parametrize("delta", [0.0, math.pi / 18])
 def test_agrees_with_the_slow_reference(name, delta):
     scene = load_scene(name)
