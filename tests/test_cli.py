@@ -194,6 +194,16 @@ def test_bench_render_smoke(tmp_path):
     for f in report["frames"]:
         assert f["ms"] > 0 and f["unverified_ms"] > 0 and 0 <= f["certified_share"] <= 1
     assert (tmp_path / "render_contact.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # The classic surfaces of degree 5 to 8, and the figures per degree.
+    classic = report["classic_frames"]
+    assert sorted({f["degree"] for f in classic}) == [5, 6, 7, 8] and len(classic) == 5 * 3
+    for f in classic:
+        assert f["ns_per_pixel"] > 0 and 0 <= f["escalated_share"] <= 1
+        assert abs(sum(f["status_shares"].values()) - 1) < 1e-9
+    assert [d["degree"] for d in report["per_degree"]] == [3, 4, 5, 6, 7, 8]
+    text = (tmp_path / "render.md").read_text()
+    assert "| chmutov-octic | 8 | 64×64 |" in text and "Per degree" in text
+    assert (tmp_path / "render_contact_classic.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.mark.parametrize("args, message", [

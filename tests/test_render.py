@@ -15,12 +15,13 @@ from argand.core import _core
 from argand.render import FrameParams, render_frame
 from argand.render.convert import to_core_scene
 from argand.render.frames import plan
-from argand.scene import PRESETS, load_scene, scene_from_dict
+from argand.scene import load_scene, scene_from_dict
+from argand.scene.presets import PAPER_PRESETS
 
 DELTAS = [0.0, math.pi / 36, math.pi / 18, math.pi / 9]
 
 
-@pytest.mark.parametrize("name", PRESETS)
+@pytest.mark.parametrize("name", PAPER_PRESETS)
 def test_growing_delta_never_shrinks_the_mask_nor_grows_the_modulus(name):
     scene = load_scene(name)
     frames = [render_frame(scene, FrameParams(delta=d, width=40, height=40), workers=1) for d in DELTAS]
@@ -150,7 +151,7 @@ def reference_pixel(scene, eye, d, sigma, delta):
     return True, best, clear
 
 
-@pytest.mark.parametrize("name", PRESETS)
+@pytest.mark.parametrize("name", PAPER_PRESETS)
 @pytest.mark.parametrize("delta", [0.0, math.pi / 18])
 def test_agrees_with_the_slow_reference(name, delta):
     scene = load_scene(name)
@@ -304,3 +305,34 @@ def test_render_sweep_writes_each_frame_as_rendered_and_restores_oiio_threads(tm
         count += 1
     inp.close()
     assert count == len(params)
+
+
+def test_the_renderers_limits_are_defined_once_in_cpp_and_enforced_everywhere():
+    """The surface degree, the frame side and the object count are C++'s
+    (render.h): plan_frame refuses past them, and the scene parser, the frame
+    parameters and the farm's settings read the same numbers."""
+    import copy
+
+    import pydantic
+
+    from argand.core import _core
+    from argand.farm.settings import Settings
+    from argand.render.convert import to_core_scene
+    from argand.render.frames import MAX_FRAME_SIDE, MAX_OBJECTS
+    from argand.scene import MAX_DEGREE, load_scene
+
+    assert MAX_DEGREE == _core.MAX_SURFACE_DEGREE and MAX_FRAME_SIDE == _core.MAX_FRAME_SIDE
+    assert MAX_OBJECTS == _core.MAX_OBJECTS
+    core_scene = to_core_scene(load_scene("bicube"))
+    _core.plan_frame(core_scene, 0.0, 0.0, MAX_FRAME_SIDE, 1)
+    with pytest.raises(ValueError, match=f"between 1x1 and {MAX_FRAME_SIDE}x{MAX_FRAME_SIDE}"):
+        _core.plan_frame(core_scene, 0.0, 0.0, MAX_FRAME_SIDE + 1, 1)
+    with pytest.raises(ValueError, match=f"{MAX_FRAME_SIDE}x{MAX_FRAME_SIDE}"):
+        FrameParams(width=1, height=MAX_FRAME_SIDE + 1)
+    too_high = copy.deepcopy(core_scene)
+    too_high["objects"][0]["terms"] = [(MAX_DEGREE + 1, 0, 0, 1.0), (0, 0, 0, -1.0)]
+    too_high["objects"][0]["degree"] = MAX_DEGREE + 1
+    with pytest.raises(ValueError, match=f"degree must be in 1..{MAX_DEGREE}"):
+        _core.plan_frame(too_high, 0.0, 0.0, 8, 8)
+    with pytest.raises(pydantic.ValidationError):
+        Settings(max_width=MAX_FRAME_SIDE + 1)

@@ -267,6 +267,8 @@ void init_render(py::module_& m) {
         "its ray, ray polynomials (with coefficient radii), discs, each decision, the status and the ladder level.",
         py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("row_start"));
     m.attr("MAX_OBJECTS") = kMaxObjects;
+    m.attr("MAX_SURFACE_DEGREE") = kMaxSurfaceDegree;
+    m.attr("MAX_FRAME_SIDE") = kMaxFrameSide;
     m.attr("BAND_RULE") = kBandRule;
     m.def("band_rule_holds", &band_rule_holds, "True iff (sigma, delta) satisfy BAND_RULE (decided exactly).",
           py::arg("sigma"), py::arg("delta"));

@@ -549,7 +549,9 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
     if (static_cast<int>(scene.objects.size()) > kMaxObjects)
         throw std::invalid_argument("the scene has " + std::to_string(scene.objects.size()) + " objects; at most " +
                                     std::to_string(kMaxObjects) + " are allowed");
-    if (params.width < 1 || params.height < 1) throw std::invalid_argument("frame size must be at least 1x1");
+    if (params.width < 1 || params.height < 1 || params.width > kMaxFrameSide || params.height > kMaxFrameSide)
+        throw std::invalid_argument("frame size must be between 1x1 and " + std::to_string(kMaxFrameSide) + "x" +
+                                    std::to_string(kMaxFrameSide));
     if (!band_rule_holds(params.sigma, params.delta))
         throw std::invalid_argument("the band (sigma = " + std::to_string(params.sigma) + ", delta = " +
                                     std::to_string(params.delta) + ") breaks the band rule: " + kBandRule);
@@ -576,8 +578,9 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
     plan.upper_edge = detail::band_edge(params.sigma, params.delta);
     for (std::size_t i = 0; i < scene.objects.size(); ++i) {
         const SurfaceSpec& s = scene.objects[i];
-        if (s.degree < 1 || s.degree > kMaxDegree)
-            throw std::invalid_argument("object " + std::to_string(i) + ": degree must be in 1.." + std::to_string(kMaxDegree));
+        if (s.degree < 1 || s.degree > kMaxSurfaceDegree)
+            throw std::invalid_argument("object " + std::to_string(i) + ": degree must be in 1.." +
+                                        std::to_string(kMaxSurfaceDegree));
         FramePlan::ObjectPlan op;
         try {
             detail::plan_object(s, plan.eye, op);

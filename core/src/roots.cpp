@@ -13,29 +13,12 @@
 namespace argand {
 namespace {
 
-/// True iff ldexp(v, e) is exact (no overflow, no loss in the subnormal range).
-inline bool exact_ldexp(double v, int e, double& out) {
-    out = std::ldexp(v, e);
-    return std::isfinite(out) && std::ldexp(out, -e) == v;
-}
-
 /// Exponent of a finite nonzero double (floor(log2|v|)), without libm.
 inline int exponent_of(double v) {
     std::uint64_t bits;
     std::memcpy(&bits, &v, sizeof bits);
     const int biased = static_cast<int>((bits >> 52) & 0x7ff);
     return biased == 0 ? std::ilogb(v) : biased - 1023;
-}
-
-/// Exponent of the lowest set bit of a finite nonzero double: v is an
-/// integer multiple of 2^lowest_bit(v).
-inline int lowest_bit(double v) {
-    int q;
-    const double m = std::frexp(std::fabs(v), &q);  // v = m 2^q, m in [0.5, 1)
-    auto mant = static_cast<std::uint64_t>(std::ldexp(m, 53));  // exact: 53 bits
-    int tz = 0;
-    while ((mant & 1u) == 0) { mant >>= 1; ++tz; }
-    return q - 53 + tz;
 }
 
 /// Writes s[k] = c[k] 2^(e k + f) for all k and returns true iff every one
@@ -229,7 +212,10 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
         const bool use_seed = initial_re != nullptr && initial_im != nullptr;
         if (use_seed) {
             for (int i = 0; i < n; ++i) {
-                seed[i] = Complex<double>(std::ldexp(initial_re[i], -e), std::ldexp(initial_im[i], -e));
+                double sr, si;
+                exact_ldexp(initial_re[i], -e, sr);
+                exact_ldexp(initial_im[i], -e, si);
+                seed[i] = Complex<double>(sr, si);
                 if (!is_finite(seed[i])) seed[i] = Complex<double>(0.5 + 0.1 * i, 0.3 + 0.05 * i);
             }
         }

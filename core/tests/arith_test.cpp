@@ -3,7 +3,9 @@
 // where it is wider than double, and from exact identities otherwise.
 #include <cassert>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <random>
 
 #include "argand/arith.h"
@@ -33,6 +35,44 @@ int main() {
 
     // Directed ops bracket the exact result (TwoSum / TwoProd give it).
     std::mt19937_64 rng(7);
+
+    // exact_ldexp's exponent-field fast path and lowest_bit's mantissa read
+    // agree with libm (ldexp twice, frexp) on random bit patterns: normal,
+    // subnormal, zero, and exponents that overflow, underflow or lose bits.
+    {
+        auto reference_ldexp = [](double v, int e, double& out) {
+            out = std::ldexp(v, e);
+            return std::isfinite(out) && std::ldexp(out, -e) == v;
+        };
+        auto reference_lowest_bit = [](double v) {
+            int q;
+            const double m = std::frexp(std::fabs(v), &q);
+            auto mantissa = static_cast<std::uint64_t>(std::ldexp(m, 53));
+            int tz = 0;
+            while ((mantissa & 1u) == 0) { mantissa >>= 1; ++tz; }
+            return q - 53 + tz;
+        };
+        for (int t = 0; t < 2000000; ++t) {
+            std::uint64_t bits = rng();
+            if (t % 3 == 0) bits &= 0x800fffffffffffffULL | ((rng() % 4) << 52);  // subnormal / tiny
+            if (t % 1000 == 0) bits = (rng() % 2) << 63;                        // +-0
+            double v;
+            std::memcpy(&v, &bits, sizeof v);
+            if (!std::isfinite(v)) continue;
+            const int e = t % 2 ? static_cast<int>(rng() % 200) - 100 : static_cast<int>(rng() % 4200) - 2100;
+            double fast, slow;
+            const bool fast_exact = exact_ldexp(v, e, fast), slow_exact = reference_ldexp(v, e, slow);
+            CHECK(fast_exact == slow_exact);
+            CHECK(std::memcmp(&fast, &slow, sizeof fast) == 0);
+            if (v != 0.0) CHECK(lowest_bit(v) == reference_lowest_bit(v));
+        }
+        double out;
+        CHECK(exact_ldexp(0x1p-1022, -1, out) && out == 0x1p-1023);          // into the subnormals, exact
+        CHECK(!exact_ldexp(0x1.0000000000001p-1022, -2, out));               // loses the last bit
+        CHECK(!exact_ldexp(0x1p1023, 1, out) && std::isinf(out));            // overflows
+        CHECK(lowest_bit(1.0) == 0 && lowest_bit(3.0) == 0 && lowest_bit(0.75) == -2);
+        CHECK(lowest_bit(kDenormMin) == -1074 && lowest_bit(-0x1p-1022) == -1022);
+    }
     std::uniform_real_distribution<double> mant(0.5, 1.0);
     std::uniform_int_distribution<int> ex(-1060, 1000);
     for (int t = 0; t < 200000; ++t) {

@@ -62,6 +62,36 @@ inline double pow2(int k) {
     return v;
 }
 
+/// True iff ldexp(v, e) is exact (no overflow, no loss in the subnormal
+/// range); out = ldexp(v, e) either way. The common case (a normal v whose
+/// result is normal) only moves the exponent field; libm's ldexp, twice, is
+/// kept for the rest (it was most of the scaling's cost on the ray caster's
+/// polynomials).
+inline bool exact_ldexp(double v, int e, double& out) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    const int biased = static_cast<int>((bits >> 52) & 0x7ff);
+    if (biased != 0 && biased != 0x7ff && e > -2046 && e < 2046 && biased + e >= 1 && biased + e <= 0x7fe) {
+        bits += static_cast<std::uint64_t>(static_cast<std::int64_t>(e)) << 52;
+        std::memcpy(&out, &bits, sizeof out);
+        return true;
+    }
+    out = std::ldexp(v, e);
+    return std::isfinite(out) && std::ldexp(out, -e) == v;
+}
+
+/// Exponent of the lowest set bit of a finite nonzero double: v is an
+/// integer multiple of 2^lowest_bit(v).
+inline int lowest_bit(double v) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    const int biased = static_cast<int>((bits >> 52) & 0x7ff);
+    const std::uint64_t fraction = bits & 0x000fffffffffffffULL;
+    // Normal: (2^52 + fraction) 2^(biased - 1075); subnormal: fraction 2^-1074.
+    const std::uint64_t mant = biased == 0 ? fraction : (fraction | 0x0010000000000000ULL);
+    return (biased == 0 ? -1074 : biased - 1075) + __builtin_ctzll(mant);
+}
+
 /// Unit roundoff of binary64.
 constexpr double kUnitRoundoff = 0x1p-53;
 /// Smallest positive subnormal; every rounding error is at most half of this

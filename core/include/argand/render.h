@@ -83,6 +83,13 @@ struct FrameParams {
 
 /// Most objects in one scene (plan_frame refuses more).
 constexpr int kMaxObjects = 32;
+/// Highest total degree of a surface (plan_frame refuses more). The root
+/// core goes to kMaxDegree; a surface's degree is kept lower because the
+/// Taylor plan and the per-pixel work grow with its number of monomials
+/// ((n + 1)(n + 2)(n + 3) / 6: 455 at degree 12).
+constexpr int kMaxSurfaceDegree = 12;
+/// Largest frame side in pixels (plan_frame refuses more).
+constexpr int kMaxFrameSide = 8192;
 
 /// The band rule, checked by plan_frame: the band [sigma, sigma + delta]
 /// (and its conjugate) lies in [0, pi]. The sum is the exact sum of the two
@@ -181,7 +188,7 @@ struct FramePlan {
 };
 
 /// Validates the scene and the frame for rendering (1..kMaxObjects objects,
-/// degree 1..kMaxDegree per object, kBandRule, a valid camera). Throws
+/// degree 1..kMaxSurfaceDegree per object, frame sides 1..kMaxFrameSide, kBandRule, a valid camera). Throws
 /// std::invalid_argument with the reason.
 FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params);
 

@@ -29,10 +29,13 @@ KINDS = ("silhouette", "not certified", "random hit", "random")
 
 
 def scenes() -> dict:
-    """Every preset and the degree 5-8 surfaces, as Scene objects."""
-    from argand.scene import PRESETS, load_scene, scene_from_dict
+    """The paper's presets and the degree 5-8 surfaces, as Scene objects
+    (the classic presets of degree 5-8 have their own table in
+    argand.bench.render)."""
+    from argand.scene import load_scene, scene_from_dict
+    from argand.scene.presets import PAPER_PRESETS
 
-    out = {name: load_scene(name) for name in PRESETS}
+    out = {name: load_scene(name) for name in PAPER_PRESETS}
     for name, surface in HIGH_DEGREE.items():
         out[name] = scene_from_dict({"objects": [{"surface": surface, "clip_radius": 8}]})
     return out

@@ -1,6 +1,8 @@
-"""`argand bench render`: every preset and the degree 5-8 surfaces of the
-roots benchmark (argand.bench.rays), two sizes, three deltas, one core; the
-same frame with method="unverified" beside it (the price of the proof)."""
+"""`argand bench render`: the paper's presets and the degree 5-8 surfaces of
+the roots benchmark (argand.bench.rays), two sizes, three deltas, one core,
+with the same frame in method="unverified" beside it (the price of the
+proof); then the classic presets of degree 5 to 8 (certified share, status
+breakdown, ns per pixel, escalation share) and ns per pixel per degree."""
 
 from __future__ import annotations
 
@@ -12,7 +14,9 @@ from typing import Callable
 from argand.bench import machine_info
 from argand.render import FrameParams, render_frame
 from argand.render.contact import contact_sheet
-from argand.scene import PRESETS
+from argand.render.frames import STATUS_NAMES
+from argand.scene import load_scene
+from argand.scene.presets import CLASSIC_PRESETS, PAPER_PRESETS
 
 DELTAS = (0.0, math.pi / 18, math.pi / 9)
 
@@ -37,19 +41,23 @@ def bench_render(out_dir: Path = Path("docs/bench"), smoke: bool = False, progre
                             ns_per_pixel=r.seconds / (size * size) * 1e9,
                             certified_share=r.certified_share,
                             status_shares=r.status_shares(),
-                            escalated_share=r.escalations / (size * size),
+                            escalated_share=r.figures["escalated_share"],
                             hit_share=float((r.rgba[..., 3] > 0).mean()),
                         )
                 frames.append(row)
+    classic = bench_classic(64 if smoke else 384, progress)
     big = [f for f in frames if f["scene"] == "bicube" and f["width"] == sizes[-1] and abs(f["delta"] - math.pi / 9) < 1e-12]
     report = {
         "benchmark": "render",
         "machine": machine_info(),
         "threads": 1,
         "frames": frames,
+        "classic_frames": classic,
+        "per_degree": per_degree(frames + classic),
         "headline": {
             "bicube_largest_pi_9_ms": big[0]["ms"] if big else None,
             "min_certified_share": min(f["certified_share"] for f in frames),
+            "min_certified_share_degree_5_to_8": min(f["certified_share"] for f in classic),
             "median_proof_overhead": sorted(f["ms"] / f["unverified_ms"] for f in frames)[len(frames) // 2],
         },
     }
@@ -58,8 +66,57 @@ def bench_render(out_dir: Path = Path("docs/bench"), smoke: bool = False, progre
     (out_dir / "render.md").write_text(markdown(report))
     progress("contact sheet")
     sweep = [i * math.pi / 36 for i in range(5)]  # 0 .. pi/9, as in the paper's figures
-    contact_sheet(PRESETS, sweep, 96 if smoke else 192, out_dir / "render_contact.png")
+    contact_sheet(PAPER_PRESETS, sweep, 96 if smoke else 192, out_dir / "render_contact.png")
+    contact_sheet(CLASSIC_PRESETS, sweep, 96 if smoke else 192, out_dir / "render_contact_classic.png")
     return report
+
+
+def bench_classic(size: int, progress: Callable[[str], None]) -> list[dict]:
+    """The classic surfaces of degree 5 to 8, one core, method auto."""
+    rows = []
+    for name in CLASSIC_PRESETS:
+        scene = load_scene(name)
+        degree = max(o.polynomial.degree for o in scene.objects)
+        for delta in DELTAS:
+            progress(f"{name} {size}x{size} delta={delta:.4f}")
+            r = render_frame(scene, FrameParams(delta=delta, width=size, height=size), workers=1)
+            rows.append({
+                "scene": name, "degree": degree, "width": size, "height": size, "delta": delta,
+                "ms": r.seconds * 1000,
+                "ns_per_pixel": r.figures["ns_per_pixel"],
+                "certified_share": r.certified_share,
+                "status_shares": r.status_shares(),
+                "escalated_share": r.figures["escalated_share"],
+                "hit_share": r.hit_share,
+            })
+    return rows
+
+
+def per_degree(frames: list[dict]) -> list[dict]:
+    """ns per pixel and certified share per surface degree (the highest
+    degree of a scene's objects), as the median over its frames."""
+    by_degree: dict[int, list[dict]] = {}
+    for f in frames:
+        degree = max(int(d) for d in str(f["degree"]).split("+"))
+        by_degree.setdefault(degree, []).append(f)
+    out = []
+    for degree in sorted(by_degree):
+        rows = by_degree[degree]
+        out.append({
+            "degree": degree,
+            "frames": len(rows),
+            "scenes": sorted({f["scene"] for f in rows}),
+            "median_ns_per_pixel": _median([f["ns_per_pixel"] for f in rows]),
+            "min_certified_share": min(f["certified_share"] for f in rows),
+            "median_escalated_share": _median([f["escalated_share"] for f in rows]),
+        })
+    return out
+
+
+def _median(values: list[float]) -> float:
+    v = sorted(values)
+    mid = len(v) // 2
+    return v[mid] if len(v) % 2 else (v[mid - 1] + v[mid]) / 2
 
 
 def markdown(report: dict) -> str:
@@ -72,5 +129,31 @@ def markdown(report: dict) -> str:
             f"| {f['scene']} | {f.get('degree', '')} | {f['width']}×{f['height']} | {f['delta']:.4f} | {f['ms']:.0f} "
             f"| {f['ns_per_pixel']:.0f} | {100 * f['certified_share']:.3f}% | {100 * f.get('escalated_share', 0.0):.3f}% "
             f"| {f['unverified_ms']:.0f} | {f['ms'] / f['unverified_ms']:.2f}× |"
+        )
+    statuses = list(STATUS_NAMES.values())
+    lines += [
+        "",
+        "Classic surfaces of degree 5 to 8 (method auto, one core):",
+        "",
+        "| scene | degree | size | δ | ns / pixel | certified | " + " | ".join(statuses[1:]) + " | escalated |",
+        "|---|---:|---|---:|---:|---:|" + "---:|" * (len(statuses) - 1) + "---:|",
+    ]
+    for f in report.get("classic_frames", []):
+        shares = " | ".join(f"{100 * f['status_shares'][s]:.2f}%" for s in statuses[1:])
+        lines.append(
+            f"| {f['scene']} | {f['degree']} | {f['width']}×{f['height']} | {f['delta']:.4f} | {f['ns_per_pixel']:.0f} "
+            f"| {100 * f['certified_share']:.3f}% | {shares} | {100 * f['escalated_share']:.2f}% |"
+        )
+    lines += [
+        "",
+        "Per degree (medians over the frames above):",
+        "",
+        "| degree | scenes | frames | ns / pixel | lowest certified share | escalated |",
+        "|---:|---|---:|---:|---:|---:|",
+    ]
+    for d in report.get("per_degree", []):
+        lines.append(
+            f"| {d['degree']} | {', '.join(d['scenes'])} | {d['frames']} | {d['median_ns_per_pixel']:.0f} "
+            f"| {100 * d['min_certified_share']:.3f}% | {100 * d['median_escalated_share']:.2f}% |"
         )
     return "\n".join(lines) + "\n"

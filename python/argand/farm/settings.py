@@ -12,6 +12,7 @@ from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from argand.farm.planning import MAX_TILE, MIN_TILE
+from argand.render.frames import MAX_FRAME_SIDE
 from argand.render.output import EXR_COMPRESSION, check_exr_compression
 
 
@@ -27,8 +28,8 @@ class Settings(BaseSettings):
     port: int = 8000
 
     # Limits: an oversized job is refused with the limit in the message.
-    max_width: int = Field(4096, ge=1)
-    max_height: int = Field(4096, ge=1)
+    max_width: int = Field(4096, ge=1, le=MAX_FRAME_SIDE)
+    max_height: int = Field(4096, ge=1, le=MAX_FRAME_SIDE)
     max_frames: int = Field(720, ge=1)
     max_job_pixels: int = Field(512 * 512 * 720, ge=1)
     default_tile: int = Field(64, ge=MIN_TILE, le=MAX_TILE)

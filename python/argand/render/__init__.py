@@ -5,6 +5,8 @@ farm's workers use its planned form, ``frames.render_tile_into``); ``render_fram
 on all cores; ``argand.render.output`` writes EXR (all AOVs), PNG and JSON
 through OpenImageIO; ``argand.render.gif`` encodes each frame's GIF
 fragment and splices the animation from them.
+``primary_ray(scene, width, height, x, y)`` gives the exact doubles of a
+pixel's ray, so anyone can check a pixel against the surface itself.
 """
 
 from argand.render.angles import parse_angle, parse_sweep
@@ -23,6 +25,7 @@ from argand.render.frames import (
     render_tile,
     tiles,
 )
+from argand.render.rays import primary_ray
 
 __all__ = [
     "AOV_CHANNELS",
@@ -37,6 +40,7 @@ __all__ = [
     "delta_sweep",
     "parse_angle",
     "parse_sweep",
+    "primary_ray",
     "render_frame",
     "render_tile",
     "tiles",

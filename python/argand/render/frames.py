@@ -33,8 +33,10 @@ STATUS_NAMES = {0: "certified", 1: "cluster", 2: "unverified", 3: "undecided"}
 #: its decision was proven (or the ladder ran out).
 ESCALATION_NAMES = {0: "first", 1: "root double-double", 2: "unseeded retry", 3: "double-double ray"}
 
-#: Most objects in one scene, and the band rule (both defined in C++).
+#: Most objects in one scene, the largest frame side, and the band rule (all
+#: defined in C++, where plan_frame enforces them).
 MAX_OBJECTS: int = _core.MAX_OBJECTS
+MAX_FRAME_SIDE: int = _core.MAX_FRAME_SIDE
 BAND_RULE: str = _core.BAND_RULE
 
 
@@ -55,8 +57,9 @@ class FrameParams:
             raise ValueError("sigma and delta must be finite numbers")
         if not _core.band_rule_holds(float(self.sigma), float(self.delta)):
             raise ValueError(f"sigma = {self.sigma!r}, delta = {self.delta!r} breaks the band rule: {BAND_RULE}")
-        if not (1 <= self.width <= 8192 and 1 <= self.height <= 8192):
-            raise ValueError(f"frame size must be between 1x1 and 8192x8192, got {self.width}x{self.height}")
+        if not (1 <= self.width <= MAX_FRAME_SIDE and 1 <= self.height <= MAX_FRAME_SIDE):
+            side = MAX_FRAME_SIDE
+            raise ValueError(f"frame size must be between 1x1 and {side}x{side}, got {self.width}x{self.height}")
 
 
 @dataclass(frozen=True)
