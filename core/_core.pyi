@@ -26,6 +26,8 @@ def find_roots_batch(matrix: npt.NDArray[np.float64], method: str = "auto") -> d
 
 # Rendering (bind_render.cpp).
 MAX_OBJECTS: int
+MAX_SURFACE_DEGREE: int
+MAX_FRAME_SIDE: int
 BAND_RULE: str
 INTERLEAVED_CHANNELS: tuple[str, ...]
 
@@ -55,5 +57,4 @@ def ray_polynomial(
     plan: FramePlan, object: int, origin: Any, direction: Any, with_radius: bool = False
 ) -> Any: ...
 def primary_ray(plan: FramePlan, x: int, y: int) -> tuple[list[float], list[float]]: ...
-def pixel_direction(plan: FramePlan, x: int, y: int) -> tuple[list[float], list[float]]: ...
 def explain_pixel(plan: FramePlan, x: int, y: int, row_start: int) -> dict[str, Any]: ...

@@ -54,7 +54,7 @@ def test_delta_zero_is_exactly_the_real_surface_of_a_sphere():
     mismatches = 0
     for y in range(h):
         for x in range(w):
-            eye, d = _core.pixel_direction(fp, x, y)
+            eye, d = _core.primary_ray(fp, x, y)
             o = np.array(eye)
             # Distance from the centre to the ray's line, squared: hit iff < 1.
             b = float(np.dot(o, d))
@@ -162,7 +162,7 @@ def test_agrees_with_the_slow_reference(name, delta):
     clear_pixels = certified_clear = 0
     for y in range(h):
         for x in range(w):
-            eye, d = _core.pixel_direction(fp, x, y)
+            eye, d = _core.primary_ray(fp, x, y)
             hit, best, clear = reference_pixel(scene, eye, d, 0.0, delta)
             status = int(result.aovs["status"][y, x])
             got_hit = bool(result.rgba[y, x, 3] > 0)

@@ -98,7 +98,7 @@ def test_primary_ray_is_the_plan_s_ray_for_every_pixel():
     for y in range(7):
         for x in range(9):
             origin, direction = primary_ray(scene, 9, 7, x, y)
-            eye, d = _core.pixel_direction(frame_plan, x, y)
+            eye, d = _core.primary_ray(frame_plan, x, y)
             assert origin == tuple(eye) and direction == tuple(d)
             assert abs(math.fsum(v * v for v in direction) - 1.0) < 1e-15
     # The same from the core dict, and independent of sigma and delta.

@@ -58,6 +58,11 @@ def test_invalid_expression_shows_its_error_and_submits_nothing(farm, page):
     assert farm.get("/api/jobs")["total"] == 0
     page.fill("#surface", "x^2*z + y^2")
     page.wait_for_function("document.querySelector('#surface-msg')?.textContent === 'degree 3'")
+    # Every preset's thumbnail is rendered on its first request: wait for all
+    # of them, so the gallery (and its screenshot) shows every surface.
+    page.wait_for_function(
+        "[...document.querySelectorAll('.preset img')].every(i => i.complete && i.naturalWidth > 0)", timeout=120_000
+    )
     SHOTS.mkdir(parents=True, exist_ok=True)
     page.screenshot(path=str(SHOTS / "new-job.png"), full_page=True)
     assert not page.errors, page.errors

@@ -210,8 +210,6 @@ void init_render(py::module_& m) {
     m.def("primary_ray", primary,
           "The primary ray (origin, unit direction) of pixel (x, y): the exact doubles render_tile uses.",
           py::arg("plan"), py::arg("x"), py::arg("y"));
-    m.def("pixel_direction", primary, "Alias of primary_ray (kept for callers of the old name).", py::arg("plan"),
-          py::arg("x"), py::arg("y"));
     m.def(
         "explain_pixel",
         [](const FramePlan& plan, int x, int y, int row_start) {

@@ -5,7 +5,7 @@ For each scene and a few deltas, a small frame is rendered to find the
 pixels worth sampling: silhouettes (a hit beside a miss: rays tangent to
 the surface, double roots), pixels the renderer could not certify (clusters,
 singular lines), and random pixels; each sampled pixel's primary ray gives
-one polynomial per object (``_core.pixel_direction``,
+one polynomial per object (``_core.primary_ray``,
 ``_core.ray_polynomial``).
 """
 
@@ -83,7 +83,7 @@ def ray_polynomials(per_kind: int = 40, size: int = 96, seed: int = 7) -> tuple[
             picked = sample_pixels(frame.rgba[..., 3], frame.aovs["status"], rng, per_kind)
             for kind in KINDS:
                 for x, y in picked[kind]:
-                    eye, direction = _core.pixel_direction(fplan, x, y)
+                    eye, direction = _core.primary_ray(fplan, x, y)
                     for k, obj in enumerate(scene.objects):
                         c = np.asarray(_core.ray_polynomial(fplan, k, eye, direction), dtype=float)
                         if not np.any(c) or not np.all(np.isfinite(c)):

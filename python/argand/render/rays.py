@@ -5,7 +5,7 @@ the two triples of doubles the renderer uses for pixel ``(x, y)`` of a
 ``width`` x ``height`` frame: the camera's eye and the unit direction through
 the pixel's centre (column ``x`` from the left, row ``y`` from the top), in
 world space. They come from the same C++ code that renders the frame
-(``_core.pixel_direction`` on the frame's plan), so they are the renderer's
+(``_core.primary_ray`` on the frame's plan), so they are the renderer's
 doubles to the last bit, not a re-derivation.
 
 This is a stable, public interface: it lets anyone check a pixel from the
@@ -57,7 +57,7 @@ def primary_ray(scene: Any, width: int, height: int, x: int, y: int) -> tuple[Ve
     x = _pixel_index(x, "x (the pixel's column)", params.width)
     y = _pixel_index(y, "y (the pixel's row)", params.height)
     frame_plan = plan(to_core_scene(scene), params)
-    origin, direction = _core.pixel_direction(frame_plan, x, y)
+    origin, direction = _core.primary_ray(frame_plan, x, y)
     return (
         (float(origin[0]), float(origin[1]), float(origin[2])),
         (float(direction[0]), float(direction[1]), float(direction[2])),
