@@ -6,11 +6,13 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from fastapi import FastAPI, Request
+from fastapi import Depends, FastAPI, Request
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Histogram, generate_latest
 
+from argand.api.auth import check_access
+from argand.api.limits import BodyLimit
 from argand.api.routers import frames, jobs, service
 from argand.farm.control import NoSuchJob
 from argand.farm.metrics import FarmCollector
@@ -53,7 +55,8 @@ def _add_front_end(app: FastAPI) -> None:
 
 
 def create_app(settings: Settings) -> FastAPI:
-    app = FastAPI(title="Argand", description="Render jobs of algebraic surfaces in complex space.")
+    app = FastAPI(title="Argand", description="Render jobs of algebraic surfaces in complex space.",
+                  dependencies=[Depends(check_access)])
     app.state.settings = settings
     for module in (jobs, frames, service):
         app.include_router(module.router)
@@ -68,4 +71,5 @@ def create_app(settings: Settings) -> FastAPI:
 
     _add_metrics(app, settings)
     _add_front_end(app)
+    app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     return app

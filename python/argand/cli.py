@@ -461,7 +461,18 @@ def serve(
     """The render farm: Redis (embedded unless ARGAND_REDIS_URL), the API and N workers. Ctrl-C stops it."""
     from argand.worker.serve import serve as run
 
-    run(_farm_settings(data, host, port), workers, announce=lambda m: console.print(m))
+    settings = _farm_settings(data, host, port)
+    _refuse_exposure(settings)
+    run(settings, workers, announce=lambda m: console.print(m))
+
+
+def _refuse_exposure(settings) -> None:
+    try:
+        problem = settings.exposure_problem()
+    except ValueError as exc:
+        fail(str(exc))
+    if problem:
+        fail(problem)
 
 
 @app.command()
@@ -495,6 +506,7 @@ def api(
     settings = _farm_settings(data, host, port)
     if settings.redis_url is None:
         fail("set ARGAND_REDIS_URL to the farm's Redis (argand api does not start its own broker; argand serve does)")
+    _refuse_exposure(settings)
     upgrade(settings.sqlalchemy_url)
     console.print(f"Argand API on http://{settings.host}:{settings.port}/")
     uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="warning")
