@@ -71,7 +71,7 @@ def test_compose_commands_are_cli_commands():
         assert services[name]["build"]["dockerfile"] == "services/Dockerfile"
     api = services["api"]
     port = api["command"][api["command"].index("--port") + 1]
-    assert api["ports"] == [f"{port}:{port}"] and f"127.0.0.1:{port}/healthz" in " ".join(api["healthcheck"]["test"])
+    assert api["ports"] == [f"{port}:{port}"] and f"127.0.0.1:{port}/readyz" in " ".join(api["healthcheck"]["test"])
     assert services["worker"]["healthcheck"]["test"][1:] == ["python", "-m", "argand.worker.health"]
 
 

@@ -461,9 +461,14 @@ def serve(
     """The render farm: Redis (embedded unless ARGAND_REDIS_URL), the API and N workers. Ctrl-C stops it."""
     from argand.worker.serve import serve as run
 
+    from argand.worker.serve import FarmLocked
+
     settings = _farm_settings(data, host, port)
     _refuse_exposure(settings)
-    run(settings, workers, announce=lambda m: console.print(m))
+    try:
+        run(settings, workers, announce=lambda m: console.print(m))
+    except FarmLocked as exc:
+        fail(str(exc))
 
 
 def _refuse_exposure(settings) -> None:
