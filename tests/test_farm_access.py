@@ -54,7 +54,9 @@ def test_state_changing_routes_need_the_token_and_reads_do_not(farm_parts, tmp_p
         assert c.get(f"/api/jobs/{job_id}").json()["status"] == "queued"
         assert c.post(f"/api/jobs/{job_id}/cancel", headers=auth).json()["status"] == "canceled"
         assert c.delete(f"/api/jobs/{job_id}", headers=auth).status_code == 204
-        assert "HTTPBearer" in c.get("/openapi.json").json()["components"]["securitySchemes"]
+        doc = c.get("/openapi.json").json()
+        assert doc["components"]["securitySchemes"]["bearer"]["scheme"] == "bearer"
+        assert doc["paths"]["/api/jobs"]["post"]["security"] == [{"bearer": []}] and "security" not in doc["paths"]["/api/jobs"]["get"]
     finally:
         c.close()
         server.should_exit = True
