@@ -8,15 +8,16 @@ PIP     := $(PY) -m pip
 STAMP   := $(VENV)/.argand-deps
 SOURCES := $(shell find core python api worker web -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name '*.mako' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: setup build run test test-cpp test-py bench bench-render bench-smoke bench-all load clean
+.PHONY: setup build run test test-cpp test-py test-sanitize test-fuzz fuzz fuzz-build bench bench-render bench-smoke bench-all load clean
 
 setup: $(VENV)/.argand-built
 
 # Debian packages: MPSolve for the roots benchmark (without root the benchmark
 # reports it unavailable), PostgreSQL's server binaries (the PostgreSQL farm
 # test starts its own server from them) and Chromium for the browser tests
-# (Playwright's own browser download does not work offline).
-DEB_PACKAGES := mpsolve python3-mpsolve postgresql chromium
+# (Playwright's own browser download does not work offline), and Clang for
+# the libFuzzer targets (make fuzz, make test-fuzz).
+DEB_PACKAGES := mpsolve python3-mpsolve postgresql chromium clang
 $(VENV)/.argand-debs:
 	@mkdir -p $(VENV)
 	@if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
@@ -67,7 +68,47 @@ test-cpp: $(STAMP)
 test-py: setup
 	$(VENV)/bin/pytest
 
-test: test-cpp test-py bench-smoke
+# The C++ core, its tests and the Python module with AddressSanitizer and
+# UndefinedBehaviorSanitizer (GCC; any report is fatal), in build/sanitize;
+# then the C++ tests and a Python smoke (tests/sanitizer_smoke.py) with the
+# sanitized module loaded in place of the installed one (libstdc++ is
+# preloaded with libasan so that ASan's __cxa_throw interceptor finds it).
+# Debug: the bindings compile quickly; the core keeps its own -O2.
+SANITIZE_DIR := build/sanitize
+SANITIZE_ENV := ASAN_OPTIONS=detect_leaks=0:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+                UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+test-sanitize: setup
+	$(VENV)/bin/cmake -S . -B $(SANITIZE_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Debug \
+	  -DARGAND_SANITIZE=address,undefined -DARGAND_PYTHON_MODULE=ON \
+	  -DCMAKE_MAKE_PROGRAM=$(abspath $(VENV)/bin/ninja) -DPython_EXECUTABLE=$(abspath $(PY)) \
+	  -Dpybind11_DIR="$$($(PY) -m pybind11 --cmakedir)" >/dev/null
+	$(VENV)/bin/cmake --build $(SANITIZE_DIR) -j2 >/dev/null
+	$(SANITIZE_ENV) $(VENV)/bin/ctest --test-dir $(SANITIZE_DIR) --output-on-failure
+	$(SANITIZE_ENV) LD_PRELOAD="$$(g++ -print-file-name=libasan.so) $$(g++ -print-file-name=libstdc++.so)" \
+	  $(PY) tests/sanitizer_smoke.py $$(ls $(SANITIZE_DIR)/core/_core*.so)
+
+# Fuzzing (docs/reliability.md): libFuzzer targets fuzz/*_fuzz.cpp (Clang,
+# with ASan + UBSan, built in build/fuzz) and fuzz/scene_fuzz.py (atheris).
+# `make fuzz SECONDS=600` fuzzes each target for SECONDS from the seed corpus
+# in fuzz/corpus/<target>, adding what it finds to build/fuzz-corpus/<target>
+# and crashes to build/fuzz-findings/.
+SECONDS ?= 600
+fuzz-build: setup
+	CC=clang CXX=clang++ $(VENV)/bin/cmake -S . -B build/fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	  -DARGAND_FUZZ=ON -DARGAND_SANITIZE=address,undefined \
+	  -DCMAKE_MAKE_PROGRAM=$(abspath $(VENV)/bin/ninja) >/dev/null
+	$(VENV)/bin/cmake --build build/fuzz -j2 >/dev/null
+
+fuzz: fuzz-build
+	PYTHON=$(PY) sh fuzz/run.sh long $(SECONDS)
+
+# CI's short fuzz run: each target from a fixed seed for FUZZ_SMOKE_SECONDS,
+# starting from the committed corpus; any finding fails the build.
+FUZZ_SMOKE_SECONDS ?= 15
+test-fuzz: fuzz-build
+	PYTHON=$(PY) sh fuzz/run.sh smoke $(FUZZ_SMOKE_SECONDS)
+
+test: test-cpp test-py test-sanitize test-fuzz bench-smoke
 
 bench: setup
 	$(VENV)/bin/argand bench roots

@@ -309,8 +309,29 @@ def test_expansion_work_is_bounded():
     # Each term is a legal degree-12 product; forty of them would take
     # seconds to expand, so the parser stops once MAX_WORK is spent.
     assert parse_surface("(x + y + z + 1)^6*(x - y + z - 1)^6").degree == 12
-    with pytest.raises(ExpressionError, match="coefficient products: simplify"):
+    with pytest.raises(ExpressionError, match="units of coefficient arithmetic: simplify"):
         parse_surface(" + ".join(["(x + y + z + 1)^6*(x - y + z - 1)^6"] * 40))
+
+
+def test_long_coefficients_cost_more_work():
+    # A 3 KB text: two sextics of 380-digit coefficients. Counting each
+    # coefficient product as one unit let it through, and it took 11 s of
+    # CPU (the gcds of 16,000-bit fractions); weighted by length it is refused
+    # after a few hundred products.
+    d = "1." + "3" * 380
+    sextic = f"({d}*x + {d}*y + {d}*z + {d})^6"
+    with pytest.raises(ExpressionError, match="units of coefficient arithmetic") as caught:
+        parse_surface(f"{sextic}*{sextic}")
+    assert caught.value.position > 0
+    # Short decimals still expand to the full degree.
+    assert parse_surface("(1.5*x + 2.25*y - 0.125*z + 3)^12").degree == 12
+
+
+def test_the_limits_are_named_and_consistent():
+    from argand.scene import MAX_LENGTH, MAX_NUMBER_LENGTH, MAX_TERMS, MAX_WORK
+
+    assert MAX_TERMS == 455 == len(parse_surface("(x+y+z+1)^12").terms)
+    assert MAX_NUMBER_LENGTH < MAX_LENGTH and MAX_WORK > 0
 
 
 def test_long_product_of_big_numbers_is_refused():

@@ -11,7 +11,7 @@ import pytest
 import yaml
 from pydantic import ValidationError
 
-from argand.scene import PRESETS, Camera, Scene, SceneError, load_scene, parse_surface, scene_from_dict
+from argand.scene import PRESETS, Camera, Scene, SceneError, load_scene, parse_surface, scene_from_dict, scene_from_text
 from argand.scene.model import DEFAULT_FOV, surface_extent, surface_length_scale
 from argand.scene.presets import PRESET_DIR, preset_path
 
@@ -422,3 +422,19 @@ def test_unreadable_file(tmp_path):
     path.write_bytes(b"\xff\xfe\x00objects")
     with pytest.raises(SceneError, match="cannot read the file"):
         load_scene(path)
+
+
+@pytest.mark.parametrize("kind", ["json", "yaml"])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+        ('{"objects": [{"surface": "x", "clip_radius": ' + "9" * 5000 + "}]}", "4300 digits"),
+    ],
+    ids=["deep", "huge-integer"],
+)
+def test_text_that_breaks_the_json_and_yaml_readers_is_a_scene_error(kind, text, message):
+    # Found reviewing the scene path for issue 12: RecursionError and a plain
+    # ValueError escaped scene_from_text.
+    with pytest.raises(SceneError, match=message):
+        scene_from_text(text, kind)

@@ -48,7 +48,7 @@ template <class T>
 inline bool eval_bound(const double* c, int n, Complex<T> x, Complex<T>& value, double& err) {
     using E = ErrorModel<T>;
     const double ax = mag_up(x);
-    Complex<T> y(T(c[n]));
+    Complex<T> y{T(c[n])};  // braces: y(T(c[n])) is a function declaration to Clang (vexing parse)
     double ay = std::fabs(c[n]);
     double e = 0.0;
     for (int k = n - 1; k >= 0; --k) {

@@ -10,8 +10,6 @@ from argand.render.frames import MAX_OBJECTS
 MAX_SIDE = 8192
 #: Frames in one job (a list of deltas or a sweep's count).
 MAX_FRAMES = 10_000
-#: Characters in one angle expression ("pi/9").
-MAX_ANGLE_CHARS = 100
 #: A page number of GET /api/jobs (its offset stays far inside a 64-bit integer).
 MAX_PAGE = 1_000_000
 #: Most objects in one scene (the renderer's, defined in C++).

@@ -20,8 +20,9 @@ or raises :class:`ExpressionError` (never another exception) with the
 0-based position of the first mistake met reading left to right. Work is
 bounded before it is done: an exponent above MAX_DEGREE, an over-long text,
 deep nesting, or a number out of double range is refused before any
-expansion, and the expansion as a whole stops after MAX_WORK coefficient
-products.
+expansion, and the expansion as a whole stops once its coefficient
+arithmetic exceeds MAX_WORK units (a unit is one product or sum of small
+coefficients; long ones cost more, see :func:`_cost`).
 """
 
 from __future__ import annotations
@@ -41,9 +42,25 @@ MAX_LENGTH = 20_000
 MAX_NESTING = 64
 #: Longest number literal accepted, in characters.
 MAX_NUMBER_LENGTH = 400
-#: Most coefficient products one expansion may take (about half a second;
-#: (x+y+z+1)^12 takes under 6,000, a product of two full sextics 7,056).
-MAX_WORK = 200_000
+#: Largest decimal exponent written in a number: 1e999999 is refused before
+#: 10**999999 is built (a number outside double range is refused anyway,
+#: once its exact value is known).
+MAX_DECIMAL_EXPONENT = 700
+#: Most work units one expansion may take: a unit is one product or sum of
+#: two coefficients of up to about 300 bits, and longer coefficients cost
+#: more units (about bits_a * bits_b / 100,000). A unit takes 5-10 us, so
+#: the budget is about 0.2 s of CPU whatever the text, and a scene of many
+#: objects stays within seconds. (x+y+z+1)^12 takes 5,463 units, a product
+#: of two full sextics 8,070, Barth's sextic 89, the presets at most 49.
+MAX_WORK = 20_000
+#: Most distinct terms a surface can have: every monomial x^i y^j z^k of
+#: total degree <= MAX_DEGREE (455 for degree 12). Not a separate check: the
+#: degree bound implies it.
+MAX_TERMS = (MAX_DEGREE + 1) * (MAX_DEGREE + 2) * (MAX_DEGREE + 3) // 6
+#: Largest magnitude of an intermediate coefficient, as a power of two: a
+#: coefficient beyond 2^+-MAX_COEFFICIENT_BITS can never round to a finite
+#: non-zero double, so the expansion is stopped there.
+MAX_COEFFICIENT_BITS = 4000
 
 Monomial = tuple[int, int, int]
 Poly = dict[Monomial, Fraction]
@@ -135,32 +152,8 @@ class _Lexer:
         raise self.error(f"unexpected character {ch!r}" + (f": {hint}" if hint else ""), i)
 
     def _number(self, i: int) -> _Token:
-        text, n = self.text, len(self.text)
-        j = i
-        while j < n and text[j] in _DIGITS:
-            j += 1
-        if j < n and text[j] == ".":
-            j += 1
-            while j < n and text[j] in _DIGITS:
-                j += 1
-        exponent_digits = ""
-        if j < n and text[j] in "eE":
-            k = j + 1
-            if k < n and text[k] in "+-":
-                k += 1
-            if k < n and text[k] in _DIGITS:
-                start = k
-                while k < n and text[k] in _DIGITS:
-                    k += 1
-                exponent_digits = text[start:k]
-                j = k
-        literal = text[i:j]
-        self.i = j
-        if len(literal) > MAX_NUMBER_LENGTH:
-            raise self.error(f"the number has {len(literal)} characters; the most is {MAX_NUMBER_LENGTH}", i)
-        # A decimal exponent beyond double range is refused before 10**e is built.
-        if len(exponent_digits.lstrip("0")) > 3 or (exponent_digits and int(exponent_digits) > 700):
-            raise self.error(f"the number {literal} is out of double-precision range", i)
+        literal = scan_number(self.text, i)
+        self.i = i + len(literal)
         value = Fraction(literal)
         _check_double_range(value, lambda: self.error(f"the number {literal} is out of double-precision range", i))
         return _Token("num", literal, i, value)
@@ -186,14 +179,46 @@ class _Lexer:
         raise self.error(f"unknown name {name!r} (functions and constants are not supported; the variables are x, y and z)", i)
 
 
+def scan_number(text: str, i: int) -> str:
+    """The decimal literal starting at text[i] (digits, an optional fraction
+    and an optional exponent: 12, 1.5, .5, 1e-3), checked before any value is
+    built from it: at most MAX_NUMBER_LENGTH characters and a decimal exponent
+    within double range (so no huge power of ten is ever made). Raises
+    ExpressionError at i otherwise. Shared with the angle parser
+    (:mod:`argand.render.angles`)."""
+    n = len(text)
+    j = i
+    while j < n and text[j] in _DIGITS:
+        j += 1
+    if j < n and text[j] == ".":
+        j += 1
+        while j < n and text[j] in _DIGITS:
+            j += 1
+    exponent_digits = ""
+    if j < n and text[j] in "eE":
+        k = j + 1
+        if k < n and text[k] in "+-":
+            k += 1
+        if k < n and text[k] in _DIGITS:
+            start = k
+            while k < n and text[k] in _DIGITS:
+                k += 1
+            exponent_digits = text[start:k]
+            j = k
+    literal = text[i:j]
+    if len(literal) > MAX_NUMBER_LENGTH:
+        raise ExpressionError(f"the number has {len(literal)} characters; the most is {MAX_NUMBER_LENGTH}", i, text)
+    # A decimal exponent beyond double range is refused before 10**e is built.
+    if len(exponent_digits.lstrip("0")) > 3 or (exponent_digits and int(exponent_digits) > MAX_DECIMAL_EXPONENT):
+        raise ExpressionError(f"the number {literal} is out of double-precision range", i, text)
+    return literal
+
+
 # ---------------------------------------------------------------------------
 # Exact sparse polynomial arithmetic
 # ---------------------------------------------------------------------------
 
 _ONE: Poly = {(0, 0, 0): Fraction(1)}
-# Coefficients beyond 2^±4000 cannot end up as doubles; refusing them early
-# keeps a long product of huge numbers from building gigantic integers.
-_MAX_BITS = 4000
 
 
 def _add(a: Poly, b: Poly, sign: int) -> Poly:
@@ -225,7 +250,21 @@ def _degree(p: Poly) -> int:
 
 
 def _too_wide(p: Poly) -> bool:
-    return any(abs(c.numerator.bit_length() - c.denominator.bit_length()) > _MAX_BITS for c in p.values())
+    return any(abs(c.numerator.bit_length() - c.denominator.bit_length()) > MAX_COEFFICIENT_BITS for c in p.values())
+
+
+def _bits(p: Poly) -> int:
+    """The longest numerator or denominator of p's coefficients, in bits."""
+    return max((max(c.numerator.bit_length(), c.denominator.bit_length()) for c in p.values()), default=0)
+
+
+def _cost(pairs: int, bits_a: int, bits_b: int) -> int:
+    """Work units of `pairs` coefficient operations (Fraction products or
+    sums, with their gcds) on operands of up to bits_a and bits_b bits: one
+    unit each for short operands, and about bits_a * bits_b / 100,000 for
+    long ones (measured: 1,330-bit operands take ~20 times as long as small
+    ones, 16,000-bit ones ~500 times)."""
+    return pairs * (1 + bits_a * bits_b // 100_000)
 
 
 def _check_double_range(value: Fraction, error) -> None:
@@ -261,14 +300,25 @@ class _Parser:
     def at_op(self, ops: str) -> bool:
         return self.tok.kind == "op" and self.tok.text in ops
 
-    def multiply(self, a: Poly, b: Poly, position: int) -> Poly:
-        """a * b, refused (at position) once the expansion's work exceeds MAX_WORK
-        or a coefficient leaves any hope of double range."""
-        self.work += len(a) * len(b)
+    def spend(self, units: int, position: int) -> None:
+        self.work += units
         if self.work > MAX_WORK:
             raise self.error(
-                f"expanding this takes more than {MAX_WORK} coefficient products: simplify the expression", position
+                f"expanding this takes more than {MAX_WORK} units of coefficient arithmetic: "
+                "simplify the expression (fewer or shorter numbers, lower powers)",
+                position,
             )
+
+    def add(self, a: Poly, b: Poly, sign: int, position: int) -> Poly:
+        """a + sign * b, counted in the work like multiply."""
+        self.spend(_cost(len(b), _bits(a), _bits(b)), position)
+        return _add(a, b, sign)
+
+    def multiply(self, a: Poly, b: Poly, position: int) -> Poly:
+        """a * b, refused (at position) before it is computed once the
+        expansion's work would exceed MAX_WORK, or after it when a coefficient
+        leaves any hope of double range."""
+        self.spend(_cost(len(a) * len(b), _bits(a), _bits(b)), position)
         product = _mul(a, b)
         if _too_wide(product):
             raise self.error("a coefficient grows beyond double-precision range", position)
@@ -289,7 +339,7 @@ class _Parser:
             equals = self.take()
             if self.tok.kind == "end":
                 raise self.error("'=' has nothing after it", equals.position)
-            left = _add(left, self.expr(), -1)
+            left = self.add(left, self.expr(), -1, equals.position)
         self.leftover(inside=None)
         return left
 
@@ -318,8 +368,8 @@ class _Parser:
     def expr(self) -> Poly:
         result = self.term()
         while self.at_op("+-"):
-            sign = 1 if self.take().text == "+" else -1
-            result = _add(result, self.term(), sign)
+            operator = self.take()
+            result = self.add(result, self.term(), 1 if operator.text == "+" else -1, operator.position)
         return result
 
     def term(self) -> Poly:

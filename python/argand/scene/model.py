@@ -418,11 +418,18 @@ def _yaml_loader():
 def scene_from_text(text: str, kind: Literal["yaml", "json"] = "yaml", source: str = "scene") -> Scene:
     """Parses YAML or JSON text into a Scene; raises SceneError naming
     `source` and the line of a syntax error."""
+    # Both parsers recurse once per nesting level (RecursionError on a deep
+    # text) and refuse integers of more than 4,300 digits with a plain
+    # ValueError: those are mistakes in the text like any other.
     if kind == "json":
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise SceneError(f"{source}: JSON error at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+        except RecursionError:
+            raise SceneError(f"{source}: JSON error: nested too deeply") from None
+        except ValueError as exc:
+            raise SceneError(f"{source}: JSON error: {exc}") from None
     else:
         import yaml
 
@@ -433,6 +440,10 @@ def scene_from_text(text: str, kind: Literal["yaml", "json"] = "yaml", source: s
             where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
             problem = getattr(exc, "problem", None) or str(exc)
             raise SceneError(f"{source}: YAML error{where}: {problem}") from None
+        except RecursionError:
+            raise SceneError(f"{source}: YAML error: nested too deeply") from None
+        except ValueError as exc:
+            raise SceneError(f"{source}: YAML error: {exc}") from None
     try:
         return scene_from_dict(data)
     except SceneError as exc:
