@@ -129,6 +129,7 @@ def test_a_body_above_the_limit_is_413_before_it_is_parsed(api):
     r = c.post("/api/jobs", content=chunks(), headers={"content-type": "application/json"})
     assert r.status_code == 413
     assert c.post("/api/jobs", json=JOB).status_code == 201  # the service is still there
+    assert c.get("/api/meta").json()["limits"]["max_body_bytes"] == settings.max_body_bytes
 
 
 def test_parallel_first_requests_of_a_channel_png_all_succeed(api):

@@ -20,7 +20,7 @@ from argand.farm.previews import PREVIEW_CHANNELS, STATUS_COLOURS
 from argand.farm.queue import PRIORITIES, broker_client
 from argand.farm.states import ACTIONS, ENDED, FRAME, JOB
 from argand.farm.workers import list_workers
-from argand.render import FrameParams, render_frame
+from argand.render import MAX_OBJECTS, FrameParams, render_frame
 from argand.render.frames import STATUS_NAMES
 from argand.render.output import to_srgb8, write_png
 from argand.scene import MAX_DEGREE, ExpressionError, SceneError, load_scene, parse_surface, scene_from_dict
@@ -46,7 +46,9 @@ def meta(settings: SettingsDep) -> dict:
         "limits": {"max_width": settings.max_width, "max_height": settings.max_height,
                    "max_frames": settings.max_frames, "max_job_pixels": settings.max_job_pixels,
                    "min_tile": MIN_TILE, "max_tile": MAX_TILE, "priority": [PRIORITIES.start, PRIORITIES.stop - 1],
-                   "max_degree": MAX_DEGREE},
+                   "max_degree": MAX_DEGREE, "max_job_tiles": settings.max_job_tiles,
+                   "max_active_jobs": settings.max_active_jobs, "max_body_bytes": settings.max_body_bytes,
+                   "max_objects": MAX_OBJECTS},
         "defaults": {"width": fields["width"].default, "height": fields["height"].default,
                      "tile": settings.default_tile, "priority": fields["priority"].default,
                      "method": fields["method"].default},
