@@ -56,6 +56,9 @@ def test_the_services_environment_is_the_settings_and_points_at_the_services():
         assert env["ARGAND_REDIS_URL"].startswith("redis://redis:6379/")
         settings = Settings(**{k.removeprefix("ARGAND_").lower(): v for k, v in env.items()})
         assert settings.sqlalchemy_url == env["ARGAND_DATABASE_URL"] and str(settings.data_dir) == "/data"
+        # The API serves beyond its container: compose insists on a token (its ${VAR:?} form).
+        assert env["ARGAND_API_TOKEN"].startswith("${ARGAND_API_TOKEN:?")
+        assert settings.model_copy(update={"host": "0.0.0.0"}).exposure_problem() is None
         # The frame store is one volume, shared.
         assert f"argand-data:{env['ARGAND_DATA_DIR']}" in services[name]["volumes"]
 
