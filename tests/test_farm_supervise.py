@@ -61,6 +61,7 @@ def test_a_killed_worker_and_a_killed_redis_are_started_again(farm1):
     [w] = farm.get("/api/workers")
     os.kill(w["pid"], signal.SIGKILL)
     farm.wait_for(lambda: any(x["alive"] and x["pid"] != w["pid"] for x in farm.get("/api/workers")), 60)
+    assert {x["name"] for x in farm.get("/api/workers") if x["alive"]} == {w["name"].replace("@", ".2@", 1)}
     _submit_and_finish(farm)
     [redis_pid] = [p for p, cmd in _children(farm.proc.pid).items() if "redis-server" in cmd]
     os.kill(redis_pid, signal.SIGKILL)

@@ -75,6 +75,13 @@ def stop_all(procs: list[subprocess.Popen]) -> None:
             p.kill()
 
 
+def restart_name(name: str) -> str:
+    """w1@host -> w1.2@host -> w1.3@host: each start of a worker slot its own name."""
+    base, _, host = name.partition("@")
+    slot, _, n = base.partition(".")
+    return f"{slot}.{int(n or 1) + 1}@{host}"
+
+
 class _Restarts:
     """One child's backoff: the delay before its next start."""
 
@@ -118,9 +125,13 @@ class Supervisor(threading.Thread):
                     self._redis.restarted(time.monotonic())
             for i, p in enumerate(self.procs):
                 if p.poll() is not None and self._workers[i].dead(now) and not self.stop.is_set():
+                    # A new name: the dead one's tiles stay claimed under its old
+                    # name until the reaper sees its heartbeats stop, which a
+                    # successor beating under the same name would hide.
+                    old, self.names[i] = self.names[i], restart_name(self.names[i])
                     self.procs[i] = start_worker(self.settings, self.names[i])
                     self._workers[i].restarted(time.monotonic())
-                    self.announce(f"worker {self.names[i]} exited with {p.returncode} and was started again")
+                    self.announce(f"worker {old} exited with {p.returncode}; started {self.names[i]} in its place")
 
 
 def serve(settings: Settings, workers: int, announce=print) -> None:
