@@ -6,11 +6,13 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from fastapi import FastAPI, Request
-from fastapi.responses import FileResponse, JSONResponse, Response
+from fastapi import Depends, FastAPI, Request
+from fastapi.responses import FileResponse, JSONResponse, PlainTextResponse, Response
 from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Histogram, generate_latest
 
+from argand.api.auth import CHANGES_STATE, check_access
+from argand.api.limits import BodyLimit
 from argand.api.routers import frames, jobs, service
 from argand.farm.control import NoSuchJob
 from argand.farm.metrics import FarmCollector
@@ -35,7 +37,7 @@ def _add_metrics(app: FastAPI, settings: Settings) -> None:
         latency.labels(request.method, getattr(route, "path", "unmatched")).observe(time.perf_counter() - start)
         return response
 
-    @app.get("/metrics", tags=["service"])
+    @app.get("/metrics", tags=["service"], response_class=PlainTextResponse)
     def metrics() -> Response:
         return Response(generate_latest(registry), media_type=CONTENT_TYPE_LATEST)
 
@@ -52,8 +54,54 @@ def _add_front_end(app: FastAPI) -> None:
         return JSONResponse({"service": "argand", "docs": "/docs", "jobs": "/api/jobs"})
 
 
+_MESSAGE = {"type": "object", "properties": {"detail": {"type": "string"}}, "required": ["detail"]}
+
+
+def _answer(description: str) -> dict:
+    return {"description": description, "content": {"application/json": {"schema": {"$ref": "#/components/schemas/Message"}}}}
+
+
+def _document_errors(app: FastAPI, settings: Settings) -> None:
+    """The OpenAPI document says every answer the service gives: a 422 is
+    FastAPI's list of field errors or one message (a refused job, a scene
+    that does not parse, a limit); a path with a job or preset may be a 404;
+    a body may be a 413; with a token, the state-changing operations are
+    secured (bearer) and may be a 401."""
+    generate = app.openapi
+
+    def openapi() -> dict:
+        if app.openapi_schema is not None:
+            return app.openapi_schema
+        schema = generate()
+        components = schema.setdefault("components", {})
+        components.setdefault("schemas", {})["Message"] = _MESSAGE
+        error = components["schemas"].get("HTTPValidationError")
+        if error is not None:
+            listed = {k: v for k, v in error["properties"]["detail"].items() if k != "title"}
+            error["properties"]["detail"] = {"anyOf": [{"type": "string"}, listed], "title": "Detail"}
+        secured = settings.token() is not None
+        if secured:
+            components["securitySchemes"] = {"bearer": {"type": "http", "scheme": "bearer",
+                                                        "description": "The farm's API token (ARGAND_API_TOKEN)"}}
+        for path, operations in schema.get("paths", {}).items():
+            for method, op in operations.items():
+                answers = op.setdefault("responses", {})
+                if "{" in path:
+                    answers.setdefault("404", _answer("No such job, preset or file (yet)"))
+                if "requestBody" in op:
+                    answers.setdefault("413", _answer("The body is above max_body_bytes"))
+                if secured and method.upper() in CHANGES_STATE:
+                    op["security"] = [{"bearer": []}]
+                    answers.setdefault("401", _answer("No token, or a wrong one"))
+        app.openapi_schema = schema
+        return schema
+
+    app.openapi = openapi
+
+
 def create_app(settings: Settings) -> FastAPI:
-    app = FastAPI(title="Argand", description="Render jobs of algebraic surfaces in complex space.")
+    app = FastAPI(title="Argand", description="Render jobs of algebraic surfaces in complex space.",
+                  dependencies=[Depends(check_access)])
     app.state.settings = settings
     for module in (jobs, frames, service):
         app.include_router(module.router)
@@ -68,4 +116,6 @@ def create_app(settings: Settings) -> FastAPI:
 
     _add_metrics(app, settings)
     _add_front_end(app)
+    _document_errors(app, settings)
+    app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     return app

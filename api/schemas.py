@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from argand.core import METHODS
 from argand.farm.models import Job
+from argand.farm.limits import MAX_FRAMES, MAX_SIDE
 from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.farm.progress import eta_seconds, job_progress
 from argand.farm.queue import PRIORITIES
@@ -18,19 +18,17 @@ Priority = Field(5, ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
 
 
 def _angle(v: Any) -> float:
-    if isinstance(v, str):
-        return parse_angle(v)
-    f = float(v)
-    if not math.isfinite(f):
-        raise ValueError("angles must be finite")
-    return f
+    """An angle: a JSON number or an expression such as "pi/9", read by
+    argand.render.angles.parse_angle (bounded: no recursion, no big integers,
+    at most MAX_ANGLE_LENGTH characters); anything else is a ValueError (a 422)."""
+    return parse_angle(v)
 
 
 class DeltaRange(BaseModel):
     model_config = ConfigDict(extra="forbid")
     start: float | str
     stop: float | str
-    count: int = Field(ge=1)
+    count: int = Field(ge=1, le=MAX_FRAMES, description="Frames in the sweep (the farm's max_frames may be lower)")
 
     @field_validator("start", "stop", mode="before")
     @classmethod
@@ -43,8 +41,8 @@ class JobRequest(BaseModel):
     scene: str | dict = Field(description="A preset name or a scene object")
     sigma: float | str = 0.0
     deltas: list[float | str] | DeltaRange = Field(default_factory=lambda: [0.0])
-    width: int = Field(256, ge=1)
-    height: int = Field(256, ge=1)
+    width: int = Field(256, ge=1, le=MAX_SIDE)
+    height: int = Field(256, ge=1, le=MAX_SIDE)
     tile: int | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
     priority: int = Priority
     method: Literal[METHODS] = "auto"
@@ -60,6 +58,8 @@ class JobRequest(BaseModel):
         if isinstance(v, list):
             if not v:
                 raise ValueError("deltas must not be empty")
+            if len(v) > MAX_FRAMES:
+                raise ValueError(f"deltas has {len(v)} entries; at most {MAX_FRAMES} (and the farm's max_frames)")
             out = [_angle(d) for d in v]
             if any(d < 0 for d in out):
                 raise ValueError("every delta must be >= 0")

@@ -56,6 +56,9 @@ def test_the_services_environment_is_the_settings_and_points_at_the_services():
         assert env["ARGAND_REDIS_URL"].startswith("redis://redis:6379/")
         settings = Settings(**{k.removeprefix("ARGAND_").lower(): v for k, v in env.items()})
         assert settings.sqlalchemy_url == env["ARGAND_DATABASE_URL"] and str(settings.data_dir) == "/data"
+        # The API serves beyond its container: compose insists on a token (its ${VAR:?} form).
+        assert env["ARGAND_API_TOKEN"].startswith("${ARGAND_API_TOKEN:?")
+        assert settings.model_copy(update={"host": "0.0.0.0"}).exposure_problem() is None
         # The frame store is one volume, shared.
         assert f"argand-data:{env['ARGAND_DATA_DIR']}" in services[name]["volumes"]
 
@@ -71,7 +74,7 @@ def test_compose_commands_are_cli_commands():
         assert services[name]["build"]["dockerfile"] == "services/Dockerfile"
     api = services["api"]
     port = api["command"][api["command"].index("--port") + 1]
-    assert api["ports"] == [f"{port}:{port}"] and f"127.0.0.1:{port}/healthz" in " ".join(api["healthcheck"]["test"])
+    assert api["ports"] == [f"{port}:{port}"] and f"127.0.0.1:{port}/readyz" in " ".join(api["healthcheck"]["test"])
     assert services["worker"]["healthcheck"]["test"][1:] == ["python", "-m", "argand.worker.health"]
 
 

@@ -48,7 +48,7 @@ class Farm:
         while time.monotonic() < deadline:
             assert self.proc.poll() is None, self.log.read_text()
             try:
-                if httpx.get(self.url + "/healthz", timeout=2).status_code == 200:
+                if httpx.get(self.url + "/readyz", timeout=2).status_code == 200:
                     break
             except httpx.HTTPError:
                 pass
@@ -169,8 +169,10 @@ def test_bad_jobs_are_refused_with_the_reason(farm):
     cases = [
         ({"scene": "nope"}, "unknown preset"),
         ({"scene": {"objects": [{"surface": "x^2 + (y"}]}}, "unmatched '('"),
-        ({"scene": "bicube", "width": 100000}, "exceeds the limit"),
-        ({"scene": "bicube", "deltas": {"start": 0, "stop": 1, "count": 100000}}, "limit"),
+        ({"scene": "bicube", "width": 5000}, "exceeds the limit"),
+        ({"scene": "bicube", "width": 100000}, "less than or equal to 8192"),
+        ({"scene": "bicube", "deltas": {"start": 0, "stop": 1, "count": 1000}}, "exceed the limit of 720"),
+        ({"scene": "bicube", "deltas": {"start": 0, "stop": 1, "count": 100000}}, "less than or equal to 10000"),
         ({"scene": "bicube", "deltas": ["pi/"]}, "cannot read"),
         ({"scene": "bicube", "priority": 42}, "priority"),
         ({"scene": "bicube", "colour": "red"}, "colour"),

@@ -169,7 +169,7 @@ def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts,
         job = s.get(Job, job_id)
         tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
         assert tiles[10].attempts == 2 and tiles[10].status == "failed"
-        assert job.status == "failed" and job.error == "tile 0/10 failed 2 times"
+        assert job.status == "failed" and job.error == "tile 0/10 failed 2 times (RuntimeError: the renderer broke)"
     # Nothing more runs for a failed job, and what was rendered is kept.
     monkeypatch.setattr(rendering, "render_tile_into", real)
     assert rendering.run_tiles(settings, job_id, 0, list(range(11, 16)), "w-test") == "failed"

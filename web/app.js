@@ -5,8 +5,21 @@ const h = (html) => { const t = document.createElement("template"); t.innerHTML 
 const esc = (s) => String(s ?? "").replace(/[&<>"']/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;" }[c]));
 let cleanup = () => {};
 
-async function api(path, options = {}) {
-  const r = await fetch(path, { headers: { "content-type": "application/json" }, ...options });
+// The farm's API token, when it has one: asked once (on the first 401), kept
+// for this tab's session in sessionStorage, sent as a header (never a cookie,
+// so another site cannot make the browser send it).
+const TOKEN_KEY = "argand-api-token";
+function authHeaders() {
+  const token = sessionStorage.getItem(TOKEN_KEY);
+  return token ? { authorization: `Bearer ${token}` } : {};
+}
+
+async function api(path, options = {}, asked = false) {
+  const r = await fetch(path, { ...options, headers: { "content-type": "application/json", ...authHeaders(), ...(options.headers || {}) } });
+  if (r.status === 401 && !asked) {
+    const token = window.prompt("This farm needs its API token (ARGAND_API_TOKEN):");
+    if (token) { sessionStorage.setItem(TOKEN_KEY, token.trim()); return api(path, options, true); }
+  }
   const body = r.status === 204 ? null : await r.json().catch(() => null);
   if (!r.ok) throw new Error(body?.detail ? (typeof body.detail === "string" ? body.detail : JSON.stringify(body.detail)) : `HTTP ${r.status}`);
   return body;

@@ -19,7 +19,8 @@ from argand.farm.database import session_scope
 from argand.farm.models import Frame, Job
 from argand.farm.progress import eta_seconds, jobs_progress
 from argand.farm.states import ACTIONS, ENDED, JOB
-from argand.farm.submission import JobRefused, JobSpec, create_job, sweep_deltas
+from argand.farm.limits import MAX_PAGE
+from argand.farm.submission import FarmBusy, JobRefused, JobSpec, create_job, sweep_deltas
 from argand.scene import SceneError, load_scene, scene_from_dict
 from argand.scene.presets import PRESETS
 
@@ -43,14 +44,18 @@ def _job(settings, job_id: str) -> JobOut:
         return job_out(job_or_404(s, job_id))
 
 
-@router.post("", status_code=201)
+@router.post("", status_code=201, responses={413: {"description": "The body is above max_body_bytes"},
+                                                 429: {"description": "max_active_jobs are in flight"}})
 def submit(req: JobRequest, settings: SettingsDep) -> JobOut:
     name, scene = resolve_scene(req.scene)
-    deltas = sweep_deltas(req.deltas.model_dump() if isinstance(req.deltas, DeltaRange) else req.deltas)
-    spec = JobSpec(name, scene, float(req.sigma), deltas, req.width, req.height, req.tile or settings.default_tile,
-                   req.priority, req.method)
     try:
+        deltas = sweep_deltas(req.deltas.model_dump() if isinstance(req.deltas, DeltaRange) else req.deltas,
+                              settings.max_frames)
+        spec = JobSpec(name, scene, float(req.sigma), deltas, req.width, req.height,
+                       req.tile or settings.default_tile, req.priority, req.method)
         job_id = create_job(settings, spec)
+    except FarmBusy as exc:
+        raise HTTPException(429, detail=str(exc)) from None
     except JobRefused as exc:
         raise HTTPException(422, detail=str(exc)) from None
     return _job(settings, job_id)
@@ -60,7 +65,7 @@ def submit(req: JobRequest, settings: SettingsDep) -> JobOut:
 def list_jobs(
     settings: SettingsDep,
     status: str | None = Query(None, description="|".join(JOB.states)),
-    page: int = Query(1, ge=1),
+    page: int = Query(1, ge=1, le=MAX_PAGE),
     per_page: int = Query(20, ge=1, le=200),
 ) -> JobPage:
     if status is not None and status not in JOB.states:

@@ -20,7 +20,7 @@ from argand.farm.previews import PREVIEW_CHANNELS, STATUS_COLOURS
 from argand.farm.queue import PRIORITIES, broker_client
 from argand.farm.states import ACTIONS, ENDED, FRAME, JOB
 from argand.farm.workers import list_workers
-from argand.render import FrameParams, render_frame
+from argand.render import MAX_OBJECTS, FrameParams, render_frame
 from argand.render.frames import STATUS_NAMES
 from argand.render.output import to_srgb8, write_png
 from argand.scene import MAX_DEGREE, ExpressionError, SceneError, load_scene, parse_surface, scene_from_dict
@@ -46,7 +46,9 @@ def meta(settings: SettingsDep) -> dict:
         "limits": {"max_width": settings.max_width, "max_height": settings.max_height,
                    "max_frames": settings.max_frames, "max_job_pixels": settings.max_job_pixels,
                    "min_tile": MIN_TILE, "max_tile": MAX_TILE, "priority": [PRIORITIES.start, PRIORITIES.stop - 1],
-                   "max_degree": MAX_DEGREE},
+                   "max_degree": MAX_DEGREE, "max_job_tiles": settings.max_job_tiles,
+                   "max_active_jobs": settings.max_active_jobs, "max_body_bytes": settings.max_body_bytes,
+                   "max_objects": MAX_OBJECTS},
         "defaults": {"width": fields["width"].default, "height": fields["height"].default,
                      "tile": settings.default_tile, "priority": fields["priority"].default,
                      "method": fields["method"].default},
@@ -99,9 +101,55 @@ def workers(settings: SettingsDep) -> list[dict]:
     return list_workers(settings)
 
 
-@router.get("/healthz")
-def healthz(settings: SettingsDep) -> dict:
-    with session_scope(settings.sqlalchemy_url) as s:
-        s.scalar(select(func.count()).select_from(Job))
-    broker_client(settings).ping()
-    return {"status": "ok"}
+def _check(name: str, probe) -> dict:
+    try:
+        return {"name": name, "ok": True, **(probe() or {})}
+    except Exception as exc:  # a check reports, it does not raise
+        return {"name": name, "ok": False, "error": f"{type(exc).__name__}: {str(exc)[:200]}"}
+
+
+def farm_health(settings) -> tuple[bool, dict]:
+    """(can the farm work, what each part says): the database answers, the
+    broker answers, and at least one worker sent a heartbeat in time."""
+
+    def database():
+        with session_scope(settings.sqlalchemy_url) as s:
+            s.scalar(select(func.count()).select_from(Job))
+
+    def broker():
+        client = broker_client(settings)
+        client.connection_pool.connection_kwargs.update(socket_timeout=2, socket_connect_timeout=2)
+        client.ping()
+
+    def workers():
+        alive = sum(w["alive"] for w in list_workers(settings))
+        if not alive:
+            raise RuntimeError(f"no worker sent a heartbeat in the last {settings.heartbeat_timeout_s:g} s")
+        return {"alive": alive}
+
+    checks = [_check("database", database), _check("redis", broker), _check("workers", workers)]
+    ok = all(c["ok"] for c in checks)
+    return ok, {"status": "ok" if ok else "unavailable", "checks": checks}
+
+
+_HEALTH_RESPONSES = {503: {"description": "The farm cannot work: a check failed (the body says which)"}}
+
+
+@router.get("/healthz", responses=_HEALTH_RESPONSES)
+def healthz(settings: SettingsDep, response: Response) -> dict:
+    """The database, Redis and live workers; 503 when the farm cannot render."""
+    ok, body = farm_health(settings)
+    if not ok:
+        response.status_code = 503
+    return body
+
+
+@router.get("/readyz", responses=_HEALTH_RESPONSES)
+def readyz(settings: SettingsDep, response: Response) -> dict:
+    """The API can take jobs: the database and Redis answer (workers may
+    still be starting; queued work waits for them). 503 otherwise."""
+    _, body = farm_health(settings)
+    ready = all(c["ok"] for c in body["checks"] if c["name"] != "workers")
+    if not ready:
+        response.status_code = 503
+    return {"status": "ready" if ready else "unavailable", "checks": body["checks"]}

@@ -461,7 +461,23 @@ def serve(
     """The render farm: Redis (embedded unless ARGAND_REDIS_URL), the API and N workers. Ctrl-C stops it."""
     from argand.worker.serve import serve as run
 
-    run(_farm_settings(data, host, port), workers, announce=lambda m: console.print(m))
+    from argand.worker.serve import FarmLocked
+
+    settings = _farm_settings(data, host, port)
+    _refuse_exposure(settings)
+    try:
+        run(settings, workers, announce=lambda m: console.print(m))
+    except FarmLocked as exc:
+        fail(str(exc))
+
+
+def _refuse_exposure(settings) -> None:
+    try:
+        problem = settings.exposure_problem()
+    except ValueError as exc:
+        fail(str(exc))
+    if problem:
+        fail(problem)
 
 
 @app.command()
@@ -495,6 +511,7 @@ def api(
     settings = _farm_settings(data, host, port)
     if settings.redis_url is None:
         fail("set ARGAND_REDIS_URL to the farm's Redis (argand api does not start its own broker; argand serve does)")
+    _refuse_exposure(settings)
     upgrade(settings.sqlalchemy_url)
     console.print(f"Argand API on http://{settings.host}:{settings.port}/")
     uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="warning")

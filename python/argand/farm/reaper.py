@@ -31,9 +31,12 @@ from argand.farm.settings import Settings
 from argand.farm.states import ACTIVE, FRAME, JOB, TILE
 
 
-def _requeue_tiles_of(s: Session, settings: Settings, dead: set[str], now: float) -> None:
+def _requeue_tiles_of(s: Session, settings: Settings, dead: set[str], now: float) -> set[str]:
     """Tiles running on a dead worker, or for far longer than the hard time
-    limit, go back to the queue, or fail their job after too many attempts."""
+    limit, go back to the queue, or fail their job after too many attempts.
+    Returns the jobs of the tiles put back (their messages must be sent again:
+    a tile queued with no message would wait forever)."""
+    jobs: set[str] = set()
     for t in s.scalars(select(Tile).where(Tile.status == "running")).all():
         if t.worker in dead or (t.started and now - t.started > settings.tile_hard_time_limit_s * 2):
             if t.attempts >= settings.max_tile_attempts:
@@ -45,6 +48,8 @@ def _requeue_tiles_of(s: Session, settings: Settings, dead: set[str], now: float
                 continue
             t.status = TILE.check(t.status, "queued")
             t.worker = None
+            jobs.add(t.job_id)
+    return jobs
 
 
 def _orphaned_assemblies(s: Session, settings: Settings, dead: set[str], now: float) -> list[tuple[str, int]]:
@@ -85,7 +90,7 @@ class Reaper:
         with session_scope(settings.sqlalchemy_url) as s:
             dead_workers = [w for w in s.scalars(select(Worker)) if now - w.heartbeat > settings.heartbeat_timeout_s]
             dead = {w.name for w in dead_workers}
-            _requeue_tiles_of(s, settings, dead, now)
+            requeued = _requeue_tiles_of(s, settings, dead, now)
             orphans = _orphaned_assemblies(s, settings, dead, now)
             frames, jobs = _stuck(s)
             orphans += sorted(frames & self._seen_frames)
@@ -96,6 +101,8 @@ class Reaper:
                     Tile.status == "queued", Tile.job_id.in_(select(Job.id).where(Job.status.in_(ACTIVE)))).distinct()))
                 for w in dead_workers:
                     s.delete(w)
+            active = set(s.scalars(select(Job.id).where(Job.id.in_(requeued), Job.status.in_(ACTIVE))))
+            requeue = sorted(set(requeue) | active)
         for job_id, index in orphans:
             assembly.maybe_assemble(settings, job_id, index)  # idempotent
         for job_id in finish:

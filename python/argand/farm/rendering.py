@@ -61,13 +61,26 @@ def _frame_plan(url: str, job_id: str, frame_index: int):
                 if len(_job_cache) > 8:
                     _job_cache.clear()
                 job = c.execute(select(Job.scene, Job.width, Job.height, Job.tile, Job.method).where(Job.id == job_id)).one()
-                _job_cache[job_id] = (to_core_scene(scene_from_dict(job.scene)), job.width, job.height, job.tile, job.method)
+                _job_cache[job_id] = (core_scene_of(job.scene), job.width, job.height, job.tile, job.method)
             sigma, delta, tiles_total = c.execute(select(Frame.sigma, Frame.delta, Frame.tiles_total).where(
                 Frame.job_id == job_id, Frame.index == frame_index)).one()
         core_scene, w, h, tile, method = _job_cache[job_id]
-        params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=method)
-        _plan_cache[key] = (plan(core_scene, params), tile_rects(w, h, tile), tiles_total)
+        _plan_cache[key] = (frame_plan(core_scene, sigma, delta, w, h, method), tile_rects(w, h, tile), tiles_total)
     return _plan_cache[key]
+
+
+def core_scene_of(scene: dict) -> dict:
+    """A job's stored scene as the renderer takes it (the worker's and the
+    submission's one way)."""
+    return to_core_scene(scene_from_dict(scene))
+
+
+def frame_plan(core_scene: dict, sigma: float, delta: float, width: int, height: int, method: str):
+    """A frame's C++ plan: what a worker builds before its first tile, and
+    what a submission builds for every frame, so that a frame that cannot be
+    planned (the band rule, a camera or a coefficient out of range) is
+    refused at the door instead of failing in a worker. Raises ValueError."""
+    return plan(core_scene, FrameParams(sigma=sigma, delta=delta, width=width, height=height, method=method))
 
 
 def tile_key(job_id: str, frame_index: int):
@@ -172,7 +185,13 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
     why, claimed = claim(settings, job_id, frame_index, tile_indices, worker, sent_at)
     if why:
         return why
-    fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index)
+    try:
+        fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index)
+    except BaseException as exc:
+        # A frame that cannot be planned: its tiles go back (and after the
+        # attempts, fail the job with the reason), never stay "running".
+        release(settings, job_id, frame_index, worker, claimed, resend=True, reason=_reason(exc))
+        raise
     run = TileRun(settings, job_id, frame_index, worker, claimed, fplan, rects, total)
     # A run that holds the whole frame renders straight into the frame's
     # buffer (the EXR's layout); otherwise each tile gets a block of its own.
@@ -180,10 +199,10 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
         run.frame_px = np.empty((fplan.height, fplan.width, len(INTERLEAVED_CHANNELS)), np.float32)
     try:
         stopped = _render_claimed(run)
-    except BaseException:
+    except BaseException as exc:
         # A time limit or an error: keep what is written, give back the rest.
         run.commit()
-        release(settings, job_id, frame_index, worker, run.unrendered(), resend=True)
+        release(settings, job_id, frame_index, worker, run.unrendered(), resend=True, reason=_reason(exc))
         raise
     finally:
         ACTIVITY["tile"] = None
@@ -276,7 +295,14 @@ def _finish_whole_frame(run: TileRun) -> bool:
     return True
 
 
-def release(settings: Settings, job_id: str, frame_index: int, worker: str, tiles: list[int], resend: bool) -> None:
+def _reason(exc: BaseException) -> str:
+    """An error as a job's message: its type and text, cut to 300 characters."""
+    text = str(exc) or type(exc).__name__
+    return f"{type(exc).__name__}: {text}"[:300]
+
+
+def release(settings: Settings, job_id: str, frame_index: int, worker: str, tiles: list[int], resend: bool,
+            reason: str | None = None) -> None:
     """Gives tiles this worker claimed but did not finish back to the queue
     (a pause, a cancel, a time limit or an error), and sends them again if
     the job goes on; after an error, a tile that failed too often fails
@@ -290,7 +316,8 @@ def release(settings: Settings, job_id: str, frame_index: int, worker: str, tile
                                .values(status=TILE.check("running", "failed")).returning(Tile.tile_index)).scalars().all()
             if failed:
                 c.execute(update(Job).where(Job.id == job_id, Job.status.in_(JOB.sources("failed"))).values(
-                    status="failed", error=f"tile {frame_index}/{failed[0]} failed {settings.max_tile_attempts} times"))
+                    status="failed", error=f"tile {frame_index}/{failed[0]} failed {settings.max_tile_attempts} times"
+                    + (f" ({reason})" if reason else "")))
                 resend = False
         c.execute(update(Tile).where(*mine).values(status=TILE.check("running", "queued"), worker=None))
     if resend:

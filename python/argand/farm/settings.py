@@ -8,11 +8,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pydantic import Field, field_validator
+import ipaddress
+
+from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from argand.farm.limits import MAX_FRAMES, MAX_SIDE
 from argand.farm.planning import MAX_TILE, MIN_TILE
-from argand.render.frames import MAX_FRAME_SIDE
 from argand.render.output import EXR_COMPRESSION, check_exr_compression
 
 
@@ -28,10 +30,16 @@ class Settings(BaseSettings):
     port: int = 8000
 
     # Limits: an oversized job is refused with the limit in the message.
-    max_width: int = Field(4096, ge=1, le=MAX_FRAME_SIDE)
-    max_height: int = Field(4096, ge=1, le=MAX_FRAME_SIDE)
-    max_frames: int = Field(720, ge=1)
+    max_width: int = Field(4096, ge=1, le=MAX_SIDE)
+    max_height: int = Field(4096, ge=1, le=MAX_SIDE)
+    max_frames: int = Field(720, ge=1, le=MAX_FRAMES)
     max_job_pixels: int = Field(512 * 512 * 720, ge=1)
+    #: Tiles in one job (each is a database row): 512x512 at the default tile, 720 frames, is 46,080.
+    max_job_tiles: int = Field(50_000, ge=1)
+    #: Jobs queued, running or paused at once; a submission beyond is a 429.
+    max_active_jobs: int = Field(100, ge=1)
+    #: Bytes in one request body; more is a 413.
+    max_body_bytes: int = Field(1 << 20, ge=1024)
     default_tile: int = Field(64, ge=MIN_TILE, le=MAX_TILE)
     #: Most pixels in one message to a worker: a message carries a run of
     #: tiles of one frame (the tile stays the unit of state, storage and
@@ -41,6 +49,12 @@ class Settings(BaseSettings):
     #: OpenEXR compression of the frames: none, rle, zip, zips, piz, and zstd
     #: where OpenImageIO's OpenEXR has it; "zip:N"/"zstd:N" give a level.
     exr_compression: str = EXR_COMPRESSION
+
+    # Access: a bearer token for every state-changing route (None: no token,
+    # allowed only on a loopback host). From ARGAND_API_TOKEN, or the first
+    # line of the file ARGAND_API_TOKEN_FILE names.
+    api_token: SecretStr | None = None
+    api_token_file: Path | None = None
 
     # Work model.
     tile_soft_time_limit_s: int = Field(120, ge=1)
@@ -61,6 +75,34 @@ class Settings(BaseSettings):
         if v <= soft:
             raise ValueError("tile_hard_time_limit_s must be above tile_soft_time_limit_s")
         return v
+
+    def token(self) -> str | None:
+        """The API's token (the file's first line when a file is set), or None."""
+        if self.api_token_file is not None:
+            try:
+                text = self.api_token_file.read_text().strip()
+            except OSError as exc:
+                raise ValueError(f"cannot read the API token file {self.api_token_file}: {exc.strerror}") from None
+            if not text:
+                raise ValueError(f"the API token file {self.api_token_file} is empty")
+            return text
+        return self.api_token.get_secret_value() if self.api_token else None
+
+    def exposure_problem(self) -> str | None:
+        """Why serving on this host is refused: a host other than loopback
+        with no token would let anyone who reaches it submit, cancel and
+        delete jobs. None when the host is loopback or a token is set."""
+        if self.host == "localhost":
+            return None
+        try:
+            loopback = ipaddress.ip_address(self.host.strip("[]")).is_loopback
+        except ValueError:
+            loopback = False
+        if loopback or self.token():
+            return None
+        return (f"--host {self.host} serves beyond this machine, and no API token is set: anyone who reaches the "
+                "port could submit, cancel and delete jobs. Set ARGAND_API_TOKEN (or ARGAND_API_TOKEN_FILE), "
+                "or serve on 127.0.0.1.")
 
     @property
     def data_path(self) -> Path:
@@ -85,7 +127,7 @@ class Settings(BaseSettings):
     def environment(self) -> dict[str, str]:
         """These settings as ARGAND_* variables, for a child process (the
         broker and database resolved, so the child uses the same ones)."""
-        values = self.model_dump(exclude={"data_dir", "redis_url", "database_url"})
+        values = self.model_dump(exclude={"data_dir", "redis_url", "database_url", "api_token", "api_token_file"})
         env = {f"ARGAND_{k.upper()}": str(v) for k, v in values.items()}
         env.update(ARGAND_DATA_DIR=str(self.data_path), ARGAND_REDIS_URL=self.broker_url,
                    ARGAND_DATABASE_URL=self.sqlalchemy_url)

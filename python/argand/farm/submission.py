@@ -8,19 +8,25 @@ import uuid
 from dataclasses import dataclass
 from typing import Any
 
-from sqlalchemy import insert
+from sqlalchemy import func, insert, select
 
 from argand.farm.database import engine_for
 from argand.farm.dispatch import alive_workers
 from argand.farm.models import Frame, Job, Tile
 from argand.farm.planning import plan_runs, preview_order, tile_rects
 from argand.farm.queue import send_runs
+from argand.farm.rendering import core_scene_of, frame_plan
 from argand.farm.settings import Settings
+from argand.farm.states import ENDED
 from argand.render.frames import delta_sweep
 
 
 class JobRefused(ValueError):
     """A job the farm does not take; the message says which limit and why."""
+
+
+class FarmBusy(JobRefused):
+    """The farm has as many jobs in flight as its settings allow (a 429)."""
 
 
 @dataclass(frozen=True)
@@ -36,9 +42,13 @@ class JobSpec:
     method: str = "auto"
 
 
-def sweep_deltas(deltas: Any) -> list[float]:
+def sweep_deltas(deltas: Any, max_frames: int | None = None) -> list[float]:
     """A job's deltas: a list, or {start, stop, count} swept as `argand
-    render --deltas` sweeps it (the same values to the last bit)."""
+    render --deltas` sweeps it (the same values to the last bit). With
+    ``max_frames``, a count above it is refused before anything is expanded."""
+    n = int(deltas["count"]) if isinstance(deltas, dict) else len(deltas)
+    if max_frames is not None and n > max_frames:
+        raise JobRefused(f"{n} frames exceed the limit of {max_frames}")
     if isinstance(deltas, dict):
         return delta_sweep(float(deltas["start"]), float(deltas["stop"]), int(deltas["count"]))
     return [float(d) for d in deltas]
@@ -56,6 +66,32 @@ def check_limits(settings: Settings, spec: JobSpec) -> None:
     pixels = spec.width * spec.height * len(spec.deltas)
     if pixels > settings.max_job_pixels:
         raise JobRefused(f"the job has {pixels} pixels, above the limit of {settings.max_job_pixels}")
+    tiles = -(-spec.width // spec.tile) * -(-spec.height // spec.tile) * len(spec.deltas)
+    if tiles > settings.max_job_tiles:
+        raise JobRefused(f"the job has {tiles} tiles ({spec.tile}-pixel tiles), above the limit of "
+                         f"{settings.max_job_tiles}: use larger tiles or fewer frames")
+
+
+def check_renderable(spec: JobSpec) -> None:
+    """Plans every distinct frame with the code a worker runs before its
+    first tile (argand.farm.rendering.frame_plan): a frame that breaks the
+    band rule or cannot be planned (a camera or coefficient out of range) is
+    refused here, with the renderer's reason, instead of failing in a worker."""
+    try:
+        core = core_scene_of(spec.scene)
+        for delta in sorted(set(spec.deltas)):
+            frame_plan(core, spec.sigma, delta, spec.width, spec.height, spec.method)
+    except (ValueError, ArithmeticError, RuntimeError) as exc:
+        raise JobRefused(f"the scene cannot be rendered: {exc}") from None
+
+
+def check_in_flight(settings: Settings) -> None:
+    """Raises FarmBusy when the farm already holds max_active_jobs unfinished jobs."""
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        n = c.execute(select(func.count()).select_from(Job).where(Job.status.not_in(ENDED))).scalar()
+    if n >= settings.max_active_jobs:
+        raise FarmBusy(f"the farm has {n} jobs queued, running or paused (the limit is {settings.max_active_jobs}); "
+                       "retry when some have finished")
 
 
 def create_job(settings: Settings, spec: JobSpec) -> str:
@@ -63,6 +99,8 @@ def create_job(settings: Settings, spec: JobSpec) -> str:
     messages. The first frames' tiles are stored and sent first, so workers
     start while the rest is written. Returns the job's id."""
     check_limits(settings, spec)
+    check_renderable(spec)
+    check_in_flight(settings)
     job_id = uuid.uuid4().hex[:12]
     rects = tile_rects(spec.width, spec.height, spec.tile)
     n_frames = len(spec.deltas)

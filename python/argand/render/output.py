@@ -4,6 +4,7 @@ the frame's figures as JSON. (Animations: argand.render.gif.)"""
 from __future__ import annotations
 
 import json
+import uuid
 from pathlib import Path
 import numpy as np
 
@@ -126,15 +127,21 @@ def write_png(pixels: np.ndarray, path: Path, level: int = PNG_LEVEL) -> None:
 
 
 def _write(oiio, path: Path, spec, pixels: np.ndarray) -> None:
-    tmp = path.with_name(path.name + ".tmp" + path.suffix)
-    out = oiio.ImageOutput.create(str(tmp))
-    if out is None or not out.open(str(tmp), spec):
-        raise OSError(f"cannot write {path}: {oiio.geterror()}")
-    ok = out.write_image(pixels)
-    out.close()
-    if not ok:
-        raise OSError(f"cannot write {path}: {out.geterror()}")
-    tmp.replace(path)  # atomic: readers never see half a frame
+    # A name of its own per writer: two processes (or two requests) writing
+    # the same file at once each write their own temporary, and the last
+    # rename wins with a whole file.
+    tmp = path.with_name(f"{path.name}.{uuid.uuid4().hex[:12]}.tmp{path.suffix}")
+    try:
+        out = oiio.ImageOutput.create(str(tmp))
+        if out is None or not out.open(str(tmp), spec):
+            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+        ok = out.write_image(pixels)
+        out.close()
+        if not ok:
+            raise OSError(f"cannot write {path}: {out.geterror()}")
+        tmp.replace(path)  # atomic: readers never see half a frame
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def write_frame(result: FrameResult, out_dir: Path, index: int, exr: np.ndarray | None = None,
