@@ -159,3 +159,22 @@ def test_the_streams_of_a_job_share_one_poller_and_follow_it_to_its_end(farm_par
         assert c.delete(f"/api/jobs/{other}").status_code == 204
         th.join(30)
         assert [n for n, _ in out] == ["progress", "deleted"]
+
+
+def test_a_stream_whose_job_does_not_change_gets_keep_alives(farm_parts, monkeypatch):  # noqa: F811
+    """No progress for a while (a queued job, no worker here) must not look like
+    a dead connection: the stream sends an SSE comment every KEEPALIVE_S (the
+    load test saw clients time out reads of 60 s on paused and queued jobs)."""
+    from argand.api.routers import jobs as job_routes
+
+    monkeypatch.setattr(job_routes, "KEEPALIVE_S", 0.3)
+    with _served(farm_parts) as (c, _, app):
+        job_id = c.post("/api/jobs", json={"scene": "plucker", "width": 32, "height": 32, "tile": 16}).json()["id"]
+        lines: list[str] = []
+        with c.stream("GET", f"/api/jobs/{job_id}/events", timeout=10) as stream:
+            for line in stream.iter_lines():
+                lines.append(line)
+                if lines.count(": keep-alive") >= 2:
+                    break
+        assert lines[0] == "event: progress" and lines[1].startswith("data: ")
+        assert lines.count(": keep-alive") == 2

@@ -116,6 +116,9 @@ def delete(job_id: str, settings: SettingsDep) -> None:
 
 #: Seconds between two polls of a followed job's progress.
 POLL_S = 0.5
+#: A stream whose job has not changed for this long gets an SSE comment, so
+#: clients and proxies that time out idle reads keep the stream open.
+KEEPALIVE_S = 15.0
 
 
 def _progress(settings, job_id: str) -> dict | None:
@@ -192,7 +195,11 @@ async def events(job_id: JobIdDep, settings: SettingsDep, request: Request):
         seen = 0
         try:
             while True:
-                seen, payload = await poller.after(seen)
+                try:
+                    seen, payload = await asyncio.wait_for(poller.after(seen), KEEPALIVE_S)
+                except asyncio.TimeoutError:
+                    yield ": keep-alive\n\n"
+                    continue
                 if payload is None:
                     yield "event: deleted\ndata: {}\n\n"
                     return
