@@ -13,6 +13,8 @@ from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.farm.progress import eta_seconds, job_progress
 from argand.farm.queue import PRIORITIES
 from argand.render.angles import parse_angle
+from argand.render.frames import MAX_SAMPLES
+from argand.scene.model import check_samples
 
 Priority = Field(5, ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
 
@@ -46,6 +48,14 @@ class JobRequest(BaseModel):
     tile: int | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
     priority: int = Priority
     method: Literal[METHODS] = "auto"
+    samples: int | None = Field(None, ge=1, le=MAX_SAMPLES,
+                                description="Samples per pixel, a square (1, 4, 9, ..., MAX_SAMPLES; default: the "
+                                "scene's): the colour is their mean, the status the worst of theirs")
+
+    @field_validator("samples")
+    @classmethod
+    def _samples(cls, v: int | None) -> int | None:
+        return None if v is None else check_samples(v)
 
     @field_validator("sigma", mode="before")
     @classmethod

@@ -1,6 +1,7 @@
 """Type stubs for the private compiled module argand.core._core."""
 
-from typing import Any
+from collections.abc import Iterable, MutableSequence, Sequence
+from typing import Any, ClassVar, Literal, TypedDict, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -28,18 +29,185 @@ def find_roots_batch(matrix: npt.NDArray[np.float64], method: str = "auto") -> d
 MAX_OBJECTS: int
 MAX_SURFACE_DEGREE: int
 MAX_FRAME_SIDE: int
+MAX_SAMPLES: int
 BAND_RULE: str
 INTERLEAVED_CHANNELS: tuple[str, ...]
+STATUS_NAMES: dict[int, str]
+ESCALATION_NAMES: dict[int, str]
+
+Vec3 = tuple[float, float, float]
+_Numbers = Sequence[float] | npt.NDArray[np.float64]
+Term = tuple[int, int, int, float]
+
+# The typed scene (render.h's structs). Every field is checked when set (in
+# the keyword constructor too): a wrong type is a TypeError and a wrong value
+# a ValueError, each naming the field ("CameraSpec.up[2] must be finite").
+# A constructor's omitted fields keep render.h's default member initialisers.
+class Material:
+    FIELDS: ClassVar[tuple[str, ...]]
+    def __init__(
+        self,
+        *,
+        color: _Numbers = ...,
+        diffuse: float = ...,
+        specular: float = ...,
+        shininess: float = ...,
+        reflectivity: float = ...,
+        transparency: float = ...,
+        ior: float = ...,
+    ) -> None: ...
+    @property
+    def color(self) -> Vec3: ...
+    @color.setter
+    def color(self, value: _Numbers) -> None: ...
+    diffuse: float
+    specular: float
+    shininess: float
+    reflectivity: float
+    transparency: float
+    ior: float
+
+class SurfaceSpec:
+    FIELDS: ClassVar[tuple[str, ...]]
+    def __init__(
+        self,
+        *,
+        terms: Sequence[Term] = ...,
+        degree: int = ...,
+        complex_space: bool = ...,
+        clip_radius: float = ...,
+        material: Material = ...,
+        linear: _Numbers = ...,
+        translate: _Numbers = ...,
+    ) -> None: ...
+    @property
+    def terms(self) -> tuple[Term, ...]: ...
+    @terms.setter
+    def terms(self, value: Sequence[Term]) -> None: ...
+    degree: int
+    complex_space: bool
+    clip_radius: float
+    material: Material
+    @property
+    def linear(self) -> tuple[float, ...]: ...
+    @linear.setter
+    def linear(self, value: _Numbers) -> None: ...
+    @property
+    def translate(self) -> Vec3: ...
+    @translate.setter
+    def translate(self, value: _Numbers) -> None: ...
+
+class Light:
+    FIELDS: ClassVar[tuple[str, ...]]
+    def __init__(
+        self, *, vector: _Numbers = ..., directional: bool = ..., color: _Numbers = ..., intensity: float = ...
+    ) -> None: ...
+    @property
+    def vector(self) -> Vec3: ...
+    @vector.setter
+    def vector(self, value: _Numbers) -> None: ...
+    directional: bool
+    @property
+    def color(self) -> Vec3: ...
+    @color.setter
+    def color(self, value: _Numbers) -> None: ...
+    intensity: float
+
+class CameraSpec:
+    FIELDS: ClassVar[tuple[str, ...]]
+    def __init__(
+        self, *, position: _Numbers = ..., look_at: _Numbers = ..., up: _Numbers = ..., fov_degrees: float = ...
+    ) -> None: ...
+    @property
+    def position(self) -> Vec3: ...
+    @position.setter
+    def position(self, value: _Numbers) -> None: ...
+    @property
+    def look_at(self) -> Vec3: ...
+    @look_at.setter
+    def look_at(self, value: _Numbers) -> None: ...
+    @property
+    def up(self) -> Vec3: ...
+    @up.setter
+    def up(self, value: _Numbers) -> None: ...
+    fov_degrees: float
+
+class SurfaceSpecList(MutableSequence[SurfaceSpec]):
+    def __init__(self, items: Iterable[SurfaceSpec] = ...) -> None: ...
+
+class LightList(MutableSequence[Light]):
+    def __init__(self, items: Iterable[Light] = ...) -> None: ...
+
+class SceneSpec:
+    FIELDS: ClassVar[tuple[str, ...]]
+    def __init__(
+        self,
+        *,
+        objects: Iterable[SurfaceSpec] = ...,
+        lights: Iterable[Light] = ...,
+        background: _Numbers = ...,
+        camera: CameraSpec = ...,
+    ) -> None: ...
+    @property
+    def objects(self) -> SurfaceSpecList: ...
+    @objects.setter
+    def objects(self, value: Iterable[SurfaceSpec]) -> None: ...
+    @property
+    def lights(self) -> LightList: ...
+    @lights.setter
+    def lights(self, value: Iterable[Light]) -> None: ...
+    @property
+    def background(self) -> Vec3: ...
+    @background.setter
+    def background(self, value: _Numbers) -> None: ...
+    camera: CameraSpec
 
 class FramePlan:
     @property
     def width(self) -> int: ...
     @property
     def height(self) -> int: ...
+    @property
+    def samples(self) -> int: ...
+
+class PolynomialExplanation(TypedDict):
+    object: int
+    coeffs: list[float]
+    radius: list[float]
+    roots_status: int
+    seeded: bool
+    root_escalation: int
+    complete: bool
+
+class DiscExplanation(TypedDict):
+    object: int
+    center: complex
+    radius: float
+    count: int
+    verified: bool
+    real: bool
+    modulus: tuple[float, float]
+    at_origin: bool
+    in_band: str
+    inside_clip: str
+    live: bool
+    eligible: bool
+
+class PixelExplanation(TypedDict):
+    origin: list[float]
+    direction: list[float]
+    polynomials: list[PolynomialExplanation]
+    discs: list[DiscExplanation]
+    chosen: int
+    hit: bool
+    status: int
+    escalation: int
+    reason: str
 
 def band_rule_holds(sigma: float, delta: float) -> bool: ...
+def sample_side(samples: int) -> int: ...
 def plan_frame(
-    scene: dict[str, Any],
+    scene: SceneSpec,
     sigma: float,
     delta: float,
     width: int,
@@ -48,13 +216,19 @@ def plan_frame(
     max_depth: int = 3,
     hue_by_argument: bool = False,
     seed_from_neighbour: bool = True,
+    samples: int = 1,
 ) -> FramePlan: ...
 def render_tile(plan: FramePlan, x0: int, y0: int, x1: int, y1: int) -> dict[str, Any]: ...
 def render_tile_into(
     plan: FramePlan, x0: int, y0: int, x1: int, y1: int, out: npt.NDArray[np.float32], ox: int = 0, oy: int = 0
 ) -> tuple[int, int, tuple[int, int, int, int], int]: ...
+@overload
 def ray_polynomial(
-    plan: FramePlan, object: int, origin: Any, direction: Any, with_radius: bool = False
-) -> Any: ...
-def primary_ray(plan: FramePlan, x: int, y: int) -> tuple[list[float], list[float]]: ...
-def explain_pixel(plan: FramePlan, x: int, y: int, row_start: int) -> dict[str, Any]: ...
+    plan: FramePlan, object: int, origin: _Numbers, direction: _Numbers, with_radius: Literal[False] = False
+) -> npt.NDArray[np.float64]: ...
+@overload
+def ray_polynomial(
+    plan: FramePlan, object: int, origin: _Numbers, direction: _Numbers, with_radius: Literal[True]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def primary_ray(plan: FramePlan, x: int, y: int, sample: int = 0) -> tuple[list[float], list[float]]: ...
+def explain_pixel(plan: FramePlan, x: int, y: int, row_start: int, sample: int = 0) -> PixelExplanation: ...

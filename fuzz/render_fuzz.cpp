@@ -69,6 +69,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const int n_objects = (control & 2) ? in.in_range(1, 24) : in.in_range(1, 3);
     for (int i = 0; i < n_objects; ++i) scene.objects.push_back(surface(in, raw));
     const int n_lights = in.in_range(0, 2);
+    scene.lights.clear();  // (not the default lights: 0 to 2 of the input's)
     for (int i = 0; i < n_lights; ++i) {
         Light light;
         for (double& v : light.vector) v = value(in, raw);

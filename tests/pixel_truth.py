@@ -100,23 +100,22 @@ class TruthObject:
 
 
 def scene_objects(scene: Any) -> list[TruthObject]:
-    """The objects of a scene (an ``argand.scene.Scene`` or the core dict the
-    renderer plans from), exactly."""
-    if not (isinstance(scene, dict) and "objects" in scene):
-        from argand.render.convert import to_core_scene  # the scene's doubles, as the renderer gets them
+    """The objects of a scene (an ``argand.scene.Scene`` or the
+    ``_core.SceneSpec`` the renderer plans from), exactly."""
+    from argand.render.convert import to_core_scene  # the scene's doubles, as the renderer gets them
 
-        scene = to_core_scene(scene)
+    scene = to_core_scene(scene)
     out = []
-    for obj in scene["objects"]:
-        linear = [exact(v) for v in obj.get("linear", [1, 0, 0, 0, 1, 0, 0, 0, 1])]
-        clip = float(obj.get("clip_radius", 0.0) or 0.0)
+    for obj in scene.objects:
+        linear = [exact(v) for v in obj.linear]
+        clip = obj.clip_radius
         out.append(
             TruthObject(
-                terms=tuple((int(i), int(j), int(k), exact(c)) for i, j, k, c in obj["terms"]),
-                complex_space=bool(obj.get("complex", True)),
+                terms=tuple((int(i), int(j), int(k), exact(c)) for i, j, k, c in obj.terms),
+                complex_space=obj.complex_space,
                 clip_radius=exact(clip) if clip > 0 else None,
                 linear=tuple(tuple(linear[3 * r : 3 * r + 3]) for r in range(3)),
-                translate=tuple(exact(v) for v in obj.get("translate", [0, 0, 0])),
+                translate=tuple(exact(v) for v in obj.translate),
             )
         )
     return out

@@ -1,7 +1,8 @@
 """Random surfaces of degree 1 to 8 for the render tests, from a seeded RNG.
 
-Each generator returns the renderer's core scene dict (what
-``argand.render.convert.to_core_scene`` makes of a Scene) with one object:
+Each generator returns the renderer's typed core scene (the
+``_core.SceneSpec`` ``argand.render.convert.to_core_scene`` makes of a Scene)
+with one object:
 
 * ``dense``: every monomial of degree <= n with a random double coefficient
   (uniform in [-1, 1]), so the picture is a generic surface of degree n;
@@ -98,22 +99,23 @@ def camera(rng: np.random.Generator) -> dict:
     }
 
 
-def core_scene(terms: Poly, clip_radius: float = 1.6, cam: dict | None = None, complex_space: bool = True) -> dict:
-    """The renderer's core dict for one object with these terms."""
+def core_scene(terms: Poly, clip_radius: float = 1.6, cam: dict | None = None, complex_space: bool = True):
+    """The renderer's core scene (a _core.SceneSpec) for one object with
+    these terms; ``cam`` is a scene file's camera (position, look_at, up, fov)."""
     from argand.render.convert import to_core_scene
     from argand.scene import scene_from_dict
 
     base = to_core_scene(scene_from_dict({"objects": [{"surface": "x^2 + y^2 + z^2 - 1"}],
                                           "camera": cam or {"position": [6.0, 0.0, 0.0]}}))
-    obj = base["objects"][0]
-    obj["terms"] = [(i, j, k, float(c)) for (i, j, k), c in sorted(terms.items())]
-    obj["degree"] = max(sum(m) for m in terms)
-    obj["clip_radius"] = float(clip_radius)
-    obj["complex"] = complex_space
+    obj = base.objects[0]
+    obj.terms = [(i, j, k, float(c)) for (i, j, k), c in sorted(terms.items())]
+    obj.degree = max(sum(m) for m in terms)
+    obj.clip_radius = float(clip_radius)
+    obj.complex_space = complex_space
     return base
 
 
-def random_scene(family: str, degree: int, seed: int) -> dict:
+def random_scene(family: str, degree: int, seed: int):
     """A random one-object scene; the same (family, degree, seed) gives the same scene."""
     rng = np.random.default_rng([seed, degree, FAMILIES.index(family)])
     terms = random_polynomial(family, degree, rng)
@@ -122,7 +124,7 @@ def random_scene(family: str, degree: int, seed: int) -> dict:
     return core_scene(terms, cam=camera(rng))
 
 
-def parse_random_spec(spec: str) -> dict:
+def parse_random_spec(spec: str):
     """``random:DEGREE:SEED`` or ``random:FAMILY:DEGREE:SEED`` -> a scene."""
     parts = spec.split(":")
     if parts[0] != "random" or len(parts) not in (3, 4):

@@ -98,8 +98,12 @@ def test_render_writes_frames_aovs_and_animation(tmp_path):
     for i in range(3):
         names, pixels = read_exr(out / f"frame_{i:04d}.exr")
         # (EXR keeps its own channel order; look channels up by name.)
-        assert sorted(names) == sorted(["R", "G", "B", "A", "Z", "arg", "re", "im", "count", "status", "escalation"])
-        assert pixels.shape == (24, 32, 11)
+        assert sorted(names) == sorted(["R", "G", "B", "A", "Z", "arg", "re", "im", "count", "status", "escalation",
+                                        "certified_share"])
+        assert pixels.shape == (24, 32, 12)
+        # One sample per pixel: its share of certified samples is 1 or 0, as its status says.
+        share = pixels[..., names.index("certified_share")]
+        assert np.array_equal(share, (pixels[..., names.index("status")] == 0).astype(np.float32))
         assert set(np.unique(pixels[..., names.index("status")])) <= {0.0, 1.0, 2.0, 3.0}
         assert set(np.unique(pixels[..., names.index("escalation")])) <= {0.0, 1.0, 2.0, 3.0}
         alpha = pixels[..., names.index("A")]

@@ -11,6 +11,8 @@ import math
 import flint
 import pytest
 
+from argand.core import _core
+
 from pixel_truth import check_pixel, is_wrong, object_ray, pixel_truth, ray_polynomial, scene_objects
 
 IDENTITY = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
@@ -18,8 +20,14 @@ UNIT_SPHERE = [(2, 0, 0, 1.0), (0, 2, 0, 1.0), (0, 0, 2, 1.0), (0, 0, 0, -1.0)]
 UP = (0.0, 0.0, 1.0)
 
 
-def scene(*objects: dict) -> dict:
-    return {"objects": [dict({"linear": IDENTITY, "translate": [0.0, 0.0, 0.0], "complex": True, "clip_radius": 0.0}, **o) for o in objects]}
+def scene(*objects: dict) -> _core.SceneSpec:
+    """The typed core scene of these objects (terms, and optionally linear,
+    translate, complex, clip_radius)."""
+    def surface(o: dict) -> _core.SurfaceSpec:
+        return _core.SurfaceSpec(terms=o["terms"], degree=max(i + j + k for i, j, k, _ in o["terms"]),
+                                 linear=o.get("linear", IDENTITY), translate=o.get("translate", [0.0, 0.0, 0.0]),
+                                 complex_space=o.get("complex", True), clip_radius=o.get("clip_radius", 0.0))
+    return _core.SceneSpec(objects=[surface(o) for o in objects])
 
 
 def sphere(**extra) -> dict:

@@ -330,9 +330,12 @@ def test_the_renderers_limits_are_defined_once_in_cpp_and_enforced_everywhere():
     with pytest.raises(ValueError, match=f"{MAX_FRAME_SIDE}x{MAX_FRAME_SIDE}"):
         FrameParams(width=1, height=MAX_FRAME_SIDE + 1)
     too_high = copy.deepcopy(core_scene)
-    too_high["objects"][0]["terms"] = [(MAX_DEGREE + 1, 0, 0, 1.0), (0, 0, 0, -1.0)]
-    too_high["objects"][0]["degree"] = MAX_DEGREE + 1
-    with pytest.raises(ValueError, match=f"degree must be in 1..{MAX_DEGREE}"):
+    with pytest.raises(ValueError, match=f"SurfaceSpec.degree must be in 1..{MAX_DEGREE}"):
+        too_high.objects[0].degree = MAX_DEGREE + 1
+    with pytest.raises(ValueError, match=rf"SurfaceSpec.terms\[0\].ex must be in 0..{MAX_DEGREE}"):
+        too_high.objects[0].terms = [(MAX_DEGREE + 1, 0, 0, 1.0), (0, 0, 0, -1.0)]
+    too_high.objects[0].terms = [(MAX_DEGREE, 1, 0, 1.0), (0, 0, 0, -1.0)]  # degree 13 > the object's degree
+    with pytest.raises(ValueError, match="object 0: a term exceeds the declared degree"):
         _core.plan_frame(too_high, 0.0, 0.0, 8, 8)
     with pytest.raises(pydantic.ValidationError):
         Settings(max_width=MAX_FRAME_SIDE + 1)

@@ -111,10 +111,10 @@ def test_coefficient_radii_hold_the_exact_ray_polynomial_of_the_pixels_doubles()
                                           "transform": {"rotate": [10, 20, 30], "translate": [0.1, -0.2, 0.3]}}]})
     params = FrameParams(width=7, height=7)
     frame_plan = plan(to_core_scene(scene), params)
-    core = to_core_scene(scene)["objects"][0]
-    L = [Fraction(v) for v in core["linear"]]
-    T = [Fraction(v) for v in core["translate"]]
-    terms = {(a, b, c): Fraction(v) for a, b, c, v in core["terms"]}
+    core = to_core_scene(scene).objects[0]
+    L = [Fraction(v) for v in core.linear]
+    T = [Fraction(v) for v in core.translate]
+    terms = {(a, b, c): Fraction(v) for a, b, c, v in core.terms}
     for y in range(7):
         for x in range(7):
             e = explain_pixel(scene, params, x, y)
@@ -239,6 +239,10 @@ def test_scenes_with_more_objects_than_sixteen_render_and_above_the_limit_are_re
     with pytest.raises(SceneError, match=f"at most {MAX_OBJECTS}"):
         scene_from_dict({"objects": [objects[0]] * (MAX_OBJECTS + 1)})
     core = to_core_scene(scene)
-    core["objects"] = core["objects"] * 2  # 36 objects straight to the C++ plan
+    with pytest.raises(ValueError, match=f"SceneSpec.objects: 36 items; at most {MAX_OBJECTS}"):
+        core.objects = list(core.objects) * 2  # 36 objects straight to the typed scene
+    for obj in list(core.objects):
+        core.objects.append(obj)  # past the setter: the C++ plan refuses
+    assert len(core.objects) == 36
     with pytest.raises(ValueError, match=f"at most {MAX_OBJECTS}"):
         _core.plan_frame(core, 0.0, 0.0, 4, 4)

@@ -69,7 +69,7 @@ def share_table(build_dir):
 
 
 def count_shares(scene, result) -> None:
-    degree = max(int(o["degree"]) for o in to_core_scene(scene)["objects"])
+    degree = max(o.degree for o in to_core_scene(scene).objects)
     SHARES[degree][0] += int(result.status_counts[0])
     SHARES[degree][1] += int(result.aovs["status"].size)
 
@@ -101,7 +101,7 @@ def test_primary_ray_is_the_plan_s_ray_for_every_pixel():
             eye, d = _core.primary_ray(frame_plan, x, y)
             assert origin == tuple(eye) and direction == tuple(d)
             assert abs(math.fsum(v * v for v in direction) - 1.0) < 1e-15
-    # The same from the core dict, and independent of sigma and delta.
+    # The same from the core scene, and independent of sigma and delta.
     assert primary_ray(to_core_scene(scene), 9, 7, 4, 3) == primary_ray(scene, 9, 7, 4, 3)
 
 
@@ -120,7 +120,9 @@ def test_primary_ray_matches_the_rendered_root_of_a_nearly_parallel_plane():
         n = u - float(np.dot(u, d)) * d + 1e-9 * d  # n . d ~ 1e-9
         c = float(np.dot(n, o)) + 1e-9 * 10.0  # F(o) = -1e-8: the root near t = 10
         plane = {(1, 0, 0): float(n[0]), (0, 1, 0): float(n[1]), (0, 0, 1): float(n[2]), (0, 0, 0): -c}
-        scene = core_scene(plane, clip_radius=0.0, cam=to_core_scene(base)["camera"])
+        cam = to_core_scene(base).camera
+        scene = core_scene(plane, clip_radius=0.0, cam={"position": cam.position, "look_at": cam.look_at, "up": cam.up,
+                                                        "fov": cam.fov_degrees})
         params = FrameParams(width=width, height=height)
         tile = render_tile(scene, params, TileRect(x, y, x + 1, y + 1))
         truth = pixel_truth(scene, 0.0, 0.0, origin, direction)
@@ -196,13 +198,13 @@ def test_a_product_surface_pixel_that_main_certified_wrongly():
 # ---------------------------------------------------------------------------
 
 
-def with_look_at(scene: dict, look_at) -> dict:
+def with_look_at(scene, look_at):
     out = copy.deepcopy(scene)
-    out["camera"]["look_at"] = [float(v) for v in look_at]
+    out.camera.look_at = [float(v) for v in look_at]
     return out
 
 
-def centre_truth(scene: dict, params: FrameParams, look_at, objects):
+def centre_truth(scene, params: FrameParams, look_at, objects):
     moved = with_look_at(scene, look_at)
     origin, direction = primary_ray(moved, params.width, params.height, params.width // 2, params.height // 2)
     return pixel_truth(moved, params.sigma, params.delta, origin, direction, objects)
@@ -258,7 +260,7 @@ def hit_miss_pair(scene: dict, params: FrameParams, base, step, objects):
     raise AssertionError(f"no hit-to-miss change along {base} + k {step}")
 
 
-def bicube_at(look_at) -> dict:
+def bicube_at(look_at):
     return to_core_scene(scene_from_dict({
         "objects": [{"surface": "x^4 + y^4 + z^4 - 1000", "clip_radius": 8}],
         "camera": {"position": [18.252658929852675, 12.780649375053615, 12.864739360717584],
@@ -266,7 +268,7 @@ def bicube_at(look_at) -> dict:
     }))
 
 
-def sphere_scene() -> dict:
+def sphere_scene():
     return to_core_scene(scene_from_dict({"objects": [{"surface": "x^2 + y^2 + z^2 - 1"}],
                                           "camera": {"position": [0.3, -4.0, 0.7]}}))
 
@@ -320,7 +322,7 @@ SINGULAR = [
 @pytest.mark.parametrize("delta", BAND_WIDTHS)
 def test_rays_at_singular_lines_are_never_certified_wrongly(name, preset, point, delta):
     scene = to_core_scene(load_scene(preset))
-    scene["camera"]["look_at"] = point
+    scene.camera.look_at = point
     params = FrameParams(delta=delta, width=31, height=31)
     result = render_frame(scene, params, workers=1)
     # The centre pixel's ray passes through the singular line; its neighbours close to it.

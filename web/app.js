@@ -98,6 +98,7 @@ async function newPage() {
       <label>Height <input id="height" type="number" min="8" max="${meta.limits.max_height}" value="${meta.defaults.height}"></label>
       <label>Tile <input id="tile" type="number" min="${meta.limits.min_tile}" max="${meta.limits.max_tile}" value="${meta.defaults.tile}"></label>
       <label>Priority <input id="priority" type="number" min="${meta.limits.priority[0]}" max="${meta.limits.priority[1]}" value="${meta.defaults.priority}"></label>
+      <label>Samples per pixel <select id="samples">${meta.limits.samples.map((n) => `<option${n === meta.defaults.samples ? " selected" : ""}>${n}</option>`).join("")}</select></label>
       <div class="wide"><button class="primary" type="submit" id="submit">Render</button> <span id="form-msg" class="error"></span></div>
     </form>`));
   let preset = null;
@@ -136,7 +137,8 @@ async function newPage() {
       scene = { objects: [obj] };
     }
     const body = { scene, sigma: val("sigma"), deltas: { start: val("start"), stop: val("stop"), count: Number(val("count")) },
-      width: Number(val("width")), height: Number(val("height")), tile: Number(val("tile")), priority: Number(val("priority")) };
+      width: Number(val("width")), height: Number(val("height")), tile: Number(val("tile")), priority: Number(val("priority")),
+      samples: Number(val("samples")) };
     try { const job = await api("/api/jobs", { method: "POST", body: JSON.stringify(body) }); location.hash = `#/job/${job.id}`; }
     catch (e) { formMsg.textContent = e.message; }
   });

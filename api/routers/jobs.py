@@ -48,6 +48,8 @@ def _job(settings, job_id: str) -> JobOut:
                                                  429: {"description": "max_active_jobs are in flight"}})
 def submit(req: JobRequest, settings: SettingsDep) -> JobOut:
     name, scene = resolve_scene(req.scene)
+    if req.samples is not None:
+        scene["samples"] = req.samples  # the job's scene carries its samples per pixel
     try:
         deltas = sweep_deltas(req.deltas.model_dump() if isinstance(req.deltas, DeltaRange) else req.deltas,
                               settings.max_frames)

@@ -21,7 +21,7 @@ from argand.farm.queue import PRIORITIES, broker_client
 from argand.farm.states import ACTIONS, ENDED, FRAME, JOB
 from argand.farm.workers import list_workers
 from argand.render import MAX_OBJECTS, FrameParams, render_frame
-from argand.render.frames import STATUS_NAMES
+from argand.render.frames import MAX_SAMPLES, STATUS_NAMES
 from argand.render.output import to_srgb8, write_png
 from argand.scene import MAX_DEGREE, ExpressionError, SceneError, load_scene, parse_surface, scene_from_dict
 from argand.scene.presets import PRESETS
@@ -48,10 +48,11 @@ def meta(settings: SettingsDep) -> dict:
                    "min_tile": MIN_TILE, "max_tile": MAX_TILE, "priority": [PRIORITIES.start, PRIORITIES.stop - 1],
                    "max_degree": MAX_DEGREE, "max_job_tiles": settings.max_job_tiles,
                    "max_active_jobs": settings.max_active_jobs, "max_body_bytes": settings.max_body_bytes,
-                   "max_objects": MAX_OBJECTS},
+                   "max_objects": MAX_OBJECTS, "max_samples": MAX_SAMPLES,
+                   "samples": [k * k for k in range(1, math.isqrt(MAX_SAMPLES) + 1)]},
         "defaults": {"width": fields["width"].default, "height": fields["height"].default,
                      "tile": settings.default_tile, "priority": fields["priority"].default,
-                     "method": fields["method"].default},
+                     "method": fields["method"].default, "samples": 1},
     }
 
 

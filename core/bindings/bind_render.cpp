@@ -1,26 +1,30 @@
-// bind_render.cpp: plan a frame from plain Python data, render tiles.
+// bind_render.cpp: the typed scene (render.h's structs as Python classes
+// with checked fields), plan a frame, render tiles.
 #include <pybind11/complex.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl_bind.h>
 
+#include <array>
+#include <cmath>
 #include <complex>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include "argand/render.h"
+
+// A scene's objects and lights are bound as list-like classes that hold the
+// C++ vectors themselves, so scene.objects[0].degree = 3 changes the scene.
+PYBIND11_MAKE_OPAQUE(std::vector<argand::SurfaceSpec>)
+PYBIND11_MAKE_OPAQUE(std::vector<argand::Light>)
 
 namespace py = pybind11;
 using namespace argand;
 
 namespace {
-
-template <std::size_t N>
-void copy_array(const py::handle& src, double (&dst)[N], const char* what) {
-    auto v = src.cast<std::vector<double>>();
-    if (v.size() != N) throw py::value_error(std::string(what) + " must have " + std::to_string(N) + " numbers");
-    for (std::size_t i = 0; i < N; ++i) dst[i] = v[i];
-}
 
 Method method_from(const std::string& name) {
     Method m;
@@ -28,51 +32,303 @@ Method method_from(const std::string& name) {
     return m;
 }
 
-SceneSpec scene_from(const py::dict& d) {
-    SceneSpec sc;
-    for (const auto& o : d["objects"].cast<py::list>()) {
-        const py::dict od = o.cast<py::dict>();
-        SurfaceSpec s;
-        for (const auto& t : od["terms"].cast<py::list>()) {
-            auto tt = t.cast<py::tuple>();
-            s.terms.push_back({tt[0].cast<int>(), tt[1].cast<int>(), tt[2].cast<int>(), tt[3].cast<double>()});
-        }
-        s.degree = od["degree"].cast<int>();
-        s.complex_space = od["complex"].cast<bool>();
-        s.clip_radius = od["clip_radius"].cast<double>();
-        const py::dict md = od["material"].cast<py::dict>();
-        copy_array(md["color"], s.material.color, "material.color");
-        s.material.diffuse = md["diffuse"].cast<double>();
-        s.material.specular = md["specular"].cast<double>();
-        s.material.shininess = md["shininess"].cast<double>();
-        s.material.reflectivity = md["reflectivity"].cast<double>();
-        s.material.transparency = md["transparency"].cast<double>();
-        s.material.ior = md["ior"].cast<double>();
-        copy_array(od["linear"], s.linear, "linear");
-        copy_array(od["translate"], s.translate, "translate");
-        sc.objects.push_back(std::move(s));
+// ---------------------------------------------------------------------------
+// Checked conversions: every error names the field ("CameraSpec.up[2]: ...").
+// ---------------------------------------------------------------------------
+
+std::string describe(const py::handle& v) {
+    std::string r = py::repr(v);
+    if (r.size() > 60) r = r.substr(0, 57) + "...";
+    return py::str(py::type::of(v).attr("__name__")).cast<std::string>() + " " + r;
+}
+
+[[noreturn]] void wrong_type(const std::string& field, const std::string& want, const py::handle& got) {
+    throw py::type_error(field + ": expected " + want + ", got " + describe(got));
+}
+
+std::string number_text(double v) {
+    std::string t = py::repr(py::float_(v));
+    return t;
+}
+
+/// A finite number (int or float, not bool or str) in [lo, hi]; lo_open
+/// makes the lower bound strict.
+double to_number(const py::handle& v, const std::string& field, double lo = -INFINITY, double hi = INFINITY,
+                 bool open = false) {
+    if (py::isinstance<py::bool_>(v) || py::isinstance<py::str>(v) || py::isinstance<py::bytes>(v) ||
+        !PyNumber_Check(v.ptr()) || py::str(py::type::of(v).attr("__name__")).cast<std::string>() == "bool_")
+        wrong_type(field, "a number", v);
+    double d;
+    try {
+        d = v.cast<double>();
+    } catch (const py::cast_error&) {
+        wrong_type(field, "a number", v);
     }
-    for (const auto& l : d["lights"].cast<py::list>()) {
-        const py::dict ld = l.cast<py::dict>();
-        Light light;
-        copy_array(ld["vector"], light.vector, "light vector");
-        light.directional = ld["directional"].cast<bool>();
-        copy_array(ld["color"], light.color, "light color");
-        light.intensity = ld["intensity"].cast<double>();
-        sc.lights.push_back(light);
+    if (!std::isfinite(d)) throw py::value_error(field + " must be finite, got " + number_text(d));
+    const bool out = open ? !(d > lo && d < hi) : !(d >= lo && d <= hi);
+    if (out) {
+        std::string range;
+        if (std::isinf(hi)) range = (open ? "> " : ">= ") + number_text(lo);
+        else range = "in " + std::string(open ? "(" : "[") + number_text(lo) + ", " + number_text(hi) + (open ? ")" : "]");
+        throw py::value_error(field + " must be " + range + ", got " + number_text(d));
     }
-    copy_array(d["background"], sc.background, "background");
-    const py::dict cd = d["camera"].cast<py::dict>();
-    copy_array(cd["position"], sc.camera.position, "camera.position");
-    copy_array(cd["look_at"], sc.camera.look_at, "camera.look_at");
-    copy_array(cd["up"], sc.camera.up, "camera.up");
-    sc.camera.fov_degrees = cd["fov"].cast<double>();
-    return sc;
+    return d;
+}
+
+/// An integer (int or anything with __index__, not bool) in [lo, hi].
+int to_int(const py::handle& v, const std::string& field, long long lo, long long hi) {
+    if (py::isinstance<py::bool_>(v) || !PyIndex_Check(v.ptr())) wrong_type(field, "an integer", v);
+    const long long i = py::reinterpret_steal<py::int_>(PyNumber_Index(v.ptr())).cast<long long>();
+    if (i < lo || i > hi)
+        throw py::value_error(field + " must be in " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " +
+                              std::to_string(i));
+    return static_cast<int>(i);
+}
+
+bool to_bool(const py::handle& v, const std::string& field) {
+    if (!py::isinstance<py::bool_>(v)) wrong_type(field, "True or False", v);
+    return v.cast<bool>();
+}
+
+/// A sequence (list, tuple, array; not a string) of exactly n items.
+py::sequence to_sequence(const py::handle& v, const std::string& field, std::size_t n, const std::string& what) {
+    if (!py::isinstance<py::sequence>(v) || py::isinstance<py::str>(v) || py::isinstance<py::bytes>(v)) {
+        // numpy arrays are sequences through __len__/__getitem__ only when 1-D; accept any iterable.
+        if (!py::isinstance<py::iterable>(v) || py::isinstance<py::str>(v)) wrong_type(field, what, v);
+        return to_sequence(py::list(py::reinterpret_borrow<py::iterable>(v)), field, n, what);
+    }
+    auto seq = py::reinterpret_borrow<py::sequence>(v);
+    if (n != 0 && seq.size() != n)
+        throw py::value_error(field + ": expected " + what + ", got " + std::to_string(seq.size()) + " items");
+    return seq;
+}
+
+template <std::size_t N>
+void set_numbers(double (&dst)[N], const py::handle& v, const std::string& field, double lo = -INFINITY) {
+    const std::string what = std::to_string(N) + " numbers";
+    auto seq = to_sequence(v, field, N, what);
+    double tmp[N];
+    for (std::size_t i = 0; i < N; ++i) tmp[i] = to_number(seq[i], field + "[" + std::to_string(i) + "]", lo);
+    std::copy(tmp, tmp + N, dst);
+}
+
+template <std::size_t N>
+py::tuple numbers_of(const double (&src)[N]) {
+    py::tuple t(N);
+    for (std::size_t i = 0; i < N; ++i) t[i] = py::float_(src[i]);
+    return t;
+}
+
+template <class T>
+T& instance_of(const py::handle& v, const std::string& field, const char* type_name) {
+    if (!py::isinstance<T>(v)) wrong_type(field, std::string("a ") + type_name, v);
+    return v.cast<T&>();
+}
+
+// ---------------------------------------------------------------------------
+// The typed scene classes
+// ---------------------------------------------------------------------------
+
+/// Binds one struct: its checked fields (recorded in FIELDS, in order), a
+/// keyword constructor (unknown keywords refused), ==, repr and copies.
+template <class T>
+class Struct {
+public:
+    Struct(py::module_& m, const char* name, const char* doc) : cls_(m, name, doc), name_(name) {}
+
+    /// A field with a getter (returns a Python value) and a checked setter.
+    template <class Get, class Set>
+    Struct& field(const char* name, Get get, Set set, const char* doc,
+                  py::return_value_policy policy = py::return_value_policy::automatic) {
+        const std::string where = name_ + "." + name;
+        cls_.def_property(name, py::cpp_function(get, policy),
+                          py::cpp_function([set, where](T& self, const py::object& v) { set(self, v, where); }), doc);
+        fields_.append(name);
+        return *this;
+    }
+
+    /// A number field in [lo, hi] (open: in (lo, hi)).
+    Struct& number(const char* name, double T::*member, const char* doc, double lo = -INFINITY, double hi = INFINITY,
+                   bool open = false) {
+        return field(name, [member](const T& s) { return s.*member; },
+                     [member, lo, hi, open](T& s, const py::object& v, const std::string& where) {
+                         s.*member = to_number(v, where, lo, hi, open);
+                     },
+                     doc);
+    }
+
+    template <std::size_t N>
+    Struct& numbers(const char* name, double (T::*member)[N], const char* doc, double lo = -INFINITY) {
+        return field(name, [member](const T& s) { return numbers_of(s.*member); },
+                     [member, lo](T& s, const py::object& v, const std::string& where) { set_numbers(s.*member, v, where, lo); },
+                     doc);
+    }
+
+    Struct& flag(const char* name, bool T::*member, const char* doc) {
+        return field(name, [member](const T& s) { return s.*member; },
+                     [member](T& s, const py::object& v, const std::string& where) { s.*member = to_bool(v, where); }, doc);
+    }
+
+    py::class_<T>& done() {
+        cls_.attr("FIELDS") = py::tuple(fields_);
+        const std::string name = name_;
+        cls_.def(py::init([name](const py::kwargs& kw) {
+                     py::object self = py::cast(T{}, py::return_value_policy::move);
+                     const py::tuple fields = self.attr("FIELDS");
+                     for (const auto& item : kw) {
+                         if (!fields.contains(item.first))
+                             throw py::type_error(name + " has no field '" + py::str(item.first).cast<std::string>() +
+                                                  "'; its fields: " + py::str(", ").attr("join")(fields).cast<std::string>());
+                         py::setattr(self, item.first, item.second);
+                     }
+                     return self.cast<T>();
+                 }),
+                 ("A " + name + " with the defaults of render.h, and the given fields (each checked as when set).").c_str());
+        cls_.def("__eq__", [](const py::object& a, const py::object& b) -> py::object {
+            if (!py::isinstance(b, py::type::of(a))) return py::reinterpret_borrow<py::object>(Py_NotImplemented);
+            for (const auto& f : a.attr("FIELDS").cast<py::tuple>())
+                if (!a.attr(f).equal(b.attr(f))) return py::bool_(false);
+            return py::bool_(true);
+        });
+        cls_.attr("__hash__") = py::none();
+        cls_.def("__repr__", [name](const py::object& self) {
+            std::string out = name + "(";
+            bool first = true;
+            for (const auto& f : self.attr("FIELDS").cast<py::tuple>()) {
+                out += (first ? "" : ", ") + f.cast<std::string>() + "=" + py::repr(self.attr(f)).cast<std::string>();
+                first = false;
+            }
+            return out + ")";
+        });
+        cls_.def("__copy__", [](const T& self) { return T(self); });
+        cls_.def("__deepcopy__", [](const T& self, const py::object&) { return T(self); }, py::arg("memo"));
+        return cls_;
+    }
+
+private:
+    py::class_<T> cls_;
+    std::string name_;
+    py::list fields_;
+};
+
+/// A list-like class holding std::vector<T> (append, index, len, iterate);
+/// == compares items.
+template <class T>
+void bind_list(py::module_& m, const char* name) {
+    py::bind_vector<std::vector<T>>(m, name)
+        .def("__eq__", [](const py::object& a, const py::object& b) -> py::object {
+            if (!py::isinstance<py::sequence>(b) || py::isinstance<py::str>(b))
+                return py::reinterpret_borrow<py::object>(Py_NotImplemented);
+            const py::sequence x = a, y = b;
+            if (x.size() != y.size()) return py::bool_(false);
+            for (std::size_t i = 0; i < x.size(); ++i)
+                if (!x[i].equal(y[i])) return py::bool_(false);
+            return py::bool_(true);
+        })
+        .def("__repr__", [](const py::object& self) { return py::repr(py::list(self)); })
+        .def("__copy__", [](const std::vector<T>& v) { return std::vector<T>(v); })
+        .def("__deepcopy__", [](const std::vector<T>& v, const py::object&) { return std::vector<T>(v); }, py::arg("memo"));
+}
+
+template <class T>
+std::vector<T> list_of(const py::handle& v, const std::string& field, const char* type_name, std::size_t max_items) {
+    auto seq = to_sequence(v, field, 0, std::string("a list of ") + type_name);
+    if (seq.size() > max_items)
+        throw py::value_error(field + ": " + std::to_string(seq.size()) + " items; at most " + std::to_string(max_items) +
+                              " are allowed");
+    std::vector<T> out;
+    for (std::size_t i = 0; i < seq.size(); ++i)
+        out.push_back(instance_of<T>(seq[i], field + "[" + std::to_string(i) + "]", type_name));
+    return out;
+}
+
+void bind_scene(py::module_& m) {
+    Struct<Material>(m, "Material", "Phong shading, mirror reflection and refraction (render.h's Material).")
+        .numbers("color", &Material::color, "Base colour [r, g, b], linear, each >= 0.", 0.0)
+        .number("diffuse", &Material::diffuse, "Diffuse weight in [0, 1].", 0.0, 1.0)
+        .number("specular", &Material::specular, "Specular weight in [0, 1].", 0.0, 1.0)
+        .number("shininess", &Material::shininess, "Phong exponent, > 0.", 0.0, INFINITY, true)
+        .number("reflectivity", &Material::reflectivity, "Mirror weight in [0, 1] (real objects).", 0.0, 1.0)
+        .number("transparency", &Material::transparency, "Refraction weight in [0, 1] (real objects).", 0.0, 1.0)
+        .number("ior", &Material::ior, "Index of refraction, >= 1.", 1.0)
+        .done();
+    Struct<SurfaceSpec>(m, "SurfaceSpec", "One surface F(x, y, z) = 0 in object space (render.h's SurfaceSpec).")
+        .field("terms",
+               [](const SurfaceSpec& s) {
+                   py::tuple t(s.terms.size());
+                   for (std::size_t i = 0; i < s.terms.size(); ++i)
+                       t[i] = py::make_tuple(s.terms[i].ex, s.terms[i].ey, s.terms[i].ez, s.terms[i].coeff);
+                   return t;
+               },
+               [](SurfaceSpec& s, const py::object& v, const std::string& where) {
+                   auto seq = to_sequence(v, where, 0, "a list of (ex, ey, ez, coeff) terms");
+                   std::vector<Term> terms;
+                   for (std::size_t i = 0; i < seq.size(); ++i) {
+                       const std::string at = where + "[" + std::to_string(i) + "]";
+                       auto t = to_sequence(seq[i], at, 4, "(ex, ey, ez, coeff)");
+                       terms.push_back({to_int(t[0], at + ".ex", 0, kMaxSurfaceDegree),
+                                        to_int(t[1], at + ".ey", 0, kMaxSurfaceDegree),
+                                        to_int(t[2], at + ".ez", 0, kMaxSurfaceDegree), to_number(t[3], at + ".coeff")});
+                   }
+                   s.terms = std::move(terms);
+               },
+               "The monomials: a tuple of (ex, ey, ez, coeff), exponents of x, y, z.")
+        .field("degree", [](const SurfaceSpec& s) { return s.degree; },
+               [](SurfaceSpec& s, const py::object& v, const std::string& where) {
+                   s.degree = to_int(v, where, 1, kMaxSurfaceDegree);
+               },
+               "Total degree, 1..MAX_SURFACE_DEGREE (plan_frame checks every term against it).")
+        .flag("complex_space", &SurfaceSpec::complex_space,
+              "True: roots in the band of complex space; False: only proven real roots (a real object).")
+        .number("clip_radius", &SurfaceSpec::clip_radius, "Clipping sphere about the object's origin; 0: none.", 0.0)
+        .field("material", [](SurfaceSpec& s) -> Material& { return s.material; },
+               [](SurfaceSpec& s, const py::object& v, const std::string& where) {
+                   s.material = instance_of<Material>(v, where, "Material");
+               },
+               "The Material (changed in place: surface.material.diffuse = 0.5).", py::return_value_policy::reference_internal)
+        .numbers("linear", &SurfaceSpec::linear, "Object = linear (world - translate): 9 numbers, row-major.")
+        .numbers("translate", &SurfaceSpec::translate, "The object's origin in the world.")
+        .done();
+    Struct<Light>(m, "Light", "A light at infinity or a point light (render.h's Light).")
+        .numbers("vector", &Light::vector, "Direction towards the light (directional) or its position.")
+        .flag("directional", &Light::directional, "True: vector is a direction; False: a position.")
+        .numbers("color", &Light::color, "[r, g, b], each >= 0.", 0.0)
+        .number("intensity", &Light::intensity, "Intensity, >= 0.", 0.0)
+        .done();
+    Struct<CameraSpec>(m, "CameraSpec", "A pinhole camera (render.h's CameraSpec).")
+        .numbers("position", &CameraSpec::position, "The eye.")
+        .numbers("look_at", &CameraSpec::look_at, "The point at the frame's centre.")
+        .numbers("up", &CameraSpec::up, "Up (not parallel to look_at - position).")
+        .number("fov_degrees", &CameraSpec::fov_degrees, "Vertical field of view in degrees, in (0, 180).", 0.0, 180.0, true)
+        .done();
+    bind_list<SurfaceSpec>(m, "SurfaceSpecList");
+    bind_list<Light>(m, "LightList");
+    Struct<SceneSpec>(m, "SceneSpec", "What plan_frame renders: objects, lights, background, camera (render.h's SceneSpec).")
+        .field("objects", [](SceneSpec& s) -> std::vector<SurfaceSpec>& { return s.objects; },
+               [](SceneSpec& s, const py::object& v, const std::string& where) {
+                   s.objects = list_of<SurfaceSpec>(v, where, "SurfaceSpec", kMaxObjects);
+               },
+               "The surfaces (at most MAX_OBJECTS), a list held by the scene.", py::return_value_policy::reference_internal)
+        .field("lights", [](SceneSpec& s) -> std::vector<Light>& { return s.lights; },
+               [](SceneSpec& s, const py::object& v, const std::string& where) {
+                   s.lights = list_of<Light>(v, where, "Light", 1024);
+               },
+               "The lights, a list held by the scene (default: render.h's default_lights()).",
+               py::return_value_policy::reference_internal)
+        .numbers("background", &SceneSpec::background, "[r, g, b] of a miss, each >= 0.", 0.0)
+        .field("camera", [](SceneSpec& s) -> CameraSpec& { return s.camera; },
+               [](SceneSpec& s, const py::object& v, const std::string& where) {
+                   s.camera = instance_of<CameraSpec>(v, where, "CameraSpec");
+               },
+               "The CameraSpec (changed in place: scene.camera.fov_degrees = 30).", py::return_value_policy::reference_internal)
+        .done();
 }
 
 /// The farm's interleaved layout (the EXR's channel order); Python's
 /// argand.render.frames.INTERLEAVED_CHANNELS must equal it (tested).
-constexpr const char* kInterleavedNames[] = {"R", "G", "B", "A", "Z", "arg", "re", "im", "count", "status", "escalation"};
+constexpr const char* kInterleavedNames[] = {"R",     "G",      "B",          "A",
+                                             "Z",     "arg",    "re",         "im",
+                                             "count", "status", "escalation", "certified_share"};
 constexpr int kInterleavedChannels = sizeof(kInterleavedNames) / sizeof(kInterleavedNames[0]);
 
 template <class T>
@@ -87,13 +343,17 @@ py::array_t<T> as_image(const std::vector<T>& v, int h, int w, int channels) {
 }  // namespace
 
 void init_render(py::module_& m) {
+    bind_scene(m);
     py::class_<FramePlan>(m, "FramePlan", "A frame planned once (camera, Taylor expansions); render tiles from it.")
         .def_property_readonly("width", [](const FramePlan& p) { return p.params.width; })
-        .def_property_readonly("height", [](const FramePlan& p) { return p.params.height; });
+        .def_property_readonly("height", [](const FramePlan& p) { return p.params.height; })
+        .def_property_readonly("samples", [](const FramePlan& p) { return p.params.samples; });
     m.def(
         "plan_frame",
-        [](const py::dict& scene, double sigma, double delta, int width, int height, const std::string& method,
-           int max_depth, bool hue_by_argument, bool seed_from_neighbour) {
+        [](const py::object& scene, double sigma, double delta, int width, int height, const std::string& method,
+           int max_depth, bool hue_by_argument, bool seed_from_neighbour, int samples) {
+            const SceneSpec& spec =
+                instance_of<SceneSpec>(scene, "scene", "SceneSpec (argand.render.convert.to_core_scene makes one)");
             FrameParams fp;
             fp.sigma = sigma;
             fp.delta = delta;
@@ -103,15 +363,16 @@ void init_render(py::module_& m) {
             fp.max_depth = max_depth;
             fp.hue_by_argument = hue_by_argument;
             fp.seed_from_neighbour = seed_from_neighbour;
+            fp.samples = samples;
             try {
-                return plan_frame(scene_from(scene), fp);
+                return plan_frame(spec, fp);
             } catch (const std::invalid_argument& e) {
                 throw py::value_error(e.what());
             }
         },
         py::arg("scene"), py::arg("sigma"), py::arg("delta"), py::arg("width"), py::arg("height"),
         py::arg("method") = "auto", py::arg("max_depth") = 3, py::arg("hue_by_argument") = false,
-        py::arg("seed_from_neighbour") = true);
+        py::arg("seed_from_neighbour") = true, py::arg("samples") = 1);
     m.def(
         "render_tile",
         [](const FramePlan& plan, int x0, int y0, int x1, int y1) {
@@ -129,6 +390,7 @@ void init_render(py::module_& m) {
             out["count"] = as_image(t.count, t.height, t.width, 1);
             out["status"] = as_image(t.status, t.height, t.width, 1);
             out["escalation"] = as_image(t.escalation, t.height, t.width, 1);
+            out["certified_share"] = as_image(t.certified_share, t.height, t.width, 1);
             out["escalations"] = t.escalations;
             out["root_calls"] = t.root_calls;
             return out;
@@ -171,6 +433,7 @@ void init_render(py::module_& m) {
                         p[8] = static_cast<float>(t.count[i]);
                         p[9] = static_cast<float>(t.status[i]);
                         p[10] = static_cast<float>(t.escalation[i]);
+                        p[11] = t.certified_share[i];
                         ++by_status[t.status[i] & 3];
                         hits += p[3] > 0.0f;
                     }
@@ -179,8 +442,8 @@ void init_render(py::module_& m) {
             return py::make_tuple(t.escalations, t.root_calls, py::make_tuple(by_status[0], by_status[1], by_status[2], by_status[3]),
                                   hits);
         },
-        "Renders the tile [x0, x1) x [y0, y1) into out[oy:, ox:] as 11 interleaved float32 channels (R, G, B, A, "
-        "Z, arg, re, im, count, status, escalation: INTERLEAVED_CHANNELS, the EXR's layout). Returns (escalations, root_calls, pixels per status "
+        "Renders the tile [x0, x1) x [y0, y1) into out[oy:, ox:] as 12 interleaved float32 channels (R, G, B, A, "
+        "Z, arg, re, im, count, status, escalation, certified_share: INTERLEAVED_CHANNELS, the EXR's layout). Returns (escalations, root_calls, pixels per status "
         "code 0..3, pixels that hit a surface).",
         py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("out").noconvert(), py::arg("ox") = 0,
         py::arg("oy") = 0);
@@ -199,23 +462,27 @@ void init_render(py::module_& m) {
         "The ray polynomial F(o + t d) of one object, lowest degree first; with_radius: (coeffs, radius) where "
         "radius[k] bounds |exact coefficient - coeffs[k]|.",
         py::arg("plan"), py::arg("object"), py::arg("origin"), py::arg("direction"), py::arg("with_radius") = false);
-    auto primary = [](const FramePlan& p, int x, int y) {
+    auto primary = [](const FramePlan& p, int x, int y, int sample) {
         if (x < 0 || x >= p.params.width || y < 0 || y >= p.params.height)
             throw py::value_error("pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is not inside the " +
                                   std::to_string(p.params.width) + "x" + std::to_string(p.params.height) + " frame");
-        const Ray r = primary_ray(p, x, y);
+        if (sample < 0 || sample >= p.params.samples)
+            throw py::value_error("sample must be in 0.." + std::to_string(p.params.samples - 1) + " (the plan has " +
+                                  std::to_string(p.params.samples) + " samples per pixel), got " + std::to_string(sample));
+        const Ray r = primary_ray(p, x, y, sample);
         return py::make_tuple(std::array<double, 3>{r.origin[0], r.origin[1], r.origin[2]},
                               std::array<double, 3>{r.direction[0], r.direction[1], r.direction[2]});
     };
     m.def("primary_ray", primary,
-          "The primary ray (origin, unit direction) of pixel (x, y): the exact doubles render_tile uses.",
-          py::arg("plan"), py::arg("x"), py::arg("y"));
+          "The primary ray (origin, unit direction) of sample `sample` of pixel (x, y): the exact doubles render_tile "
+          "uses. Sample k sits at the centre of stratum (k % side, k // side) of the pixel's side x side grid.",
+          py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("sample") = 0);
     m.def(
         "explain_pixel",
-        [](const FramePlan& plan, int x, int y, int row_start) {
+        [](const FramePlan& plan, int x, int y, int row_start, int sample) {
             PixelExplanation e;
             try {
-                e = explain_pixel(plan, x, y, row_start);
+                e = explain_pixel(plan, x, y, row_start, sample);
             } catch (const std::invalid_argument& err) {
                 throw py::value_error(err.what());
             }
@@ -261,13 +528,23 @@ void init_render(py::module_& m) {
             out["reason"] = e.reason;
             return out;
         },
-        "Runs render_tile's code path for pixel (x, y) of a tile whose rows start at column row_start, and returns "
-        "its ray, ray polynomials (with coefficient radii), discs, each decision, the status and the ladder level.",
-        py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("row_start"));
+        "Runs render_tile's code path for sample `sample` of pixel (x, y) of a tile whose rows start at column "
+        "row_start, and returns its ray, ray polynomials (with coefficient radii), discs, each decision, the status "
+        "and the ladder level.",
+        py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("row_start"), py::arg("sample") = 0);
     m.attr("MAX_OBJECTS") = kMaxObjects;
     m.attr("MAX_SURFACE_DEGREE") = kMaxSurfaceDegree;
     m.attr("MAX_FRAME_SIDE") = kMaxFrameSide;
+    m.attr("MAX_SAMPLES") = kMaxSamples;
     m.attr("BAND_RULE") = kBandRule;
+    py::dict status_names, level_names;
+    for (int c = 0; c < static_cast<int>(std::size(kStatusNames)); ++c) status_names[py::int_(c)] = kStatusNames[c];
+    for (int c = 0; c < static_cast<int>(std::size(kLadderLevelNames)); ++c) level_names[py::int_(c)] = kLadderLevelNames[c];
+    m.attr("STATUS_NAMES") = status_names;
+    m.attr("ESCALATION_NAMES") = level_names;
+    m.def("sample_side", &sample_side,
+          "side for samples = side * side (1..8), else 0: the allowed sample counts are the squares up to MAX_SAMPLES.",
+          py::arg("samples"));
     m.def("band_rule_holds", &band_rule_holds, "True iff (sigma, delta) satisfy BAND_RULE (decided exactly).",
           py::arg("sigma"), py::arg("delta"));
     py::list names;

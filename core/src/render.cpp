@@ -56,13 +56,17 @@ inline void to_object(const SurfaceSpec& s, const double* world_point, double* o
     mat_vec(s.linear, d, out);
 }
 
-/// Pixel centre -> unit world direction (the one formula for render_tile,
-/// primary_ray and explain_pixel).
-void pixel_direction(const FramePlan& plan, int x, int y, double* d) {
+/// Sample centre -> unit world direction (the one formula for render_tile,
+/// primary_ray and explain_pixel). (sx, sy) is a cell of the frame's grid
+/// of samples, side times finer than the pixels: the samples of a W x H
+/// frame are the pixel centres of the (side W) x (side H) frame, to the bit
+/// (the aspect W / H is the same correctly rounded quotient).
+void sample_direction(const FramePlan& plan, int sx_cell, int sy_cell, int side, double* d) {
     const FrameParams& fp = plan.params;
     const double aspect = static_cast<double>(fp.width) / fp.height;
-    const double sx = (2.0 * (x + 0.5) / fp.width - 1.0) * plan.tan_half_fov * aspect;
-    const double sy = (1.0 - 2.0 * (y + 0.5) / fp.height) * plan.tan_half_fov;
+    const double cols = static_cast<double>(side) * fp.width, rows = static_cast<double>(side) * fp.height;
+    const double sx = (2.0 * (sx_cell + 0.5) / cols - 1.0) * plan.tan_half_fov * aspect;
+    const double sy = (1.0 - 2.0 * (sy_cell + 0.5) / rows) * plan.tan_half_fov;
     for (int a = 0; a < 3; ++a) d[a] = plan.forward[a] + sx * plan.right[a] + sy * plan.up[a];
     normalize3(d);
 }
@@ -556,6 +560,9 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
         throw std::invalid_argument("the band (sigma = " + std::to_string(params.sigma) + ", delta = " +
                                     std::to_string(params.delta) + ") breaks the band rule: " + kBandRule);
     if (params.max_depth < 0 || params.max_depth > 16) throw std::invalid_argument("max_depth must be in 0..16");
+    if (sample_side(params.samples) == 0)
+        throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples) +
+                                    " (1, 4, 9, 16, 25, 36, 49 or 64), got " + std::to_string(params.samples));
     FramePlan plan;
     plan.scene = scene;
     plan.params = params;
@@ -592,11 +599,26 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
     return plan;
 }
 
-Ray primary_ray(const FramePlan& plan, int x, int y) {
+int sample_side(int samples) {
+    for (int side = 1; side * side <= kMaxSamples; ++side)
+        if (side * side == samples) return side;
+    return 0;
+}
+
+namespace {
+Ray sample_ray(const FramePlan& plan, int sx_cell, int sy_cell, int side) {
     Ray r;
     for (int a = 0; a < 3; ++a) r.origin[a] = plan.eye[a];
-    pixel_direction(plan, x, y, r.direction);
+    sample_direction(plan, sx_cell, sy_cell, side, r.direction);
     return r;
+}
+}  // namespace
+
+Ray primary_ray(const FramePlan& plan, int x, int y, int sample) {
+    const int side = sample_side(plan.params.samples);
+    if (sample < 0 || sample >= plan.params.samples)
+        throw std::invalid_argument("sample must be in 0.." + std::to_string(plan.params.samples - 1));
+    return sample_ray(plan, side * x + sample % side, side * y + sample / side, side);
 }
 
 void ray_polynomial(const FramePlan& plan, int object, const double origin[3], const double direction[3], double* coeffs,
@@ -613,33 +635,66 @@ void ray_polynomial(const FramePlan& plan, int object, const double origin[3], c
 
 namespace {
 
-/// One pixel of a primary ray: trace, shade, write the AOVs at index i.
-void render_pixel(const FramePlan& plan, Tracer& tracer, int x, int y, Seeds* seeds, TileAOVs& out, std::size_t i,
-                  PixelExplanation* trace) {
-    const Ray ray = primary_ray(plan, x, y);
+/// One sample's outcome (a primary ray: traced and shaded).
+struct SampleResult {
+    HitInfo hit;
+    float rgb[3];
+};
+
+/// Traces and shades the sample at cell (sx_cell, sy_cell) of the frame's
+/// grid of samples.
+SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell, int side, Seeds* seeds,
+                          PixelExplanation* trace) {
+    const Ray ray = sample_ray(plan, sx_cell, sy_cell, side);
     for (int a = 0; a < 3; ++a) tracer.current_direction_[a] = ray.direction[a];
-    const HitInfo hit = tracer.intersect(ray.origin, ray.direction, true, seeds, 0, trace);
-    if (trace) {
-        trace->ray = ray;
-    }
-    out.status[i] = hit.status;
-    out.escalation[i] = hit.level;
-    out.count[i] = hit.eligible;
-    if (hit.level > kLevelFirst) ++out.escalations;
-    if (!hit.hit) {
-        for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = static_cast<float>(plan.scene.background[a]);
-        out.rgba[4 * i + 3] = 0.0f;
-        return;
-    }
+    SampleResult s;
+    s.hit = tracer.intersect(ray.origin, ray.direction, true, seeds, 0, trace);
+    if (trace) trace->ray = ray;
     double rgb[3];
-    tracer.shade(ray.origin, ray.direction, hit, 0, rgb);
-    for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = static_cast<float>(rgb[a]);
-    out.rgba[4 * i + 3] = 1.0f;
-    out.modulus[i] = static_cast<float>(hit.modulus);
-    out.argument[i] = static_cast<float>(std::atan2(hit.disc.im, hit.disc.re));
-    out.re[i] = static_cast<float>(hit.disc.re);
-    out.im[i] = static_cast<float>(hit.disc.im);
+    if (s.hit.hit) tracer.shade(ray.origin, ray.direction, s.hit, 0, rgb);
+    else for (int a = 0; a < 3; ++a) rgb[a] = plan.scene.background[a];
+    for (int a = 0; a < 3; ++a) s.rgb[a] = static_cast<float>(rgb[a]);
+    return s;
 }
+
+/// A pixel's samples, folded in as they are traced (TileAOVs says what
+/// each AOV of a sampled pixel is).
+struct PixelAccumulator {
+    double rgb[3] = {0, 0, 0};
+    int hits = 0, certified = 0, seen = 0;
+    std::uint8_t status = kCertified, level = kLevelFirst;
+    bool shown_hit = false;
+    HitInfo shown;   // the shown sample: the hitting sample of least |t|, else the first
+
+    void add(const SampleResult& s) {
+        for (int a = 0; a < 3; ++a) rgb[a] += s.rgb[a];
+        hits += s.hit.hit;
+        certified += s.hit.status == kCertified;
+        status = std::max(status, s.hit.status);
+        level = std::max(level, s.hit.level);
+        if (seen == 0 || (s.hit.hit && (!shown_hit || s.hit.modulus < shown.modulus))) {
+            shown = s.hit;
+            shown_hit = s.hit.hit;
+        }
+        ++seen;
+    }
+
+    void write(TileAOVs& out, std::size_t i) const {
+        const double n = seen;
+        for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = static_cast<float>(rgb[a] / n);
+        out.rgba[4 * i + 3] = static_cast<float>(hits / n);
+        out.status[i] = status;
+        out.escalation[i] = level;
+        out.certified_share[i] = static_cast<float>(certified / n);
+        out.count[i] = shown.eligible;
+        if (level > kLevelFirst) ++out.escalations;
+        if (!shown_hit) return;
+        out.modulus[i] = static_cast<float>(shown.modulus);
+        out.argument[i] = static_cast<float>(std::atan2(shown.disc.im, shown.disc.re));
+        out.re[i] = static_cast<float>(shown.disc.re);
+        out.im[i] = static_cast<float>(shown.disc.im);
+    }
+};
 
 void allocate(TileAOVs& out, int w, int h) {
     out.width = w;
@@ -653,6 +708,7 @@ void allocate(TileAOVs& out, int w, int h) {
     out.count.assign(np, 0);
     out.status.assign(np, kCertified);
     out.escalation.assign(np, kLevelFirst);
+    out.certified_share.assign(np, 1.0f);
     out.escalations = 0;
     out.root_calls = 0;
 }
@@ -673,31 +729,44 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out) 
     TileRect r{std::max(0, rect_in.x0), std::max(0, rect_in.y0), std::min(fp.width, rect_in.x1), std::min(fp.height, rect_in.y1)};
     const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
     allocate(out, w, h);
+    const int side = sample_side(fp.samples);
+    if (side == 0) throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples));
     Tracer tracer(plan);
     std::vector<Seeds> seeds(plan.scene.objects.size());
+    std::vector<PixelAccumulator> row(static_cast<std::size_t>(w));
+    // The samples are traced in the order of the (side W) x (side H) frame's
+    // pixels: row of samples by row of samples, left to right, the
+    // neighbour seeds flowing along each row of samples.
     for (int y = r.y0; y < r.y1; ++y) {
-        for (Seeds& s : seeds) s.valid = false;
-        for (int x = r.x0; x < r.x1; ++x)
-            render_pixel(plan, tracer, x, y, seeds.data(), out, static_cast<std::size_t>(y - r.y0) * w + (x - r.x0), nullptr);
+        std::fill(row.begin(), row.end(), PixelAccumulator{});
+        for (int j = 0; j < side; ++j) {
+            for (Seeds& s : seeds) s.valid = false;
+            for (int x = r.x0; x < r.x1; ++x)
+                for (int i = 0; i < side; ++i)
+                    row[x - r.x0].add(trace_sample(plan, tracer, side * x + i, side * y + j, side, seeds.data(), nullptr));
+        }
+        for (int x = 0; x < w; ++x) row[x].write(out, static_cast<std::size_t>(y - r.y0) * w + x);
     }
     out.root_calls = tracer.root_calls;
 }
 
-PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start) {
+PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample) {
     const FrameParams& fp = plan.params;
     if (x < 0 || x >= fp.width || y < 0 || y >= fp.height)
         throw std::invalid_argument("pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is not inside the " +
                                     std::to_string(fp.width) + "x" + std::to_string(fp.height) + " frame");
     if (row_start < 0 || row_start > x) throw std::invalid_argument("row_start must be in 0..x");
-    // Replay the row of the tile from its first pixel (the neighbour seeds
-    // render_tile would have), then trace pixel (x, y).
+    if (sample < 0 || sample >= fp.samples)
+        throw std::invalid_argument("sample must be in 0.." + std::to_string(fp.samples - 1));
+    // Replay the tile's row of samples from its first sample (the neighbour
+    // seeds render_tile would have), then trace the sample.
+    const int side = sample_side(fp.samples);
+    const int sx_cell = side * x + sample % side, sy_cell = side * y + sample / side;
     Tracer tracer(plan);
     std::vector<Seeds> seeds(plan.scene.objects.size());
-    TileAOVs scratch;
-    allocate(scratch, 1, 1);
     PixelExplanation e;
-    for (int px = row_start; px <= x; ++px)
-        render_pixel(plan, tracer, px, y, seeds.data(), scratch, 0, px == x ? &e : nullptr);
+    for (int c = side * row_start; c <= sx_cell; ++c)
+        trace_sample(plan, tracer, c, sy_cell, side, seeds.data(), c == sx_cell ? &e : nullptr);
     e.reason = status_reason(e.status);
     return e;
 }

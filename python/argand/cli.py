@@ -116,12 +116,15 @@ def render(
     tile: int = typer.Option(64, "--tile", help="Tile size in pixels."),
     method: str = typer.Option("auto", "--method", help="Root method: auto | smith | paper | unverified."),
     hue: bool = typer.Option(False, "--hue", help="Colour complex roots by their argument."),
+    samples: Optional[int] = typer.Option(
+        None, "--samples", help="Samples per pixel, a square (1, 4, 9, ..., 64; default: the scene's, else 1): the "
+        "colour is their mean, the status the worst of theirs (the certified_share AOV counts them)."),
     fps: float = typer.Option(8.0, "--fps", help="Frames per second of the animation."),
     exr_compression: str = typer.Option("zip", "--exr-compression",
                                         help=EXR_COMPRESSION_HELP),
     explain: Optional[str] = typer.Option(
-        None, "--explain", help="X,Y: print that pixel's ray, ray polynomial with coefficient radii, discs, "
-        "decisions and status (first frame only), and render nothing."),
+        None, "--explain", help="X,Y (or X,Y,SAMPLE with --samples): print that pixel's (sample's) ray, ray "
+        "polynomial with coefficient radii, discs, decisions and status (first frame only), and render nothing."),
 ) -> None:
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, and animation.gif."""
     from argand.render import FrameParams, delta_sweep, parse_angle, parse_sweep
@@ -151,11 +154,12 @@ def render(
         fail(str(exc))
     try:
         params = [
-            FrameParams(sigma=sigma_value, delta=d, width=width, height=height, method=method, hue_by_argument=hue)
+            FrameParams(sigma=sigma_value, delta=d, width=width, height=height, method=method, hue_by_argument=hue,
+                        samples=loaded.samples if samples is None else samples)
             for d in values
         ]
     except ValueError as exc:
-        fail(str(exc))
+        fail(f"--samples: {exc}" if "samples" in str(exc) else str(exc))
     if explain is not None:
         _explain(loaded, params[0], explain, tile)
         return
@@ -184,15 +188,19 @@ def _explain(scene, params, where: str, tile: int) -> None:
     from argand.render.explain import explain_pixel, format_explanation
 
     try:
-        x, y = (int(v) for v in where.split(","))
+        x, y, *rest = (int(v) for v in where.split(","))
+        if len(rest) > 1:
+            raise ValueError
     except ValueError:
-        fail(f"--explain must look like X,Y (pixel column, row), got {where!r}")
+        fail(f"--explain must look like X,Y (pixel column, row) or X,Y,SAMPLE, got {where!r}")
+    sample = rest[0] if rest else 0
     try:
-        e = explain_pixel(scene, params, x, y, tile=tile)
+        e = explain_pixel(scene, params, x, y, tile=tile, sample=sample)
     except ValueError as exc:
         fail(str(exc))
-    console.print(f"pixel ({x}, {y}) of {params.width}x{params.height}, sigma={params.sigma!r}, delta={params.delta!r}, "
-                  f"method {params.method}, tile {tile}")
+    which = f"sample {sample} of {params.samples} of " if params.samples > 1 else ""
+    console.print(f"{which}pixel ({x}, {y}) of {params.width}x{params.height}, sigma={params.sigma!r}, "
+                  f"delta={params.delta!r}, method {params.method}, tile {tile}")
     for line in format_explanation(e):
         console.print(line, markup=False, highlight=False, soft_wrap=True)
 

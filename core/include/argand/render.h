@@ -56,6 +56,11 @@ struct Light {
     double intensity = 1.0;
 };
 
+/// The lights of a scene that names none: a warm key light and a cool fill.
+inline std::vector<Light> default_lights() {
+    return {Light{{0.6, 0.4, 1.0}, true, {1.0, 0.97, 0.92}, 0.9}, Light{{-0.8, 0.3, 0.2}, true, {0.55, 0.65, 1.0}, 0.35}};
+}
+
 struct CameraSpec {
     double position[3] = {10, 8, 6};
     double look_at[3] = {0, 0, 0};
@@ -63,9 +68,12 @@ struct CameraSpec {
     double fov_degrees = 40.0;
 };
 
+// The default member initialisers of Material, SurfaceSpec, Light,
+// CameraSpec and SceneSpec are the scene defaults: the binding exports them
+// and argand.scene's model reads its defaults from there.
 struct SceneSpec {
     std::vector<SurfaceSpec> objects;
-    std::vector<Light> lights;
+    std::vector<Light> lights = default_lights();
     double background[3] = {0.08, 0.08, 0.1};
     CameraSpec camera;
 };
@@ -79,7 +87,17 @@ struct FrameParams {
     int max_depth = 3;           // reflection / refraction bounces
     bool hue_by_argument = false;
     bool seed_from_neighbour = true;
+    int samples = 1;             // per pixel: a square (1, 4, 9, ..., kMaxSamples), see sample_side
 };
+
+/// Most samples per pixel (plan_frame refuses more).
+constexpr int kMaxSamples = 64;
+/// Samples per pixel form a side x side grid of strata; a pixel's sample k
+/// (0 <= k < samples) sits at the centre of stratum (k % side, k / side), so
+/// the samples of a W x H frame are exactly the pixel centres of the
+/// (side W) x (side H) frame. Returns side, or 0 when `samples` is not the
+/// square of 1..8 (the allowed values).
+int sample_side(int samples);
 
 /// Most objects in one scene (plan_frame refuses more).
 constexpr int kMaxObjects = 32;
@@ -102,7 +120,9 @@ struct TileRect {
     int x0, y0, x1, y1;  // [x0, x1) x [y0, y1)
 };
 
-/// Pixel status (the `status` AOV).
+/// Pixel status (the `status` AOV). Codes are ordered: the higher, the less
+/// was proven; a pixel of several samples has the highest code of its
+/// samples (its status never claims more than every sample proved).
 /// All decisions are about the exact ray polynomial of the pixel's ray (exact
 /// double origin and direction) through the surface with its exact double
 /// coefficients; docs/rendering.md says what that covers.
@@ -121,6 +141,9 @@ enum PixelStatus : std::uint8_t {
                       // within the final discs
 };
 
+/// The names of the statuses, by code (exported to Python as STATUS_NAMES).
+constexpr const char* kStatusNames[] = {"certified", "cluster", "unverified", "undecided"};
+
 /// Ladder levels (the `escalation` AOV): how far a pixel had to go.
 enum LadderLevel : std::uint8_t {
     kLevelFirst = 0,      // decided from the first root discs
@@ -128,8 +151,16 @@ enum LadderLevel : std::uint8_t {
     kLevelUnseeded = 2,   // retried without the neighbouring pixel's seeds
     kLevelDoubleDouble = 3,  // discs refined with double-double ray coefficients
 };
+/// The names of the ladder levels, by level (exported as ESCALATION_NAMES).
+constexpr const char* kLadderLevelNames[] = {"first", "root double-double", "unseeded retry", "double-double ray"};
 
 /// AOVs of one tile, row-major, (y1 - y0) rows of (x1 - x0) pixels.
+/// With several samples per pixel: the colour is the mean of the samples'
+/// colours and A the share of samples that hit; the status is the worst
+/// (highest code) and the escalation the highest level of the samples;
+/// Z, arg, re, im and count describe one sample, the shown sample: the
+/// hitting sample of least |t| (the first such), or the first sample when
+/// none hits (docs/rendering.md).
 struct TileAOVs {
     int width = 0, height = 0;
     std::vector<float> rgba;      // 4 per pixel, linear colour; A = 1 on a hit, 0 on a miss
@@ -140,6 +171,7 @@ struct TileAOVs {
     std::vector<std::int32_t> count;   // eligible roots in the band (with multiplicity)
     std::vector<std::uint8_t> status;  // PixelStatus
     std::vector<std::uint8_t> escalation;  // LadderLevel
+    std::vector<float> certified_share;  // share of the pixel's samples that are certified
     // Figures.
     std::int64_t escalations = 0;      // pixels whose ladder level is above 0
     std::int64_t root_calls = 0;
@@ -202,8 +234,9 @@ struct Ray {
     double direction[3];
 };
 
-/// The primary ray of pixel (x, y): the very doubles render_tile uses.
-Ray primary_ray(const FramePlan& plan, int x, int y);
+/// The primary ray of sample `sample` (0..samples - 1) of pixel (x, y):
+/// the very doubles render_tile uses.
+Ray primary_ray(const FramePlan& plan, int x, int y, int sample = 0);
 
 /// The ray polynomial p(t) = F(o + t d) of object i for a world ray (exposed
 /// for tests and the reference renderer): coeffs gets degree + 1 entries and,
@@ -243,9 +276,9 @@ struct PixelExplanation {
     std::string reason;      // why the status is what it is
 };
 
-/// Runs render_tile's code path for pixel (x, y), as part of a tile whose
-/// rows start at column row_start (the neighbour seeds of that row are
-/// replayed), and records every decision.
-PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start);
+/// Runs render_tile's code path for sample `sample` of pixel (x, y), as part
+/// of a tile whose rows start at column row_start (the neighbour seeds of
+/// that row of samples are replayed), and records every decision.
+PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample = 0);
 
 }  // namespace argand

@@ -18,7 +18,7 @@ from sqlalchemy import func, select, update
 from argand.farm.database import engine_for
 from argand.farm.layout import JobLayout
 from argand.farm.models import Frame, Job, Tile
-from argand.farm.planning import tile_rects
+from argand.farm.planning import samples_of, tile_rects
 from argand.farm.settings import Settings
 from argand.farm.states import FRAME, JOB
 from argand.farm.store import FrameStore, store_for
@@ -108,7 +108,7 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     t_start = time.perf_counter()
     store, local = store_for(settings), local or {}
     with engine_for(settings.sqlalchemy_url).connect() as c:
-        job = c.execute(select(Job.width, Job.height, Job.tile, Job.method).where(Job.id == job_id)).one()
+        job = c.execute(select(Job.width, Job.height, Job.tile, Job.method, Job.scene).where(Job.id == job_id)).one()
         sigma, delta = c.execute(select(Frame.sigma, Frame.delta).where(Frame.job_id == job_id, Frame.index == frame_index)).one()
         key = (Tile.job_id == job_id, Tile.frame_index == frame_index)
         if seconds is None:
@@ -118,7 +118,7 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     w, h = job.width, job.height
     px = frame_px if frame_px is not None else np.empty((h, w, len(INTERLEAVED_CHANNELS)), np.float32)
     escalations, calls, stats = _gather(store, job_id, frame_index, rects, local, chunks, frame_px, px)
-    params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method)
+    params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method, samples=samples_of(job.scene))
     aovs = {name: px[..., INTERLEAVED_CHANNELS.index(name)] for name in AOV_CHANNELS}
     result = FrameResult(params, px[..., :4], aovs, seconds, escalations, calls, stats=stats)
     result.figures = frame_figures(result)

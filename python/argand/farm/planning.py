@@ -58,3 +58,9 @@ def plan_runs(by_frame: dict[int, list[int]], n_frames: int, rects: list[Rect], 
     pixels = sum(_area(rects[t]) for ts in by_frame.values() for t in ts)
     target = max(1, min(batch_pixels, pixels // (4 * workers)))
     return [(f, run) for f in preview_order(n_frames) for run in batch_runs(by_frame.get(f, []), rects, target)]
+
+
+def samples_of(scene: dict) -> int:
+    """A job's samples per pixel: its stored scene's (argand.scene.Scene.samples;
+    the HTTP field ``samples`` is stored there)."""
+    return int(scene.get("samples", 1))

@@ -12,7 +12,8 @@ from argand.render.output import read_exr, write_png
 
 #: The pictures of a frame the front end shows: channel -> the EXR channel
 #: it is drawn from (beauty is the frame's PNG itself).
-PREVIEW_CHANNELS = {"beauty": None, "modulus": "Z", "argument": "arg", "status": "status"}
+PREVIEW_CHANNELS = {"beauty": None, "modulus": "Z", "argument": "arg", "status": "status",
+                    "certified_share": "certified_share"}
 
 #: The status channel's colour of each pixel status (argand.render's
 #: STATUS_NAMES): certified, cluster, unverified, undecided.
@@ -29,6 +30,8 @@ def _ramp(v: np.ndarray, hit: np.ndarray, channel: str) -> np.ndarray:
     between its 2nd and 98th percentile over the hit pixels."""
     if channel == "argument":
         t = np.abs(v) / np.pi
+    elif channel == "certified_share":
+        t = 1.0 - v  # all samples certified: blue; none: red
     else:
         finite = hit & np.isfinite(v)
         lo, hi = (np.percentile(v[finite], [2, 98]) if finite.any() else (0.0, 1.0))

@@ -26,7 +26,7 @@ from sqlalchemy import select, update
 from argand.farm import assembly
 from argand.farm.database import engine_for
 from argand.farm.models import Frame, Job, Tile
-from argand.farm.planning import Rect, tile_rects
+from argand.farm.planning import Rect, samples_of, tile_rects
 from argand.farm.queue import send_runs
 from argand.farm.settings import Settings
 from argand.farm.states import FRAME, JOB, STOPPED, TILE
@@ -61,26 +61,29 @@ def _frame_plan(url: str, job_id: str, frame_index: int):
                 if len(_job_cache) > 8:
                     _job_cache.clear()
                 job = c.execute(select(Job.scene, Job.width, Job.height, Job.tile, Job.method).where(Job.id == job_id)).one()
-                _job_cache[job_id] = (core_scene_of(job.scene), job.width, job.height, job.tile, job.method)
+                _job_cache[job_id] = (core_scene_of(job.scene), job.width, job.height, job.tile, job.method,
+                                      samples_of(job.scene))
             sigma, delta, tiles_total = c.execute(select(Frame.sigma, Frame.delta, Frame.tiles_total).where(
                 Frame.job_id == job_id, Frame.index == frame_index)).one()
-        core_scene, w, h, tile, method = _job_cache[job_id]
-        _plan_cache[key] = (frame_plan(core_scene, sigma, delta, w, h, method), tile_rects(w, h, tile), tiles_total)
+        core_scene, w, h, tile, method, samples = _job_cache[job_id]
+        _plan_cache[key] = (frame_plan(core_scene, sigma, delta, w, h, method, samples), tile_rects(w, h, tile),
+                            tiles_total)
     return _plan_cache[key]
 
 
-def core_scene_of(scene: dict) -> dict:
+def core_scene_of(scene: dict) -> Any:
     """A job's stored scene as the renderer takes it (the worker's and the
     submission's one way)."""
     return to_core_scene(scene_from_dict(scene))
 
 
-def frame_plan(core_scene: dict, sigma: float, delta: float, width: int, height: int, method: str):
+def frame_plan(core_scene: Any, sigma: float, delta: float, width: int, height: int, method: str, samples: int = 1):
     """A frame's C++ plan: what a worker builds before its first tile, and
     what a submission builds for every frame, so that a frame that cannot be
     planned (the band rule, a camera or a coefficient out of range) is
     refused at the door instead of failing in a worker. Raises ValueError."""
-    return plan(core_scene, FrameParams(sigma=sigma, delta=delta, width=width, height=height, method=method))
+    return plan(core_scene, FrameParams(sigma=sigma, delta=delta, width=width, height=height, method=method,
+                                        samples=samples))
 
 
 def tile_key(job_id: str, frame_index: int):

@@ -15,6 +15,7 @@ from argand.farm.dispatch import alive_workers
 from argand.farm.models import Frame, Job, Tile
 from argand.farm.planning import plan_runs, preview_order, tile_rects
 from argand.farm.queue import send_runs
+from argand.farm.planning import samples_of
 from argand.farm.rendering import core_scene_of, frame_plan
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
@@ -80,7 +81,7 @@ def check_renderable(spec: JobSpec) -> None:
     try:
         core = core_scene_of(spec.scene)
         for delta in sorted(set(spec.deltas)):
-            frame_plan(core, spec.sigma, delta, spec.width, spec.height, spec.method)
+            frame_plan(core, spec.sigma, delta, spec.width, spec.height, spec.method, samples_of(spec.scene))
     except (ValueError, ArithmeticError, RuntimeError) as exc:
         raise JobRefused(f"the scene cannot be rendered: {exc}") from None
 

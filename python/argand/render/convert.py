@@ -1,5 +1,10 @@
-"""Scene (pydantic model from argand.scene) -> the plain data the C++
-renderer plans a frame from. Everything here runs once per frame."""
+"""Scene (pydantic model from argand.scene) -> the typed scene the C++
+renderer plans a frame from (``_core.SceneSpec``: render.h's structs, bound
+with checked fields). Everything here runs once per frame.
+
+The defaults are C++'s: a field the scene leaves out keeps the default
+member initialiser of render.h's struct (argand.scene's model reads the same
+values from ``_core``)."""
 
 from __future__ import annotations
 
@@ -8,35 +13,10 @@ from typing import Any
 
 import numpy as np
 
-DEFAULT_LIGHTS = [
-    {"vector": [0.6, 0.4, 1.0], "directional": True, "color": [1.0, 0.97, 0.92], "intensity": 0.9},
-    {"vector": [-0.8, 0.3, 0.2], "directional": True, "color": [0.55, 0.65, 1.0], "intensity": 0.35},
-]
+from argand.core import _core
 
 
-def _rgb(value: Any) -> list[float]:
-    if value is None:
-        return [0.85, 0.55, 0.25]
-    if isinstance(value, str):
-        text = value.lstrip("#")
-        return [int(text[i : i + 2], 16) / 255.0 for i in (0, 2, 4)]
-    for attr in ("as_tuple", "rgb", "to_list"):
-        if hasattr(value, attr):
-            got = getattr(value, attr)
-            value = got() if callable(got) else got
-            break
-    if hasattr(value, "r") and hasattr(value, "g") and hasattr(value, "b"):
-        return [float(value.r), float(value.g), float(value.b)]
-    return [float(v) for v in list(value)[:3]]
-
-
-def _vec(value: Any, default: list[float]) -> list[float]:
-    if value is None:
-        return list(default)
-    return [float(v) for v in list(value)[:3]]
-
-
-def rotation_matrix(degrees: list[float]) -> np.ndarray:
+def rotation_matrix(degrees: Any) -> np.ndarray:
     """R = Rz Ry Rx (rotate about x, then y, then z)."""
     rx, ry, rz = (math.radians(a) for a in degrees)
     cx, sx, cy, sy, cz, sz = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry), math.cos(rz), math.sin(rz)
@@ -51,87 +31,48 @@ def object_transform(transform: Any) -> tuple[list[float], list[float]]:
     object is placed in the world by scale, then rotation, then translation."""
     if transform is None:
         return [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0], [0.0, 0.0, 0.0]
-    translate = _vec(getattr(transform, "translate", None), [0, 0, 0])
-    scale = float(getattr(transform, "scale", 1.0) or 1.0)
-    rotate = _vec(getattr(transform, "rotate", None), [0, 0, 0])
-    forward = rotation_matrix(rotate) * scale
+    forward = rotation_matrix(transform.rotate) * transform.scale
     linear = np.linalg.inv(forward)
-    return [float(v) for v in linear.ravel()], translate
+    return [float(v) for v in linear.ravel()], [float(v) for v in transform.translate]
 
 
-def _material(m: Any) -> dict:
-    get = (lambda k, d: getattr(m, k, d)) if m is not None else (lambda k, d: d)
-    return {
-        "color": _rgb(get("color", None)),
-        "diffuse": float(get("diffuse", 0.8)),
-        "specular": float(get("specular", 0.3)),
-        "shininess": float(get("shininess", 32.0)),
-        "reflectivity": float(get("reflectivity", 0.0)),
-        "transparency": float(get("transparency", 0.0)),
-        "ior": float(get("ior", 1.5)),
-    }
+def _material(m: Any) -> _core.Material:
+    return _core.Material(color=m.color, diffuse=m.diffuse, specular=m.specular, shininess=m.shininess,
+                          reflectivity=m.reflectivity, transparency=m.transparency, ior=m.ior)
 
 
-def _camera(scene: Any) -> dict:
-    cam = None
-    for attr in ("resolved_camera", "default_camera"):
-        if getattr(scene, "camera", None) is None and hasattr(scene, attr):
-            got = getattr(scene, attr)
-            cam = got() if callable(got) else got
-            break
-    if cam is None:
-        cam = scene.camera
-    return {
-        "position": _vec(cam.position, [10, 8, 6]),
-        "look_at": _vec(getattr(cam, "look_at", None), [0, 0, 0]),
-        "up": _vec(getattr(cam, "up", None), [0, 0, 1]),
-        "fov": float(getattr(cam, "fov", 40.0)),
-    }
+def _camera(cam: Any) -> _core.CameraSpec:
+    return _core.CameraSpec(position=cam.position, look_at=cam.look_at, up=cam.up, fov_degrees=cam.fov)
 
 
-def _lights(scene: Any) -> list[dict]:
-    lights = getattr(scene, "lights", None)
-    if not lights:
-        return [dict(light) for light in DEFAULT_LIGHTS]
-    out = []
-    for light in lights:
-        direction = getattr(light, "direction", None)
-        position = getattr(light, "position", None)
-        out.append(
-            {
-                "vector": _vec(direction if direction is not None else position, [1, 1, 1]),
-                "directional": direction is not None,
-                "color": _rgb(getattr(light, "color", None) or [1, 1, 1]),
-                "intensity": float(getattr(light, "intensity", 1.0)),
-            }
-        )
-    return out
+def _light(light: Any) -> _core.Light:
+    directional = light.direction is not None
+    return _core.Light(vector=light.direction if directional else light.position, directional=directional,
+                       color=light.color, intensity=light.intensity)
 
 
-def to_core_scene(scene: Any) -> dict:
-    """The dict _core.plan_frame takes. Accepts a Scene or such a dict."""
-    if isinstance(scene, dict) and "objects" in scene and scene["objects"] and "terms" in scene["objects"][0]:
+def _surface(obj: Any) -> _core.SurfaceSpec:
+    poly = obj.polynomial
+    linear, translate = object_transform(obj.transform)
+    return _core.SurfaceSpec(
+        terms=[(i, j, k, float(c)) for (i, j, k), c in sorted(poly.terms.items())],
+        degree=poly.degree,
+        complex_space=obj.space == "complex",
+        clip_radius=obj.clip_radius or 0.0,
+        material=_material(obj.material),
+        linear=linear,
+        translate=translate,
+    )
+
+
+def to_core_scene(scene: Any) -> _core.SceneSpec:
+    """The typed scene _core.plan_frame takes, from an argand.scene.Scene (a
+    SceneSpec is returned as it is). A scene without lights keeps C++'s
+    default lights; without a camera, Scene.default_camera frames it."""
+    if isinstance(scene, _core.SceneSpec):
         return scene
-    from argand.scene import parse_surface
-
-    objects = []
-    for obj in scene.objects:
-        poly = parse_surface(obj.surface)
-        linear, translate = object_transform(getattr(obj, "transform", None))
-        objects.append(
-            {
-                "terms": [(int(i), int(j), int(k), float(c)) for (i, j, k), c in sorted(poly.terms.items())],
-                "degree": int(poly.degree),
-                "complex": getattr(obj, "space", "complex") == "complex",
-                "clip_radius": float(getattr(obj, "clip_radius", None) or 0.0),
-                "material": _material(getattr(obj, "material", None)),
-                "linear": linear,
-                "translate": translate,
-            }
-        )
-    return {
-        "objects": objects,
-        "lights": _lights(scene),
-        "background": _rgb(getattr(scene, "background", None) or [0.08, 0.08, 0.1]),
-        "camera": _camera(scene),
-    }
+    out = _core.SceneSpec(objects=[_surface(obj) for obj in scene.objects], background=scene.background,
+                          camera=_camera(scene.resolved_camera()))
+    if scene.lights:
+        out.lights = [_light(light) for light in scene.lights]
+    return out

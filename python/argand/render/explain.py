@@ -15,18 +15,22 @@ from argand.core import _core
 from argand.render.frames import ESCALATION_NAMES, STATUS_NAMES, FrameParams, plan
 
 
-def explain_pixel(scene: Any, params: FrameParams, x: int, y: int, tile: int = 64) -> dict:
+def explain_pixel(scene: Any, params: FrameParams, x: int, y: int, tile: int = 64, sample: int = 0) -> dict:
     """The decisions render_tile makes for pixel (x, y) of the frame
     ``params`` when tiles are ``tile`` pixels wide (a tile's rows replay the
-    neighbour seeds from its first column, as render_tile does)."""
+    neighbour seeds from its first column, as render_tile does). With
+    ``params.samples`` > 1: for sample ``sample`` of the pixel (its status
+    is one of those whose worst is the pixel's)."""
     from argand.render.convert import to_core_scene
 
     if tile < 1:
         raise ValueError("tile size must be >= 1")
     if not (0 <= x < params.width and 0 <= y < params.height):
         raise ValueError(f"pixel ({x}, {y}) is not inside the {params.width}x{params.height} frame")
+    if not 0 <= sample < params.samples:
+        raise ValueError(f"sample {sample} is not one of the pixel's {params.samples} samples (0..{params.samples - 1})")
     frame_plan = plan(to_core_scene(scene), params)
-    return _core.explain_pixel(frame_plan, int(x), int(y), int(x) // tile * tile)
+    return _core.explain_pixel(frame_plan, int(x), int(y), int(x) // tile * tile, int(sample))
 
 
 def format_explanation(e: dict) -> list[str]:

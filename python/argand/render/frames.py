@@ -22,22 +22,25 @@ from argand.core import _core
 
 #: AOV names, in the order they are stored in EXR files after R, G, B, A
 #: (the one channel list: the farm, the EXR writer and the tests read it).
-#: ``escalation`` is the ladder level a pixel needed (ESCALATION_NAMES).
-AOV_CHANNELS = ("Z", "arg", "re", "im", "count", "status", "escalation")
+#: ``escalation`` is the ladder level a pixel needed (ESCALATION_NAMES);
+#: ``certified_share`` the share of the pixel's samples that are certified.
+AOV_CHANNELS = ("Z", "arg", "re", "im", "count", "status", "escalation", "certified_share")
 
-#: Pixel status codes (the ``status`` AOV); docs/rendering.md says what each
-#: one proves.
-STATUS_NAMES = {0: "certified", 1: "cluster", 2: "unverified", 3: "undecided"}
+#: Pixel status codes (the ``status`` AOV), defined in C++ (render.h's
+#: PixelStatus and kStatusNames); docs/rendering.md says what each one proves.
+STATUS_NAMES: dict[int, str] = dict(_core.STATUS_NAMES)
 
 #: Ladder levels (the ``escalation`` AOV): how far a pixel had to go before
-#: its decision was proven (or the ladder ran out).
-ESCALATION_NAMES = {0: "first", 1: "root double-double", 2: "unseeded retry", 3: "double-double ray"}
+#: its decision was proven (or the ladder ran out). Defined in C++.
+ESCALATION_NAMES: dict[int, str] = dict(_core.ESCALATION_NAMES)
 
 #: Most objects in one scene, the largest frame side, and the band rule (all
 #: defined in C++, where plan_frame enforces them).
 MAX_OBJECTS: int = _core.MAX_OBJECTS
 MAX_FRAME_SIDE: int = _core.MAX_FRAME_SIDE
 BAND_RULE: str = _core.BAND_RULE
+#: Most samples per pixel (a square: 1, 4, 9, ..., MAX_SAMPLES).
+MAX_SAMPLES: int = _core.MAX_SAMPLES
 
 
 @dataclass(frozen=True)
@@ -51,8 +54,14 @@ class FrameParams:
     method: str = "auto"
     max_depth: int = 3
     hue_by_argument: bool = False
+    #: Per pixel, a square (1, 4, ..., MAX_SAMPLES): a side x side grid of
+    #: strata, each sampled at its centre.
+    samples: int = 1
 
     def __post_init__(self) -> None:
+        from argand.scene.model import check_samples
+
+        check_samples(self.samples)
         if not (math.isfinite(self.sigma) and math.isfinite(self.delta)):
             raise ValueError("sigma and delta must be finite numbers")
         if not _core.band_rule_holds(float(self.sigma), float(self.delta)):
@@ -110,7 +119,8 @@ class FrameResult:
 
     @property
     def certified_share(self) -> float:
-        """Share of pixels with status 0 (the measured figure)."""
+        """Share of pixels with status 0 (the measured figure; a sampled
+        pixel is certified when every one of its samples is)."""
         return float(self.status_counts[0] / max(1, self.aovs["status"].size))
 
     def status_shares(self) -> dict[str, float]:
@@ -129,6 +139,7 @@ def plan(core_scene: dict, params: FrameParams) -> Any:
         params.method,
         int(params.max_depth),
         bool(params.hue_by_argument),
+        samples=int(params.samples),
     )
 
 
@@ -203,6 +214,7 @@ def render_frame(
         "count": np.zeros((h, w), np.int32),
         "status": np.zeros((h, w), np.uint8),
         "escalation": np.zeros((h, w), np.uint8),
+        "certified_share": np.ones((h, w), np.float32),
     }
     escalations = calls = 0
     rects = tiles(w, h, tile)
@@ -241,8 +253,10 @@ def frame_figures(result: FrameResult) -> dict[str, Any]:
         "width": p.width,
         "height": p.height,
         "method": p.method,
+        "samples": p.samples,
         "seconds": result.seconds,
         "ns_per_pixel": result.seconds / n * 1e9,
+        "ns_per_sample": result.seconds / (n * p.samples) * 1e9,
         "certified_share": result.certified_share,
         "status_shares": result.status_shares(),
         "hit_share": result.hit_share,

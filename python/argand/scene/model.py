@@ -20,7 +20,8 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from argand.core._core import MAX_OBJECTS
+from argand.core import _core
+from argand.core._core import MAX_OBJECTS, MAX_SAMPLES
 from argand.scene.expression import ExpressionError, SurfacePolynomial, parse_surface
 
 RGB = tuple[float, float, float]
@@ -69,16 +70,24 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
+# The defaults are C++'s (render.h's default member initialisers, exported
+# by _core): one definition, which tests/test_scene_model.py checks.
+_MATERIAL = _core.Material()
+_CAMERA = _core.CameraSpec()
+_LIGHT = _core.Light()
+_SCENE = _core.SceneSpec()
+
+
 class Material(_Strict):
     """Phong shading plus mirror reflection and refraction (real objects)."""
 
-    color: Color = (0.85, 0.55, 0.25)
-    diffuse: float = Field(0.8, ge=0, le=1)
-    specular: float = Field(0.3, ge=0, le=1)
-    shininess: float = Field(32.0, gt=0, le=10000)
-    reflectivity: float = Field(0.0, ge=0, le=1)
-    transparency: float = Field(0.0, ge=0, le=1)
-    ior: float = Field(1.5, ge=1, le=4)
+    color: Color = _MATERIAL.color
+    diffuse: float = Field(_MATERIAL.diffuse, ge=0, le=1)
+    specular: float = Field(_MATERIAL.specular, ge=0, le=1)
+    shininess: float = Field(_MATERIAL.shininess, gt=0, le=10000)
+    reflectivity: float = Field(_MATERIAL.reflectivity, ge=0, le=1)
+    transparency: float = Field(_MATERIAL.transparency, ge=0, le=1)
+    ior: float = Field(_MATERIAL.ior, ge=1, le=4)
 
     @model_validator(mode="after")
     def _energy(self) -> Material:
@@ -140,9 +149,9 @@ class Camera(_Strict):
     """A pinhole camera; ``fov`` is the vertical field of view in degrees."""
 
     position: Vector
-    look_at: Vector = (0.0, 0.0, 0.0)
-    up: Vector = (0.0, 0.0, 1.0)
-    fov: float = Field(40.0, gt=1, lt=179)
+    look_at: Vector = _CAMERA.look_at
+    up: Vector = _CAMERA.up
+    fov: float = Field(_CAMERA.fov_degrees, gt=1, lt=179)
 
     @model_validator(mode="after")
     def _not_degenerate(self) -> Camera:
@@ -160,8 +169,8 @@ class Light(_Strict):
 
     direction: Vector | None = None
     position: Vector | None = None
-    color: Color = (1.0, 1.0, 1.0)
-    intensity: float = Field(1.0, ge=0)
+    color: Color = _LIGHT.color
+    intensity: float = Field(_LIGHT.intensity, ge=0)
 
     @model_validator(mode="after")
     def _one_of(self) -> Light:
@@ -172,8 +181,8 @@ class Light(_Strict):
         return self
 
 
-#: Camera defaults when a scene has none.
-DEFAULT_FOV = 40.0
+#: Camera defaults when a scene has none (the fov is C++'s CameraSpec default).
+DEFAULT_FOV: float = _CAMERA.fov_degrees
 #: The default view: from azimuth 35 degrees, elevation 30 degrees (z up).
 DEFAULT_VIEW = (
     math.cos(math.radians(30)) * math.cos(math.radians(35)),
@@ -184,12 +193,30 @@ DEFAULT_VIEW = (
 FRAMING_MARGIN = 1.1
 
 
+def check_samples(samples: Any) -> int:
+    """samples per pixel: a square from 1 to MAX_SAMPLES (1, 4, 9, ..., 64);
+    raises ValueError saying so."""
+    allowed = ", ".join(str(k * k) for k in range(1, math.isqrt(MAX_SAMPLES) + 1))
+    if not isinstance(samples, int) or isinstance(samples, bool) or _core.sample_side(samples) == 0:
+        raise ValueError(f"samples per pixel must be one of {allowed} (a square up to {MAX_SAMPLES}), got {samples!r}")
+    return samples
+
+
 class Scene(_Strict):
     #: At most MAX_OBJECTS (the renderer's limit, defined in C++).
     objects: list[SceneObject] = Field(min_length=1, max_length=MAX_OBJECTS)
     camera: Camera | None = None
+    #: None (or empty): the renderer's default lights (render.h's default_lights()).
     lights: list[Light] | None = None
-    background: Color = (0.08, 0.08, 0.1)
+    background: Color = _SCENE.background
+    #: Samples per pixel, a square from 1 to MAX_SAMPLES (C++'s limit):
+    #: the pixel's colour is their mean, its status the worst of theirs.
+    samples: int = Field(1, ge=1, le=MAX_SAMPLES)
+
+    @field_validator("samples")
+    @classmethod
+    def _square(cls, samples: int) -> int:
+        return check_samples(samples)
 
     def bounding_sphere(self) -> tuple[Vector, float]:
         """(centre, radius) of a sphere holding every object's bounding sphere."""
