@@ -51,12 +51,18 @@ std::string number_text(double v) {
     return t;
 }
 
+bool is_numpy_bool(const py::handle& v) {
+    const py::handle t = py::type::of(v);
+    const std::string name = py::str(t.attr("__name__"));
+    return (name == "bool" || name == "bool_") && py::str(t.attr("__module__")).cast<std::string>() == "numpy";
+}
+
 /// A finite number (int or float, not bool or str) in [lo, hi]; lo_open
 /// makes the lower bound strict.
 double to_number(const py::handle& v, const std::string& field, double lo = -INFINITY, double hi = INFINITY,
                  bool open = false) {
     if (py::isinstance<py::bool_>(v) || py::isinstance<py::str>(v) || py::isinstance<py::bytes>(v) ||
-        !PyNumber_Check(v.ptr()) || py::str(py::type::of(v).attr("__name__")).cast<std::string>() == "bool_")
+        !PyNumber_Check(v.ptr()) || is_numpy_bool(v))
         wrong_type(field, "a number", v);
     double d;
     try {

@@ -211,7 +211,7 @@ class Scene(_Strict):
     background: Color = _SCENE.background
     #: Samples per pixel, a square from 1 to MAX_SAMPLES (C++'s limit):
     #: the pixel's colour is their mean, its status the worst of theirs.
-    samples: int = Field(1, ge=1, le=MAX_SAMPLES)
+    samples: int = Field(1, ge=1, le=MAX_SAMPLES, strict=True)
 
     @field_validator("samples")
     @classmethod
