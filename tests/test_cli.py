@@ -197,6 +197,12 @@ def test_bench_render_smoke(tmp_path):
     assert {f["degree"] for f in report["frames"]} >= {"3", "4", "3+2", "5", "6", "8"}
     for f in report["frames"]:
         assert f["ms"] > 0 and f["unverified_ms"] > 0 and 0 <= f["certified_share"] <= 1
+    # Antialiasing's cost, per pixel and per sample, for 1, 4 and 16 samples.
+    assert {f["samples"] for f in report["samples"]} == {1, 4, 16}
+    for f in report["samples"]:
+        assert f["ns_per_sample"] == pytest.approx(f["ns_per_pixel"] / f["samples"])
+        assert 0 <= f["certified_share"] <= f["certified_sample_share"] <= 1
+    assert report["headline"]["median_sample_cost_16"] > 0
     assert (tmp_path / "render_contact.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # The classic surfaces of degree 5 to 8, and the figures per degree.
     classic = report["classic_frames"]

@@ -86,7 +86,7 @@ def test_the_band_rule_and_unplannable_scenes_are_refused_at_submission(api):
     assert "band rule" in _refused(c, {**JOB, "sigma": -0.1})
     scene = next(p["scene"] for p in c.get("/api/presets").json() if p["name"] == "plucker")
     for change, reason in (({"camera": {"position": [1e308, 1e308, 1.0]}}, "camera"),
-                           ({"transform": {"scale": 5e-324}}, "camera"),
+                           ({"transform": {"scale": 5e-324}}, "objects.0: SurfaceSpec.linear[0] must be finite"),
                            ({"clip_radius": 1e308}, "finite number"),
                            ({"surface": "1e300*x^2*z - x*y + y^2*z"}, "overflows binary64")):
         bad = _changed(scene, change)

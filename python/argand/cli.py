@@ -313,6 +313,14 @@ def bench_render_cmd(
             f"{row['ms'] / row['unverified_ms']:.2f}",
         )
     console.print(table)
+    table = Table(title="samples per pixel, one core", title_justify="left")
+    for col in ("scene", "size", "delta", "samples", "ns/pixel", "ns/sample", "sample cost", "certified pixels"):
+        table.add_column(col)
+    for row in report["samples"]:
+        table.add_row(row["scene"], f"{row['width']}x{row['height']}", f"{row['delta']:.4f}", str(row["samples"]),
+                      f"{row['ns_per_pixel']:.0f}", f"{row['ns_per_sample']:.0f}", f"{row['sample_cost']:.2f}",
+                      f"{100 * row['certified_share']:.3f}%")
+    console.print(table)
     console.print(f"wrote {out / 'render.json'}")
 
 

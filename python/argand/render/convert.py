@@ -71,8 +71,13 @@ def to_core_scene(scene: Any) -> _core.SceneSpec:
     default lights; without a camera, Scene.default_camera frames it."""
     if isinstance(scene, _core.SceneSpec):
         return scene
-    out = _core.SceneSpec(objects=[_surface(obj) for obj in scene.objects], background=scene.background,
-                          camera=_camera(scene.resolved_camera()))
+    objects = []
+    for i, obj in enumerate(scene.objects):
+        try:
+            objects.append(_surface(obj))
+        except ValueError as exc:  # e.g. a transform whose world -> object matrix is not finite
+            raise ValueError(f"objects.{i}: {exc}") from None
+    out = _core.SceneSpec(objects=objects, background=scene.background, camera=_camera(scene.resolved_camera()))
     if scene.lights:
         out.lights = [_light(light) for light in scene.lights]
     return out
