@@ -75,6 +75,7 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     page.fill("#width", "96")
     page.fill("#height", "96")
     page.fill("#tile", "32")
+    page.select_option("#samples", "4")  # the choices come from /api/meta's limits
     page.click("#submit")
     page.wait_for_url("**/#/job/*")
     page.wait_for_function("document.querySelector('#status')?.textContent === 'done'", timeout=120_000)
@@ -87,6 +88,7 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     # Scrub to the fourth frame: the label shows its delta.
     job_id = page.url.rsplit("/", 1)[1]
     job = farm.get(f"/api/jobs/{job_id}")
+    assert job["scene"]["samples"] == 4 and job["frames"][0]["figures"]["samples"] == 4
     page.eval_on_selector("#scrub", "(el) => { el.value = 3; el.dispatchEvent(new Event('input')); }")
     assert f"δ = {job['frames'][3]['delta']:.4f}" in page.text_content("#scrub-label")
     page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'beauty/3'")
@@ -96,6 +98,11 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'status/3'")
     assert page.is_visible("#legend")
     page.screenshot(path=str(SHOTS / "job-status-channel.png"), full_page=True)
+    # The share of certified samples per pixel.
+    page.select_option("#channel", "certified_share")
+    page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'certified_share/3'")
+    page.select_option("#channel", "status")
+    page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'status/3'")
     # Keyboard: right arrow steps one frame.
     page.keyboard.press("ArrowRight")
     assert page.get_attribute("#canvas", "data-frame") == "4"
@@ -147,6 +154,10 @@ def test_the_front_end_reads_the_farms_definitions_from_api_meta(farm):
     assert [(p["code"], p["name"]) for p in meta["pixel_statuses"]] == sorted(STATUS_NAMES.items())
     assert [p["colour"] for p in meta["pixel_statuses"]] == ["#%02x%02x%02x" % STATUS_COLOURS[n] for n in STATUS_NAMES.values()]
     assert meta["limits"]["max_width"] == 4096 and meta["defaults"]["tile"] == 64
+    from argand.render.frames import MAX_SAMPLES
+
+    assert meta["limits"]["max_samples"] == MAX_SAMPLES and meta["limits"]["samples"][-1] == MAX_SAMPLES
+    assert meta["defaults"]["samples"] == 1
     app_js = (REPO / "web" / "app.js").read_text()
     for p in meta["pixel_statuses"]:
         assert p["colour"] not in app_js and f'"{p["name"]}"' not in app_js
