@@ -193,6 +193,11 @@ def test_cli_renders_samples_and_explains_one_sample(tmp_path):
         assert np.array_equal(px[..., names.index(aov)], local.aovs[aov].astype(np.float32)), aov
     share = px[..., names.index("certified_share")]
     assert share.min() >= 0 and share.max() <= 1
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(str(tmp_path / "out" / "frame_0000.exr"))
+    assert inp.spec().getattribute("argand:samples") == 4
+    inp.close()
     e = run("render", "whitney", "--delta", "0.3", "--size", "9x7", "--samples", "4", "--explain", "4,3,2")
     assert e.returncode == 0, e.stderr
     assert "sample 2 of 4 of pixel (4, 3) of 9x7" in e.stdout and "status " in e.stdout

@@ -114,6 +114,7 @@ def write_exr(result: FrameResult, path: Path, pixels: np.ndarray | None = None,
     for key, value in (("argand:sigma", result.params.sigma), ("argand:delta", result.params.delta)):
         spec.attribute(key, float(value))
     spec.attribute("argand:certified_share", float(result.certified_share))
+    spec.attribute("argand:samples", int(result.params.samples))  # per pixel (the certified_share AOV counts them)
     _write(oiio, path, spec, exr_pixels(result) if pixels is None else pixels)
 
 
