@@ -203,6 +203,9 @@ def test_bench_render_smoke(tmp_path):
         assert f["ns_per_sample"] == pytest.approx(f["ns_per_pixel"] / f["samples"])
         assert 0 <= f["certified_share"] <= f["certified_sample_share"] <= 1
     assert report["headline"]["median_sample_cost_16"] > 0
+    alone = json.loads((tmp_path / "render_samples.json").read_text())
+    assert alone["headline"]["median_sample_cost_16"] > 0 and len(alone["samples"]) == len(report["samples"])
+    assert (tmp_path / "render_samples.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert (tmp_path / "render_contact.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # The classic surfaces of degree 5 to 8, and the figures per degree.
     classic = report["classic_frames"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from pathlib import Path
 from typing import Callable
 
@@ -51,7 +52,7 @@ def bench_render(out_dir: Path = Path("docs/bench"), smoke: bool = False, progre
                         )
                 frames.append(row)
     classic = bench_classic(64 if smoke else 384, progress)
-    sampled = bench_samples(32 if smoke else 256, progress)
+    sampled = bench_samples_report(out_dir, smoke, progress)["samples"]
     big = [f for f in frames if f["scene"] == "bicube" and f["width"] == sizes[-1] and abs(f["delta"] - math.pi / 9) < 1e-12]
     report = {
         "benchmark": "render",
@@ -101,10 +102,56 @@ def bench_classic(size: int, progress: Callable[[str], None]) -> list[dict]:
     return rows
 
 
+def bench_samples_report(out_dir: Path = Path("docs/bench"), smoke: bool = False,
+                         progress: Callable[[str], None] = lambda m: None) -> dict:
+    """bench_samples alone (`argand bench render --samples-only`), written to
+    render_samples.{json,md,png} (the full benchmark includes it too)."""
+    rows = bench_samples(32 if smoke else 256, progress)
+    report = {
+        "benchmark": "render samples",
+        "machine": machine_info(),
+        "threads": 1,
+        "samples": rows,
+        "headline": {f"median_sample_cost_{n}": _median([f["sample_cost"] for f in rows if f["samples"] == n])
+                     for n in SAMPLES[1:]},
+    }
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "render_samples.json").write_text(json.dumps(report, indent=2) + "\n")
+    text = markdown({"frames": [], "samples": rows})
+    (out_dir / "render_samples.md").write_text(text[text.index("Antialiasing"):])
+    samples_chart(rows, out_dir / "render_samples.png")
+    return report
+
+
+def samples_chart(rows: list[dict], path: Path) -> None:
+    """ns per sample against samples per pixel, one line per scene and delta."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for key in sorted({(f["scene"], f["degree"], f["delta"]) for f in rows}, key=lambda k: (k[1], k[0], k[2])):
+        line = [f for f in rows if (f["scene"], f["degree"], f["delta"]) == key]
+        ax.plot([f["samples"] for f in line], [f["ns_per_sample"] for f in line], marker="o",
+                label=f"{key[0]} (degree {key[1]}), δ = {key[2]:.3f}")
+    ax.set_xscale("log", base=2)
+    ax.set_xticks(list(SAMPLES), [str(s) for s in SAMPLES])
+    ax.set_xlabel("samples per pixel")
+    ax.set_ylabel("ns per sample (one core)")
+    ax.set_title(f"Antialiasing: the cost of a sample, {rows[0]['width']}×{rows[0]['height']}")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def bench_samples(size: int, progress: Callable[[str], None]) -> list[dict]:
     """Antialiasing's cost: SAMPLE_SCENES at SAMPLES samples per pixel, one
-    core, method auto. ``sample_cost``: ns per sample over the ns per pixel
-    of the same frame at one sample (1: a sample costs what a pixel did)."""
+    core, method auto, timed in CPU time (the render runs on the calling
+    thread). ``sample_cost``: ns per sample over the ns per pixel of the
+    same frame at one sample (1: a sample costs what a pixel did)."""
     rows = []
     for name in SAMPLE_SCENES:
         scene = load_scene(name)
@@ -112,13 +159,16 @@ def bench_samples(size: int, progress: Callable[[str], None]) -> list[dict]:
             base = None
             for samples in SAMPLES:
                 progress(f"{name} {size}x{size} delta={delta:.4f} samples={samples}")
+                cpu = time.process_time()
                 r = render_frame(scene, FrameParams(delta=delta, width=size, height=size, samples=samples), workers=1)
-                base = base or r.figures["ns_per_pixel"]
+                cpu = time.process_time() - cpu  # CPU seconds: steadier than wall time on a shared machine
+                ns_per_pixel = cpu / (size * size) * 1e9
+                base = base or ns_per_pixel
                 rows.append({
                     "scene": name, "degree": max(o.polynomial.degree for o in scene.objects), "width": size,
-                    "height": size, "delta": delta, "samples": samples, "ms": r.seconds * 1000,
-                    "ns_per_pixel": r.figures["ns_per_pixel"], "ns_per_sample": r.figures["ns_per_sample"],
-                    "sample_cost": r.figures["ns_per_sample"] / base,
+                    "height": size, "delta": delta, "samples": samples, "ms": r.seconds * 1000, "cpu_ms": cpu * 1000,
+                    "ns_per_pixel": ns_per_pixel, "ns_per_sample": ns_per_pixel / samples,
+                    "sample_cost": ns_per_pixel / samples / base,
                     # Pixels whose every sample is certified, and certified samples among all.
                     "certified_share": r.certified_share,
                     "certified_sample_share": float(r.aovs["certified_share"].mean()),
@@ -193,18 +243,18 @@ def markdown(report: dict) -> str:
         )
     lines += [
         "",
-        "Antialiasing (samples per pixel, one core, method auto). Sample cost: ns per sample over the ns per "
+        "Antialiasing (samples per pixel, one core, method auto, CPU time). Sample cost: ns per sample over the ns per "
         "pixel of the same frame at one sample. Certified pixels: every sample certified; certified samples: "
         "the mean of the certified_share AOV; edge pixels: partly covered (0 < A < 1).",
         "",
-        "| scene | degree | size | δ | samples | ms / frame | ns / pixel | ns / sample | sample cost | certified pixels "
+        "| scene | degree | size | δ | samples | CPU ms / frame | ns / pixel | ns / sample | sample cost | certified pixels "
         "| certified samples | edge pixels |",
         "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for f in report.get("samples", []):
         lines.append(
             f"| {f['scene']} | {f['degree']} | {f['width']}×{f['height']} | {f['delta']:.4f} | {f['samples']} "
-            f"| {f['ms']:.0f} | {f['ns_per_pixel']:.0f} | {f['ns_per_sample']:.0f} | {f['sample_cost']:.2f}× "
+            f"| {f['cpu_ms']:.0f} | {f['ns_per_pixel']:.0f} | {f['ns_per_sample']:.0f} | {f['sample_cost']:.2f}× "
             f"| {100 * f['certified_share']:.3f}% | {100 * f['certified_sample_share']:.3f}% "
             f"| {100 * f['edge_share']:.2f}% |"
         )
