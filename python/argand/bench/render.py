@@ -130,7 +130,7 @@ def samples_chart(rows: list[dict], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4.2))
+    fig, ax = plt.subplots(figsize=(9, 4.2))
     for key in sorted({(f["scene"], f["degree"], f["delta"]) for f in rows}, key=lambda k: (k[1], k[0], k[2])):
         line = [f for f in rows if (f["scene"], f["degree"], f["delta"]) == key]
         ax.plot([f["samples"] for f in line], [f["ns_per_sample"] for f in line], marker="o",
@@ -141,7 +141,7 @@ def samples_chart(rows: list[dict], path: Path) -> None:
     ax.set_ylabel("ns per sample (one core)")
     ax.set_title(f"Antialiasing: the cost of a sample, {rows[0]['width']}×{rows[0]['height']}")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
