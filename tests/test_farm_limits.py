@@ -11,10 +11,9 @@ from concurrent.futures import ThreadPoolExecutor
 
 import httpx
 import pytest
-import uvicorn
 from sqlalchemy import update
 
-from test_farm import free_port
+from served import start as served_start
 from test_farm_work import farm_parts, queued_messages, submit  # noqa: F401  (the fixture)
 
 from argand.farm import rendering
@@ -26,15 +25,7 @@ from argand.farm.reaper import Reaper
 def _serve(settings):
     from argand.api.app import create_app
 
-    port = free_port()
-    server = uvicorn.Server(uvicorn.Config(create_app(settings), host="127.0.0.1", port=port, log_level="warning"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 30
-    while not server.started and time.monotonic() < deadline:
-        time.sleep(0.05)
-    assert server.started
-    return server, thread, f"http://127.0.0.1:{port}"
+    return served_start(create_app(settings))
 
 
 @pytest.fixture

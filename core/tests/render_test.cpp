@@ -14,18 +14,10 @@
 #include "../src/pixel_decision.h"
 #include "../src/ray_polynomial.h"
 #include "argand/render.h"
+#include "check.h"
 
 using namespace argand;
 using namespace argand::detail;
-
-static int failures = 0;
-#define CHECK(cond)                                                                        \
-    do {                                                                                   \
-        if (!(cond)) {                                                                     \
-            std::fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
-            ++failures;                                                                    \
-        }                                                                                  \
-    } while (0)
 
 static constexpr double kPiDouble = 3.141592653589793;  // just below pi
 
@@ -377,10 +369,5 @@ int main() {
     test_refinement();
     test_isolation();
     test_tiles_and_limits();
-    if (failures) {
-        std::fprintf(stderr, "render_test: %d failure(s)\n", failures);
-        return 1;
-    }
-    std::printf("render_test: all passed\n");
-    return 0;
+    return check_summary("render_test");
 }
