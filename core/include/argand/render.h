@@ -83,7 +83,7 @@ struct FrameParams {
     // The exact tier (ladder level 4, an ExactSolver given to render_tile):
     // at most this many pixels per tile go to it (0: off), and it works up
     // to this many bits of precision.
-    int exact_pixels_per_tile = 16;
+    int exact_pixels_per_tile = 64;
     int exact_max_bits = 2048;
 };
 

@@ -23,7 +23,9 @@ tile. Everything here is exact or rigorous:
    up to ``max_bits``) while one is open: the band ``|arg t|`` in
    ``[sigma, sigma + delta]`` with the exact edges (a positive real root has
    argument exactly 0, a negative one exactly pi), the closed clipping ball
-   ``|o' + |t| d'| <= clip_radius``, and the least modulus among the
+   ``|o' + |t| d'| <= clip_radius`` (a real root exactly on the sphere is
+   found exactly: it is a root of ``gcd(f_m, |o' + |t| d'|^2 - R^2)``), and
+   the least modulus among the
    eligible roots (a root's conjugate is the same choice).
 
 The answer (a dict the binding reads): ``decided`` True is a proof: status 0
@@ -192,6 +194,34 @@ def _clip(root: ExactRoot, obj: ExactObject, poly: ObjectPolynomial) -> str:
     return OPEN
 
 
+def _on_sphere_exactly(root: ExactRoot, roots: list[ExactRoot], obj: ExactObject, poly: ObjectPolynomial) -> bool:
+    """For a real root t: True iff its point is exactly on the clipping sphere,
+    decided exactly: t is a root of gcd(f, q) with f its squarefree factor
+    and q(t) = |o' + |t| d'|^2 - R^2 (|t| = t or -t by t's proven sign). The
+    roots of the gcd are roots of f; one lies in t's ball (and in no other
+    ball of f) only if it is t."""
+    z = root.ball
+    if not z.imag.is_zero() or obj.clip_radius is None:
+        return False
+    sign = 1 if z.real > 0 else (-1 if z.real < 0 else 0)
+    if sign == 0:
+        return False
+    q = flint.fmpq_poly([-obj.clip_radius ** 2])
+    for a in range(3):
+        line = flint.fmpq_poly([poly.o_obj[a], sign * poly.d_obj[a]])
+        q += line * line
+    f = poly.factors[root.factor][0]
+    g = f.gcd(q)
+    if g.degree() < 1:
+        return False
+    same_factor = [r for r in roots if r.object == root.object and r.factor == root.factor]
+    for b, _m in g.complex_roots():
+        meeting = [r for r in same_factor if r.ball.overlaps(b)]
+        if len(meeting) == 1 and meeting[0] is root:
+            return True
+    return False
+
+
 def _conjugate_of(a: ExactRoot, b: ExactRoot, roots: list[ExactRoot]) -> bool:
     """True iff b is proven to be the conjugate of a: same object and factor,
     and b's ball is the only ball of that factor meeting a's mirror image (the
@@ -274,6 +304,9 @@ def _decide(frame: dict, query: dict) -> dict:
             r.band = _band(r, obj, s_arb, d_arb, sigma_zero)
             r.modulus = abs(r.ball)
             r.clip = _clip(r, obj, polys[r.object]) if r.band != NO else NO
+        for r in roots:
+            if r.clip == OPEN and _on_sphere_exactly(r, roots, objects[r.object], polys[r.object]):
+                r.clip = YES  # on the sphere: inside the closed ball (proven)
         candidates = [r for r in roots if r.band != NO and r.clip != NO]
         eligible = [r for r in candidates if r.band == YES and r.clip == YES]
         open_ = [r for r in candidates if r not in eligible]
