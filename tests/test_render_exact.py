@@ -21,6 +21,7 @@ import sys
 import numpy as np
 import pytest
 from pixel_truth import check_frame, check_pixel, pixel_truth, rendered_pixel, scene_objects
+from random_surfaces import random_scene
 from test_farm_work import farm_parts, submit  # noqa: F401  (a fixture)
 from test_render_truth import GRAZING, bisect_to_tangency, centre_truth, hit_miss_pair, with_look_at
 
@@ -49,8 +50,13 @@ def test_ladder_levels_are_named():
 # ---------------------------------------------------------------------------
 
 #: The grazing cases whose last look_ats include centre pixels undecided
-#: (status 3) after level 3: a complex pair within 1e-8 of a band edge.
-UNDECIDED_AT_LEVEL_3 = [g for g in GRAZING if g[0] in ("bicube-band", "dense-5", "dense-7", "product-6")]
+#: (status 3) after level 3: a complex pair within 1e-8 of a band edge;
+#: degree 4 to 8 (the two octics at delta = pi/18 beside test_render_truth's).
+UNDECIDED_AT_LEVEL_3 = [g for g in GRAZING if g[0] in ("bicube-band", "dense-5", "dense-7", "product-6")] + [
+    ("dense-8-band", lambda: random_scene("dense", 8, seed=4), math.pi / 18, [0.0, 0.0, 0.0], [0.0, 0.05, 0.05]),
+    ("chmutov-octic-band", lambda: to_core_scene(load_scene("chmutov-octic")), math.pi / 18, [0.0, 0.0, 0.0],
+     [0.0, 0.0, 0.06]),
+]
 
 
 @pytest.mark.parametrize("name, make_scene, delta, base, step", UNDECIDED_AT_LEVEL_3, ids=[g[0] for g in UNDECIDED_AT_LEVEL_3])
