@@ -27,7 +27,7 @@ from test_render_truth import GRAZING, bisect_to_tangency, centre_truth, hit_mis
 
 from argand.render import FrameParams, TileRect, primary_ray, render_frame, render_tile
 from argand.render.convert import to_core_scene
-from argand.render.explain import explain_pixel, format_explanation
+from argand.render.explain import explain_pixel
 from argand.render.frames import ESCALATION_NAMES, EXACT_OVER_CAP_LEVEL
 from argand.scene import load_scene, scene_from_dict
 
