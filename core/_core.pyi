@@ -1,6 +1,6 @@
 """Type stubs for the private compiled module argand.core._core."""
 
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import numpy.typing as npt
@@ -28,6 +28,9 @@ def find_roots_batch(matrix: npt.NDArray[np.float64], method: str = "auto") -> d
 MAX_OBJECTS: int
 MAX_SURFACE_DEGREE: int
 MAX_FRAME_SIDE: int
+MAX_EXACT_BITS: int
+EXACT_PIXELS_PER_TILE: int
+EXACT_MAX_BITS: int
 BAND_RULE: str
 INTERLEAVED_CHANNELS: tuple[str, ...]
 
@@ -48,13 +51,31 @@ def plan_frame(
     max_depth: int = 3,
     hue_by_argument: bool = False,
     seed_from_neighbour: bool = True,
+    exact_pixels_per_tile: int = ...,
+    exact_max_bits: int = ...,
 ) -> FramePlan: ...
-def render_tile(plan: FramePlan, x0: int, y0: int, x1: int, y1: int) -> dict[str, Any]: ...
+
+#: The exact tier's hook: (frame, query) -> answer (argand.render.exact.decide_pixel).
+ExactSolver = Callable[[dict[str, Any], dict[str, Any]], dict[str, Any]]
+
+def render_tile(
+    plan: FramePlan, x0: int, y0: int, x1: int, y1: int, exact: ExactSolver | None = None
+) -> dict[str, Any]: ...
 def render_tile_into(
-    plan: FramePlan, x0: int, y0: int, x1: int, y1: int, out: npt.NDArray[np.float32], ox: int = 0, oy: int = 0
+    plan: FramePlan,
+    x0: int,
+    y0: int,
+    x1: int,
+    y1: int,
+    out: npt.NDArray[np.float32],
+    ox: int = 0,
+    oy: int = 0,
+    exact: ExactSolver | None = None,
 ) -> tuple[int, int, tuple[int, int, int, int], int]: ...
 def ray_polynomial(
     plan: FramePlan, object: int, origin: Any, direction: Any, with_radius: bool = False
 ) -> Any: ...
 def primary_ray(plan: FramePlan, x: int, y: int) -> tuple[list[float], list[float]]: ...
-def explain_pixel(plan: FramePlan, x: int, y: int, row_start: int) -> dict[str, Any]: ...
+def explain_pixel(
+    plan: FramePlan, x: int, y: int, row_start: int, exact: ExactSolver | None = None
+) -> dict[str, Any]: ...

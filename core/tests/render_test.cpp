@@ -359,6 +359,77 @@ static void test_tiles_and_limits() {
         }
 }
 
+/// The exact tier's hook contract: called only for primary rays not proven
+/// after level 3, at most exact_pixels_per_tile times per tile, with the
+/// pixel's own ray; its decided answer is what the pixel shows, its
+/// undecided answer keeps the ladder's picture, and pixels beyond the budget
+/// are level 6. (The solver here answers from the query alone: the real one
+/// is argand.render.exact, tested in tests/test_render_exact.py.)
+static void test_exact_hook() {
+    // The unit sphere clipped by the unit ball: every real root lies on the
+    // sphere, which no disc decides (status 3 after level 3).
+    SceneSpec sc = sphere_scene(1.0);
+    sc.camera.position[0] = 0.0;
+    sc.camera.position[2] = 0.3;
+    FrameParams fp;
+    fp.width = fp.height = 9;
+    FramePlan pl = plan_frame(sc, fp);
+    TileAOVs plain;
+    render_tile(pl, TileRect{0, 0, 9, 9}, plain);
+    int open = 0;
+    for (auto v : plain.status) open += v != kCertified;
+    CHECK(open > 4);
+    int calls = 0;
+    bool rays_match = true;
+    ExactSolver undecided = [&](const FramePlan& p, const ExactQuery& q) {
+        ++calls;
+        const Ray r = primary_ray(p, q.x, q.y);
+        for (int a = 0; a < 3; ++a)
+            rays_match = rays_match && r.origin[a] == q.ray.origin[a] && r.direction[a] == q.ray.direction[a];
+        ExactAnswer a;
+        a.status = kUndecided;
+        return a;
+    };
+    pl.params.exact_pixels_per_tile = 3;
+    TileAOVs t;
+    render_tile(pl, TileRect{0, 0, 9, 9}, t, &undecided);
+    CHECK(calls == 3 && rays_match);
+    int at_exact = 0, over = 0;
+    for (std::size_t i = 0; i < t.status.size(); ++i) {
+        at_exact += t.escalation[i] == kLevelExact;
+        over += t.escalation[i] == kLevelExactOverCap;
+        CHECK(t.status[i] == plain.status[i]);            // undecided: the ladder's status
+        CHECK(t.rgba[4 * i + 3] == plain.rgba[4 * i + 3]);  // and its picture
+    }
+    CHECK(at_exact == 3 && over == open - 3);
+    // A decided answer (here: a proven miss) is what the pixel shows.
+    ExactSolver miss = [&](const FramePlan&, const ExactQuery&) {
+        ExactAnswer a;
+        a.decided = true;
+        a.status = kCertified;
+        return a;
+    };
+    pl.params.exact_pixels_per_tile = 100;
+    render_tile(pl, TileRect{0, 0, 9, 9}, t, &miss);
+    for (std::size_t i = 0; i < t.status.size(); ++i) {
+        CHECK(t.status[i] == kCertified);
+        if (plain.status[i] != kCertified) CHECK(t.escalation[i] == kLevelExact && t.rgba[4 * i + 3] == 0.0f);
+    }
+    // Off (budget 0) or no hook: the ladder stops at level 3.
+    pl.params.exact_pixels_per_tile = 0;
+    calls = 0;
+    render_tile(pl, TileRect{0, 0, 9, 9}, t, &undecided);
+    CHECK(calls == 0 && t.escalation == plain.escalation);
+    bool threw = false;
+    fp.exact_max_bits = 32;
+    try {
+        plan_frame(sc, fp);
+    } catch (const std::invalid_argument&) {
+        threw = true;
+    }
+    CHECK(threw);
+}
+
 int main() {
     test_band_rule();
     test_balls();
@@ -369,5 +440,6 @@ int main() {
     test_refinement();
     test_isolation();
     test_tiles_and_limits();
+    test_exact_hook();
     return check_summary("render_test");
 }
