@@ -11,6 +11,7 @@ from fastapi import APIRouter, HTTPException, Response
 from sqlalchemy import func, select
 
 from argand.api.deps import SettingsDep
+from argand.api.routers.frames import binary
 from argand.api.schemas import JobRequest
 from argand.core import METHODS
 from argand.farm.database import session_scope
@@ -67,7 +68,7 @@ def presets() -> list[dict]:
 _preset_thumbs: dict[str, bytes] = {}
 
 
-@router.get("/api/presets/{name}/thumbnail.png")
+@router.get("/api/presets/{name}/thumbnail.png", **binary("image/png", "A small render of the preset"))
 def preset_thumbnail(name: str):
     """A small render of a preset at delta = pi/18 (cached in memory)."""
     if name not in PRESETS:
