@@ -232,3 +232,65 @@ def test_a_full_store_fails_the_job_cleanly_and_a_retry_finishes_it(tmp_path):
         assert (px[..., [names.index(n) for n in EXR_CHANNELS]].view("uint32") == want.view("uint32")).all()
     finally:
         redis_server.stop()
+
+
+def _make_unwritable(folder: Path) -> str:
+    """``folder`` refuses writes: a read-only tmpfs mounted on it as root
+    (root ignores permissions), else its permissions. Returns how."""
+    folder.mkdir(parents=True, exist_ok=True)
+    if os.geteuid() != 0:
+        folder.chmod(0o555)
+        return "chmod"
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=1m", "tmpfs", str(folder)], capture_output=True, text=True)
+    if r.returncode != 0:
+        pytest.skip(f"running as root without the right to mount (permissions do not bind root): {r.stderr.strip()}")
+    return "mount"
+
+
+def _make_writable(folder: Path, how: str) -> None:
+    if how == "chmod":
+        folder.chmod(0o755)
+    else:
+        subprocess.run(["umount", str(folder)], check=True)
+
+
+def test_an_unwritable_store_fails_the_job_cleanly_and_a_retry_finishes_it(tmp_path):
+    """The job's folder in the store refuses writes (EACCES or EROFS): the
+    run fails the job at once with the reason, nothing is left running or
+    half-written; writable again, a retry finishes it, every tile once, the
+    frame equal to a local render."""
+    from argand.farm import control, rendering
+    from argand.farm.database import upgrade
+    from argand.farm.settings import Settings
+    from argand.farm.submission import JobSpec, create_job
+    from argand.render import FrameParams, render_frame
+    from argand.render.output import EXR_CHANNELS, exr_pixels, read_exr
+    from argand.scene import load_scene
+
+    redis_server = EmbeddedRedis(tmp_path / "redis" / "redis.sock").start()
+    how = None
+    try:
+        settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url)
+        upgrade(settings.sqlalchemy_url)
+        job_id = create_job(settings, JobSpec("steiner", load_scene("steiner").to_dict(), 0.0, [0.2], 64, 64, 16))
+        folder = settings.store_path / "jobs" / job_id
+        how = _make_unwritable(folder)
+        with pytest.raises(OSError):
+            rendering.run_tiles(settings, job_id, 0, list(range(16)), "w-test")
+        [(status, error)] = _db(settings.data_path, "select status, error from jobs where id = :j", j=job_id)
+        assert status == "failed" and error.startswith("the store cannot be written (") and "retry the job" in error, error
+        tiles = _db(settings.data_path, "select status, attempts from tiles where job_id = :j", j=job_id)
+        assert set(tiles) == {("queued", 0)}
+        assert not list(folder.rglob("*"))
+        _make_writable(folder, how)
+        how = None
+        assert control.set_job_status(settings, job_id, "retry") == "running"
+        assert rendering.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
+        assert {r for (r,) in _db(settings.data_path, "select renders from tiles where job_id = :j", j=job_id)} == {1}
+        names, px = read_exr(folder / "frame_0000.exr")
+        want = exr_pixels(render_frame(load_scene("steiner"), FrameParams(delta=0.2, width=64, height=64), tile=16, workers=1))
+        assert (px[..., [names.index(n) for n in EXR_CHANNELS]].view("uint32") == want.view("uint32")).all()
+    finally:
+        if how is not None:
+            _make_writable(settings.store_path / "jobs" / job_id, how)
+        redis_server.stop()
