@@ -392,3 +392,21 @@ def test_reads_need_the_token_when_asked(farm_parts):  # noqa: F811
     finally:
         server.should_exit = True
         thread.join(10)
+
+
+def test_the_reaper_sends_what_an_api_left_in_the_outbox(farm_parts):  # noqa: F811
+    """An API killed between its commit and its drainer's send leaves the
+    job's messages as rows: the reaper's next round sends them."""
+    from argand.farm.submission import JobSpec, create_job
+    from argand.scene import load_scene
+
+    settings, redis_server = farm_parts
+    job_id = create_job(settings, JobSpec("plucker", load_scene("plucker").to_dict(), 0.0, [0.0, 0.1], 32, 32, 16),
+                        send=False)
+    assert queued_messages(redis_server) == 0
+    Reaper(settings).round()
+    assert queued_messages(redis_server) >= 2
+    for frame in (0, 1):
+        assert rendering.run_tiles(settings, job_id, frame, [0, 1, 2, 3], "w-test") == "rendered"
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
