@@ -228,6 +228,7 @@ def test_a_data_folder_below_its_free_space_floor_refuses_new_jobs(farm_parts): 
         assert r.status_code == 507, r.text
         assert "MiB free, below the floor of" in r.json()["detail"] and "ARGAND_MIN_FREE_BYTES" in r.json()["detail"]
         assert httpx.get(url + "/api/jobs", timeout=30).json()["total"] == 0
+        assert httpx.get(url + "/api/meta", timeout=30).json()["limits"]["min_free_bytes"] == 1 << 60
     finally:
         server.should_exit = True
         thread.join(10)
