@@ -326,7 +326,7 @@ def test_the_soft_time_limit_gives_back_the_tiles_a_run_did_not_start(farm_parts
     with session_scope(settings.sqlalchemy_url) as s:
         tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
         done = [i for i, t in sorted(tiles.items()) if t.status == "done"]
-        assert 2 <= len(done) <= 4 and done == list(range(len(done)))
+        assert 1 <= len(done) <= 4 and done == list(range(len(done)))  # the first tile always renders
         rest = [t for t in tiles.values() if t.status != "done"]
         assert all(t.status == "queued" and t.attempts == 0 and t.worker is None for t in rest)
         assert rest[0].error.startswith("TimeLimitExceeded: the run of 16 tiles passed the soft time limit of 1 s")
