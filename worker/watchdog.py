@@ -74,6 +74,6 @@ class Watchdog(threading.Thread):
             # The reason is written if the database answers within a few seconds; the kill comes regardless.
             writer = threading.Thread(target=note, daemon=True)
             writer.start()
-            writer.join(NOTE_S)
+            writer.join(min(NOTE_S, self.settings.tile_hard_time_limit_s / 2))  # killed before 2 x the hard limit
             self.kill()
             return
