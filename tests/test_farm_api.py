@@ -50,6 +50,10 @@ def test_submit_stores_queued_work_and_refuses_what_is_not_allowed(client):
     assert r.status_code == 201, r.text
     job = r.json()
     assert job["status"] == "queued" and job["tiles_total"] == 2 * 4 and [f["status"] for f in job["frames"]] == ["queued"] * 2
+    # The answer does not wait on the broker: the API's drainer sends the job's messages from the outbox.
+    deadline = time.monotonic() + 10
+    while queued_messages(redis_server) < 1 and time.monotonic() < deadline:
+        time.sleep(0.05)
     assert queued_messages(redis_server) >= 1
     r = c.post(f"/api/jobs/{job['id']}/explode")
     assert r.status_code == 422 and "cancel" in r.text
