@@ -4,6 +4,7 @@ front end at /, Prometheus metrics at /metrics."""
 from __future__ import annotations
 
 import time
+from contextlib import asynccontextmanager
 from pathlib import Path
 
 from fastapi import Depends, FastAPI, Request
@@ -11,11 +12,12 @@ from fastapi.responses import FileResponse, JSONResponse, PlainTextResponse, Res
 from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Histogram, generate_latest
 
-from argand.api.auth import CHANGES_STATE, check_access
+from argand.api.auth import check_access, needs_token
 from argand.api.limits import BodyLimit
 from argand.api.routers import frames, jobs, service
 from argand.farm.control import NoSuchJob
 from argand.farm.metrics import FarmCollector
+from argand.farm.outbox import Drainer
 from argand.farm.settings import Settings
 
 WEB = Path(__file__).resolve().parent.parent / "web"
@@ -90,7 +92,7 @@ def _document_errors(app: FastAPI, settings: Settings) -> None:
                     answers.setdefault("404", _answer("No such job, preset or file (yet)"))
                 if "requestBody" in op:
                     answers.setdefault("413", _answer("The body is above max_body_bytes"))
-                if secured and method.upper() in CHANGES_STATE:
+                if secured and needs_token(settings, method.upper(), path):
                     op["security"] = [{"bearer": []}]
                     answers.setdefault("401", _answer("No token, or a wrong one"))
         app.openapi_schema = schema
@@ -100,8 +102,21 @@ def _document_errors(app: FastAPI, settings: Settings) -> None:
 
 
 def create_app(settings: Settings) -> FastAPI:
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        # The outbox's sender: requests write messages as rows and wake it, so
+        # none waits on the broker (argand.farm.outbox).
+        drainer = app.state.drainer = Drainer(settings)
+        drainer.start()
+        try:
+            yield
+        finally:
+            drainer.stop.set()
+            drainer.wake.set()
+            drainer.join(5)
+
     app = FastAPI(title="Argand", description="Render jobs of algebraic surfaces in complex space.",
-                  dependencies=[Depends(check_access)])
+                  dependencies=[Depends(check_access)], lifespan=lifespan)
     app.state.settings = settings
     for module in (jobs, frames, service):
         app.include_router(module.router)

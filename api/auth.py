@@ -3,7 +3,11 @@
 ARGAND_API_TOKEN or ARGAND_API_TOKEN_FILE). The token is compared in
 constant time and never logged. A header, not a cookie: a cross-site form
 or fetch cannot send it, so the browser front end is CSRF-safe. Reads stay
-open (the front end's images and event stream are plain GETs)."""
+open (the front end's images and event stream are plain GETs), unless
+ARGAND_TOKEN_FOR_READS is set: then every route needs the token but the
+health checks, the front end's files and the API's documentation (a
+browser's <img> and EventSource cannot send a header, so the web front end
+is then for viewing the docs only; API clients send the header)."""
 
 from __future__ import annotations
 
@@ -14,14 +18,23 @@ from fastapi import HTTPException, Request
 from argand.api.deps import get_settings
 
 CHANGES_STATE = frozenset({"POST", "PUT", "PATCH", "DELETE"})
+#: Open even with token_for_reads: probes, the front end's files, the docs.
+OPEN_PATHS = frozenset({"/", "/healthz", "/readyz", "/docs", "/docs/oauth2-redirect", "/openapi.json", "/redoc"})
+
+
+def needs_token(settings, method: str, path: str) -> bool:
+    if method in CHANGES_STATE:
+        return True
+    return settings.token_for_reads and path not in OPEN_PATHS and not path.startswith("/static/")
 
 
 def check_access(request: Request) -> None:
     """The app's one dependency (the OpenAPI document marks the state-changing
     operations as secured when a token is set: argand.api.app)."""
-    if request.method not in CHANGES_STATE:
+    settings = get_settings(request)
+    if not needs_token(settings, request.method, request.url.path):
         return
-    token = get_settings(request).token()
+    token = settings.token()
     if token is None:
         return
     scheme, _, given = request.headers.get("authorization", "").partition(" ")

@@ -34,3 +34,11 @@ def require_job(job_id: str, settings: SettingsDep) -> str:
 
 
 JobIdDep = Annotated[str, Depends(require_job)]
+
+
+def wake_drainer(request: Request) -> None:
+    """After a change that wrote messages to the outbox: the app's drainer
+    sends them now (without the request waiting for the broker)."""
+    drainer = getattr(request.app.state, "drainer", None)
+    if drainer is not None:
+        drainer.wake.set()

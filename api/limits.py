@@ -56,3 +56,45 @@ class BodyLimit:
             return await receive()
 
         return await self.app(scope, replay, send)
+
+
+class StreamSlots:
+    """The event streams (SSE) open at once, per client address and in all:
+    a stream holds its connection and a share of the event loop for as long
+    as its job runs, so both are bounded (settings max_streams_per_client
+    and max_streams; beyond either, a 429 that says which). Used on the
+    event loop only (no lock needed)."""
+
+    def __init__(self, per_client: int, total: int) -> None:
+        self.per_client, self.total = per_client, total
+        self.by_client: dict[str, int] = {}
+        self.open = 0
+
+    def take(self, client: str):
+        """A slot for ``client``, or HTTPException(429). Returns the function
+        that gives it back (idempotent)."""
+        from fastapi import HTTPException
+
+        if self.by_client.get(client, 0) >= self.per_client:
+            raise HTTPException(429, detail=f"this client ({client}) has {self.per_client} event streams open, the "
+                                           "limit (setting ARGAND_MAX_STREAMS_PER_CLIENT); close one first",
+                                headers={"Retry-After": "5"})
+        if self.open >= self.total:
+            raise HTTPException(429, detail=f"the farm serves {self.total} event streams, the limit (setting "
+                                           "ARGAND_MAX_STREAMS); retry later or poll GET /api/jobs/{id}",
+                                headers={"Retry-After": "5"})
+        self.by_client[client] = self.by_client.get(client, 0) + 1
+        self.open += 1
+        given_back = False
+
+        def give_back() -> None:
+            nonlocal given_back
+            if given_back:
+                return
+            given_back = True
+            self.open -= 1
+            self.by_client[client] -= 1
+            if not self.by_client[client]:
+                del self.by_client[client]
+
+        return give_back

@@ -1,7 +1,7 @@
 """Type stubs for the private compiled module argand.core._core."""
 
-from collections.abc import Iterable, MutableSequence, Sequence
-from typing import Any, ClassVar, Literal, TypedDict, overload
+from collections.abc import Callable, Iterable, MutableSequence, Sequence
+from typing import Any, ClassVar, Literal, NotRequired, TypedDict, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -30,6 +30,9 @@ MAX_OBJECTS: int
 MAX_SURFACE_DEGREE: int
 MAX_FRAME_SIDE: int
 MAX_SAMPLES: int
+MAX_EXACT_BITS: int
+EXACT_PIXELS_PER_TILE: int
+EXACT_MAX_BITS: int
 BAND_RULE: str
 INTERLEAVED_CHANNELS: tuple[str, ...]
 STATUS_NAMES: dict[int, str]
@@ -203,6 +206,9 @@ class PixelExplanation(TypedDict):
     status: int
     escalation: int
     reason: str
+    exact_ran: bool
+    root: complex
+    exact: NotRequired[dict[str, Any]]  # the exact tier's answer and steps, when it ran
 
 def band_rule_holds(sigma: float, delta: float) -> bool: ...
 def sample_side(samples: int) -> int: ...
@@ -216,11 +222,27 @@ def plan_frame(
     max_depth: int = 3,
     hue_by_argument: bool = False,
     seed_from_neighbour: bool = True,
+    exact_pixels_per_tile: int = ...,
+    exact_max_bits: int = ...,
     samples: int = 1,
 ) -> FramePlan: ...
-def render_tile(plan: FramePlan, x0: int, y0: int, x1: int, y1: int) -> dict[str, Any]: ...
+
+#: The exact tier's hook: (frame, query) -> answer (argand.render.exact.decide_pixel).
+ExactSolver = Callable[[dict[str, Any], dict[str, Any]], dict[str, Any]]
+
+def render_tile(
+    plan: FramePlan, x0: int, y0: int, x1: int, y1: int, exact: ExactSolver | None = None
+) -> dict[str, Any]: ...
 def render_tile_into(
-    plan: FramePlan, x0: int, y0: int, x1: int, y1: int, out: npt.NDArray[np.float32], ox: int = 0, oy: int = 0
+    plan: FramePlan,
+    x0: int,
+    y0: int,
+    x1: int,
+    y1: int,
+    out: npt.NDArray[np.float32],
+    ox: int = 0,
+    oy: int = 0,
+    exact: ExactSolver | None = None,
 ) -> tuple[int, int, tuple[int, int, int, int], int]: ...
 @overload
 def ray_polynomial(
@@ -231,4 +253,6 @@ def ray_polynomial(
     plan: FramePlan, object: int, origin: _Numbers, direction: _Numbers, with_radius: Literal[True]
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def primary_ray(plan: FramePlan, x: int, y: int, sample: int = 0) -> tuple[list[float], list[float]]: ...
-def explain_pixel(plan: FramePlan, x: int, y: int, row_start: int, sample: int = 0) -> PixelExplanation: ...
+def explain_pixel(
+    plan: FramePlan, x: int, y: int, row_start: int, sample: int = 0, exact: ExactSolver | None = None
+) -> PixelExplanation: ...

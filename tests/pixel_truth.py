@@ -52,6 +52,8 @@ from typing import Any, Sequence
 
 import flint
 
+from truth import Precision
+
 #: Working precisions (bits) of the root balls, tried in order until every
 #: decision of the pixel is certain.
 PRECISIONS: tuple[int, ...] = (128, 512, 2048, 8192)
@@ -59,20 +61,6 @@ PRECISIONS: tuple[int, ...] = (128, 512, 2048, 8192)
 #: The AOVs are float32: a root read back from them is within half an ulp
 #: of float32 per component, plus the (tiny) radius of a certified disc.
 AOV_RELATIVE_TOLERANCE = 2.0**-21
-
-
-class _Prec:
-    """``with _Prec(bits):`` sets ``flint.ctx.prec`` and restores it."""
-
-    def __init__(self, bits: int) -> None:
-        self.bits = bits
-
-    def __enter__(self) -> None:
-        self.old = flint.ctx.prec
-        flint.ctx.prec = self.bits
-
-    def __exit__(self, *exc: object) -> None:
-        flint.ctx.prec = self.old
 
 
 def exact(x: float) -> flint.fmpq:
@@ -270,7 +258,7 @@ def _kept(obj: TruthObject, oo, od, root: TruthRoot, poly: flint.fmpq_poly, last
 
 
 def _roots_at(poly: flint.fmpq_poly, prec: int) -> list[tuple[flint.acb, int]] | None:
-    with _Prec(prec):
+    with Precision(prec):
         pairs = poly.complex_roots()
     total = sum(int(m) for _, m in pairs)
     assert total == poly.degree(), (total, poly.degree())
@@ -306,7 +294,7 @@ def pixel_truth(
     roots: list[TruthRoot] = []
     for prec in PRECISIONS:
         last = prec == PRECISIONS[-1]
-        with _Prec(prec):
+        with Precision(prec):
             roots = []
             unsure_half = False
             for index, (obj, p, (oo, od)) in enumerate(zip(objects, polys, rays)):

@@ -217,6 +217,15 @@ def test_bench_render_smoke(tmp_path):
     text = (tmp_path / "render.md").read_text()
     assert "| chmutov-octic | 8 | 64×64 |" in text and "Per degree" in text
     assert (tmp_path / "render_contact_classic.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # Where the ladder escalated: the picture, its counts per level, the exact tier's share.
+    assert (tmp_path / "render_escalation.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    picture = report["escalation_picture"]
+    assert {r["degree"] for r in picture} >= {3, 4, 8}
+    for r in picture:
+        assert sum(r["levels"].values()) == r["size"] * r["size"]
+    assert sum(r["levels"]["exact"] for r in picture) > 0  # odd sizes: rays at the presets' double lines
+    assert all("exact_share" in f and f["exact_pixels"] >= 0 for f in report["frames"] + classic)
+    assert "![where escalation happened](render_escalation.png)" in text and "exact tier" in text
 
 
 @pytest.mark.parametrize("args, message", [

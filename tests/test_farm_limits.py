@@ -11,10 +11,9 @@ from concurrent.futures import ThreadPoolExecutor
 
 import httpx
 import pytest
-import uvicorn
 from sqlalchemy import update
 
-from test_farm import free_port
+from served import start as served_start
 from test_farm_work import farm_parts, queued_messages, submit  # noqa: F401  (the fixture)
 
 from argand.farm import rendering
@@ -26,15 +25,7 @@ from argand.farm.reaper import Reaper
 def _serve(settings):
     from argand.api.app import create_app
 
-    port = free_port()
-    server = uvicorn.Server(uvicorn.Config(create_app(settings), host="127.0.0.1", port=port, log_level="warning"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 30
-    while not server.started and time.monotonic() < deadline:
-        time.sleep(0.05)
-    assert server.started
-    return server, thread, f"http://127.0.0.1:{port}"
+    return served_start(create_app(settings))
 
 
 @pytest.fixture
@@ -182,3 +173,232 @@ def test_the_reaper_sends_again_what_it_puts_back(farm_parts):  # noqa: F811
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.get(Job, job_id).status == "done"
         assert {t.renders for t in s.query(Tile).filter(Tile.job_id == job_id)} == {1}
+
+
+def test_event_streams_are_bounded_per_client_and_in_all(farm_parts):  # noqa: F811
+    import contextlib
+
+    settings, _ = farm_parts
+    settings = settings.model_copy(update={"max_streams_per_client": 2, "max_streams": 3})
+    server, thread, url = _serve(settings)
+    clients = {ip: httpx.Client(base_url=url, timeout=30, transport=httpx.HTTPTransport(local_address=ip))
+               for ip in ("127.0.0.1", "127.0.0.2", "127.0.0.3")}
+    try:
+        job_id = clients["127.0.0.1"].post("/api/jobs", json=JOB).json()["id"]  # no worker: it stays queued
+        path = f"/api/jobs/{job_id}/events"
+        with contextlib.ExitStack() as open_streams:
+            for ip in ("127.0.0.1", "127.0.0.1", "127.0.0.2"):
+                r = open_streams.enter_context(clients[ip].stream("GET", path))
+                assert r.status_code == 200
+            r = clients["127.0.0.1"].get(path)
+            assert r.status_code == 429 and "this client (127.0.0.1) has 2 event streams open" in r.json()["detail"]
+            assert "ARGAND_MAX_STREAMS_PER_CLIENT" in r.json()["detail"] and r.headers["retry-after"] == "5"
+            r = clients["127.0.0.3"].get(path)
+            assert r.status_code == 429 and "the farm serves 3 event streams" in r.json()["detail"]
+            assert clients["127.0.0.1"].get(f"/api/jobs/{job_id}").status_code == 200  # the rest still answers
+        # Closed streams give their slots back.
+        deadline = time.monotonic() + 10
+        while True:
+            with clients["127.0.0.3"].stream("GET", path) as r:
+                if r.status_code == 200 or time.monotonic() > deadline:
+                    break
+            time.sleep(0.1)
+        assert r.status_code == 200
+    finally:
+        for c in clients.values():
+            c.close()
+        server.should_exit = True
+        thread.join(10)
+
+
+def test_a_data_folder_below_its_free_space_floor_refuses_new_jobs(farm_parts):  # noqa: F811
+    settings, _ = farm_parts
+    server, thread, url = _serve(settings.model_copy(update={"min_free_bytes": 1 << 60}))
+    try:
+        r = httpx.post(url + "/api/jobs", json=JOB, timeout=30)
+        assert r.status_code == 507, r.text
+        assert "MiB free, below the floor of" in r.json()["detail"] and "ARGAND_MIN_FREE_BYTES" in r.json()["detail"]
+        assert httpx.get(url + "/api/jobs", timeout=30).json()["total"] == 0
+        assert httpx.get(url + "/api/meta", timeout=30).json()["limits"]["min_free_bytes"] == 1 << 60
+    finally:
+        server.should_exit = True
+        thread.join(10)
+
+
+def test_a_priority_change_resends_at_a_bounded_rate(farm_parts):  # noqa: F811
+    """30 PATCHes used to put 7,529 messages in Redis. Now the same priority
+    sends nothing, and a job's queued tiles are sent again at most once per
+    PRIORITY_RESEND_S: at once for the first change, once more (at the last
+    priority asked) for all the changes that follow within that time."""
+    from argand.farm import control, outbox
+    from argand.farm.models import Outbox
+
+    settings, redis_server = farm_parts
+    job_id = submit(settings, "plucker", [0.0, 0.1], 32, 32, 16)
+    sent = queued_messages(redis_server)
+    assert sent >= 1
+    control.set_priority(settings, job_id, 5)  # the priority it has: nothing
+    assert queued_messages(redis_server) == sent
+    control.set_priority(settings, job_id, 7)  # the first change: sent at once
+    once = queued_messages(redis_server)
+    assert once == 2 * sent
+    for p in [1, 2, 3, 4, 6, 8, 9] * 4:
+        control.set_priority(settings, job_id, p)
+    assert queued_messages(redis_server) == once  # the next re-send waits for its time
+    with session_scope(settings.sqlalchemy_url) as s:
+        waiting = s.query(Outbox).filter(Outbox.job_id == job_id).all()
+        assert len(waiting) == sent and {m.priority for m in waiting} == {9}
+        assert all(m.not_before >= time.time() + outbox.PRIORITY_RESEND_S - 2 for m in waiting)
+        s.get(Job, job_id).priority_resent = time.time() - 1  # its time has come
+        for m in waiting:
+            m.not_before = time.time() - 1
+    assert outbox.drain(settings) == sent
+    assert queued_messages(redis_server) == once + sent  # 3 sets in all, not 30
+    # A stopped job's waiting messages are dropped, not sent.
+    control.set_priority(settings, job_id, 2)
+    control.set_job_status(settings, job_id, "cancel")
+    with session_scope(settings.sqlalchemy_url) as s:
+        for m in s.query(Outbox).filter(Outbox.job_id == job_id):
+            m.not_before = 0
+    assert outbox.drain(settings) == 0
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.query(Outbox).count() == 0
+
+
+def test_messages_wait_in_the_outbox_while_redis_is_down(farm_parts):  # noqa: F811
+    """In process: with Redis stopped, a submission, a tile given back and a
+    resume each store their messages (no error reaches the caller); the
+    first drain after Redis is back sends each exactly once."""
+    from argand.farm import control, outbox
+    from argand.worker.broker import EmbeddedRedis
+
+    settings, redis_server = farm_parts
+    redis_server.stop()
+    job_id = submit(settings, "plucker", [0.0, 0.1], 32, 32, 16)
+    n, oldest = outbox.pending(settings)
+    assert n >= 1 and oldest is not None
+    with pytest.raises(Exception):
+        outbox.drain(settings)
+    assert outbox.pending(settings)[0] == n  # a failed send lets go of the rows at once
+    why, claimed = rendering.claim(settings, job_id, 0, [0, 1], "w-test", None)
+    assert why is None
+    rendering.release(settings, job_id, 0, "w-test", claimed, resend=True, reason="RuntimeError: test")
+    assert outbox.pending(settings)[0] == n + 1
+    control.set_job_status(settings, job_id, "pause")
+    assert control.set_job_status(settings, job_id, "resume") == "running"
+    after_resume = outbox.pending(settings)[0]
+    assert after_resume > n + 1
+    restarted = EmbeddedRedis(redis_server.socket_path).start()
+    try:
+        assert outbox.drain(settings) == after_resume
+        assert queued_messages(restarted) == after_resume and outbox.pending(settings) == (0, None)
+        for frame in (0, 1):
+            assert rendering.run_tiles(settings, job_id, frame, [0, 1, 2, 3], "w-test") == "rendered"
+        with session_scope(settings.sqlalchemy_url) as s:
+            assert s.get(Job, job_id).status == "done"
+            assert {t.renders for t in s.query(Tile).filter(Tile.job_id == job_id)} == {1}
+    finally:
+        restarted.stop()
+
+
+def test_the_soft_time_limit_gives_back_the_tiles_a_run_did_not_start(farm_parts, monkeypatch):  # noqa: F811
+    settings, redis_server = farm_parts
+    settings = settings.model_copy(update={"tile_soft_time_limit_s": 1, "tile_hard_time_limit_s": 100})
+    job_id = submit(settings, "plucker", [0.0], 64, 64, 16)
+    real = rendering.render_tile_into
+
+    def slow(*args):
+        time.sleep(0.4)
+        return real(*args)
+
+    monkeypatch.setattr(rendering, "render_tile_into", slow)
+    sent = queued_messages(redis_server)
+    assert rendering.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == rendering.SOFT_LIMIT
+    with session_scope(settings.sqlalchemy_url) as s:
+        tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
+        done = [i for i, t in sorted(tiles.items()) if t.status == "done"]
+        assert 1 <= len(done) <= 4 and done == list(range(len(done)))  # the first tile always renders
+        rest = [t for t in tiles.values() if t.status != "done"]
+        assert all(t.status == "queued" and t.attempts == 0 and t.worker is None for t in rest)
+        assert rest[0].error.startswith("TimeLimitExceeded: the run of 16 tiles passed the soft time limit of 1 s")
+    assert queued_messages(redis_server) == sent + 1  # the rest, sent again
+    monkeypatch.setattr(rendering, "render_tile_into", real)
+    assert rendering.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
+        assert {t.renders for t in s.query(Tile).filter(Tile.job_id == job_id)} == {1}
+
+
+def test_the_watchdog_writes_why_then_stops_a_run_past_its_hard_limit(farm_parts):  # noqa: F811
+    """The watchdog's decision and its note, with the kill handed to the test
+    (test_farm_faults.py has the real SIGKILL of a real worker)."""
+    from argand.worker import watchdog
+
+    settings, _ = farm_parts
+    job_id = submit(settings, "plucker", [0.0], 32, 32, 16)
+    why, claimed = rendering.claim(settings, job_id, 0, [0, 1, 2, 3], "w-slow", None)
+    assert why is None
+    killed = threading.Event()
+    dog = watchdog.Watchdog(settings, kill=killed.set)
+    dog.start()
+    try:
+        rendering.ACTIVITY.update(run=(job_id, 0, claimed, "w-slow"), hard_at=time.monotonic() + 1.0, tile=f"{job_id}/0/2")
+        assert not killed.wait(0.6)  # before the deadline: nothing
+        assert killed.wait(5)
+    finally:
+        rendering.ACTIVITY.update(run=None, hard_at=None, tile=None)
+        dog.stop.set()
+    with session_scope(settings.sqlalchemy_url) as s:
+        tiles = s.query(Tile).filter(Tile.job_id == job_id).all()
+        assert {t.status for t in tiles} == {"running"} and {t.worker for t in tiles} == {"w-slow"}  # not given away
+        assert {t.error for t in tiles} == {f"TimeLimitExceeded: the run of 4 tiles passed the hard time limit of "
+                                           f"{settings.tile_hard_time_limit_s} s (tile {job_id}/0/2); its worker was stopped"}
+
+
+def test_a_planning_failure_says_what_and_where(api):
+    c, _, _ = api
+    r = c.post("/api/jobs", json={**JOB, "sigma": 0.5, "deltas": [0.1, 0.2, 3.0, 0.2]})
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert detail.startswith("the scene cannot be rendered: ") and "band rule" in detail, detail
+    assert detail.endswith("[at frame 2 (sigma 0.5, delta 3)]"), detail
+    r = c.post("/api/jobs", json={**JOB, "sigma": 3.5})
+    assert r.json()["detail"].endswith("[at sigma 3.5, delta 0]"), r.text
+
+
+def test_reads_need_the_token_when_asked(farm_parts):  # noqa: F811
+    settings, _ = farm_parts
+    from pydantic import SecretStr
+
+    settings = settings.model_copy(update={"api_token": SecretStr("s3cret-token"), "token_for_reads": True})
+    server, thread, url = _serve(settings)
+    try:
+        for path in ("/api/jobs", "/api/workers", "/metrics", "/api/meta"):
+            r = httpx.get(url + path, timeout=30)
+            assert r.status_code == 401 and r.headers["www-authenticate"] == "Bearer", path
+            assert httpx.get(url + path, headers={"Authorization": "Bearer s3cret-token"}, timeout=30).status_code == 200
+        for path in ("/readyz", "/openapi.json", "/"):
+            assert httpx.get(url + path, timeout=30).status_code == 200, path
+        ops = httpx.get(url + "/openapi.json", timeout=30).json()["paths"]
+        assert ops["/api/jobs"]["get"]["security"] == [{"bearer": []}]
+    finally:
+        server.should_exit = True
+        thread.join(10)
+
+
+def test_the_reaper_sends_what_an_api_left_in_the_outbox(farm_parts):  # noqa: F811
+    """An API killed between its commit and its drainer's send leaves the
+    job's messages as rows: the reaper's next round sends them."""
+    from argand.farm.submission import JobSpec, create_job
+    from argand.scene import load_scene
+
+    settings, redis_server = farm_parts
+    job_id = create_job(settings, JobSpec("plucker", load_scene("plucker").to_dict(), 0.0, [0.0, 0.1], 32, 32, 16),
+                        send=False)
+    assert queued_messages(redis_server) == 0
+    Reaper(settings).round()
+    assert queued_messages(redis_server) >= 2
+    for frame in (0, 1):
+        assert rendering.run_tiles(settings, job_id, frame, [0, 1, 2, 3], "w-test") == "rendered"
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"

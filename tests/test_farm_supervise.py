@@ -57,7 +57,7 @@ def test_a_killed_worker_and_a_killed_redis_are_started_again(farm1):
     farm = farm1
     health = httpx.get(farm.url + "/healthz", timeout=10)
     assert health.status_code == 200 and {c["name"]: c["ok"] for c in health.json()["checks"]} == {
-        "database": True, "redis": True, "workers": True}
+        "database": True, "redis": True, "workers": True, "outbox": True}
     [w] = farm.get("/api/workers")
     os.kill(w["pid"], signal.SIGKILL)
     farm.wait_for(lambda: any(x["alive"] and x["pid"] != w["pid"] for x in farm.get("/api/workers")), 60)

@@ -101,7 +101,7 @@ def test_the_migrations_make_the_models_schema_and_a_second_upgrade_changes_noth
     eng = engine_for(url)
     with eng.connect() as c:
         assert compare_metadata(MigrationContext.configure(c), Base.metadata) == []
-        assert c.exec_driver_sql("select version_num from alembic_version").scalar() == "0001"
+        assert c.exec_driver_sql("select version_num from alembic_version").scalar() == "0002"
     assert "ix_tiles_key" in {i["name"] for i in inspect(eng).get_indexes("tiles")}
     upgrade(url)  # a second time: nothing to do, nothing fails
     with eng.connect() as c:

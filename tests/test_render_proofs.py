@@ -204,8 +204,10 @@ def test_explain_runs_render_tiles_path():
             assert e["escalation"] == int(result.aovs["escalation"][y, x])
             assert e["hit"] == bool(result.rgba[y, x, 3] > 0)
             if e["hit"]:
-                z = e["discs"][e["chosen"]]["center"]
-                assert np.float32(abs(z)) == result.aovs["Z"][y, x]
+                z = e["root"]  # the chosen disc's centre, or the exact tier's root
+                if e["chosen"] >= 0:
+                    assert e["discs"][e["chosen"]]["center"] == z
+                assert np.float32(z.real) == result.aovs["re"][y, x] and np.float32(z.imag) == result.aovs["im"][y, x]
 
 
 def test_escalation_channel_and_figures():

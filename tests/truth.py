@@ -39,8 +39,8 @@ import flint
 PRECISIONS: tuple[int, ...] = (128, 256, 1024)
 
 
-class _Prec:
-    """``with _Prec(bits):`` sets ``flint.ctx.prec`` and restores it."""
+class Precision:
+    """``with Precision(bits):`` sets ``flint.ctx.prec`` and restores it."""
 
     def __init__(self, bits: int) -> None:
         self.bits = bits
@@ -106,7 +106,7 @@ class Truth:
             if self.poly.degree() < 1:
                 self._roots[prec] = []
             else:
-                with _Prec(prec):
+                with Precision(prec):
                     pairs = self.poly.complex_roots()
                 self._roots[prec] = [
                     TrueRoot(ball, int(mult), bool(ball.imag.is_exact() and ball.imag.is_zero()))
@@ -151,7 +151,7 @@ def _rational_sqrt(q: flint.fmpq) -> flint.fmpq | None:
 def _membership(root: TrueRoot, center: complex, radius: float, prec: int) -> bool | None:
     """True / False when the root is certainly inside / outside the closed
     disc, None when undecided at this precision."""
-    with _Prec(prec):
+    with Precision(prec):
         dist = abs(root.ball - flint.acb(center.real, center.imag))
         r = flint.arb(radius)
         if dist <= r:
@@ -166,7 +166,7 @@ def _exact_membership(
 ) -> bool | None:
     """Decide root k exactly if it is one of the closed-form roots."""
     for re, im in truth.exact_roots():
-        with _Prec(2048):
+        with Precision(2048):
             enclosure = flint.acb(flint.arb(re), flint.arb(im))
         hits = [j for j, t in enumerate(roots) if t.ball.overlaps(enclosure)]
         if hits == [k]:
@@ -179,7 +179,7 @@ def _exact_membership(
 
 def _disjoint(c1: complex, r1: float, c2: complex, r2: float) -> bool:
     """Closed discs certainly disjoint: |c1 - c2| > r1 + r2 (exact)."""
-    with _Prec(128):
+    with Precision(128):
         dist = abs(flint.acb(c1.real, c1.imag) - flint.acb(c2.real, c2.imag))
         rsum = flint.arb(r1) + flint.arb(r2)
         if dist > rsum:

@@ -1,6 +1,6 @@
 """The workers' Celery application, built from the settings it is given, and
 a worker process's life: one task at a time on one core, a heartbeat (and
-the reaper) beside it."""
+the reaper) and the time limits' watchdog (argand.worker.watchdog) beside it."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ from argand.farm.queue import QUEUE
 from argand.farm.settings import Settings
 from argand.worker.celery_config import celery_config
 from argand.worker.heartbeat import Heartbeat
+from argand.worker.watchdog import Watchdog
 from argand.worker.tasks import register_tasks
 
 
@@ -41,10 +42,12 @@ def run_worker(settings: Settings, name: str) -> None:
     """Runs a worker in this process until it is stopped (SIGTERM: a warm shutdown)."""
     app = create_celery_app(settings, name)
     beat = Heartbeat(settings, name)
+    watchdog = Watchdog(settings)
 
     def ready(**_kwargs) -> None:
         _one_core()
         beat.start()
+        watchdog.start()
 
     worker_ready.connect(ready, weak=False)
     worker_shutdown.connect(lambda **_kwargs: beat.stop(), weak=False)

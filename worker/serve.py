@@ -22,7 +22,7 @@ from pathlib import Path
 
 from argand.farm.database import upgrade
 from argand.farm.settings import Settings
-from argand.worker.broker import EmbeddedRedis, die_with_parent
+from argand.worker.broker import EmbeddedRedis, dying_with_parent
 
 BACKOFF_S = (1.0, 30.0)
 STEADY_S = 60.0
@@ -60,15 +60,10 @@ def worker_command(name: str) -> list[str]:
 WORKER_NICE = 10
 
 
-def _worker_preexec() -> None:
-    """In the worker's child process: die with the supervisor, run below the API."""
-    die_with_parent()
-    os.nice(WORKER_NICE)
-
-
 def start_worker(settings: Settings, name: str) -> subprocess.Popen:
+    """A worker that dies with the supervisor and runs below the API."""
     env = dict(os.environ, **settings.environment())
-    return subprocess.Popen(worker_command(name), env=env, preexec_fn=_worker_preexec)
+    return subprocess.Popen(dying_with_parent(worker_command(name), WORKER_NICE), env=env)
 
 
 def start_workers(settings: Settings, count: int) -> list[subprocess.Popen]:

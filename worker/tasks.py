@@ -12,7 +12,7 @@ from argand.farm.settings import Settings
 
 
 class RunMessage(BaseModel):
-    """A run of tiles of one frame (argand.farm.queue.send_runs)."""
+    """A run of tiles of one frame (sent from the outbox by argand.farm.outbox.drain)."""
 
     job_id: str = Field(min_length=1, max_length=32)
     frame_index: int = Field(ge=0)

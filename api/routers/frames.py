@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from fastapi import APIRouter, HTTPException
-from fastapi.responses import FileResponse
+from fastapi.responses import FileResponse, Response
 
 from argand.api.deps import JobIdDep, SettingsDep, job_or_404
 from argand.farm.assembly import animation_webp
@@ -17,28 +17,33 @@ from argand.farm.store import store_for
 router = APIRouter(prefix="/api/jobs/{job_id}", tags=["frames"])
 
 
+def binary(media: str, description: str) -> dict:
+    """A route's documented answer: a file of this media type."""
+    return {"response_class": Response, "responses": {200: {"content": {media: {}}, "description": description}}}
+
+
 def _file(path: Path, media: str) -> FileResponse:
     if not path.exists():
         raise HTTPException(404, detail=f"{path.name} is not ready")
     return FileResponse(path, media_type=media)
 
 
-@router.get("/frames/{index}.png")
+@router.get("/frames/{index}.png", **binary("image/png", "The frame's PNG"))
 def frame_png(job_id: JobIdDep, index: int, settings: SettingsDep):
     return _file(store_for(settings).job(job_id).frame(index, "png"), "image/png")
 
 
-@router.get("/frames/{index}.exr")
+@router.get("/frames/{index}.exr", **binary("image/x-exr", "The frame's EXR (every AOV)"))
 def frame_exr(job_id: JobIdDep, index: int, settings: SettingsDep):
     return _file(store_for(settings).job(job_id).frame(index, "exr"), "image/x-exr")
 
 
-@router.get("/frames/{index}/thumbnail.png")
+@router.get("/frames/{index}/thumbnail.png", **binary("image/png", "A small copy of the frame's PNG"))
 def frame_thumbnail(job_id: JobIdDep, index: int, settings: SettingsDep):
     return _file(store_for(settings).job(job_id).thumbnail(index), "image/png")
 
 
-@router.get("/frames/{index}/{channel}.png")
+@router.get("/frames/{index}/{channel}.png", **binary("image/png", "The channel in false colour"))
 def frame_channel(job_id: JobIdDep, index: int, channel: str, settings: SettingsDep):
     """A channel of the frame in false colour (beauty: the frame's PNG)."""
     if channel not in PREVIEW_CHANNELS:
@@ -55,12 +60,12 @@ def frame_channel(job_id: JobIdDep, index: int, channel: str, settings: Settings
     return FileResponse(out, media_type="image/png")
 
 
-@router.get("/animation.gif")
+@router.get("/animation.gif", **binary("image/gif", "The animation"))
 def animation_gif(job_id: JobIdDep, settings: SettingsDep):
     return _file(store_for(settings).job(job_id).animation("gif"), "image/gif")
 
 
-@router.get("/animation.webp")
+@router.get("/animation.webp", **binary("image/webp", "The animation as WebP"))
 def animation_as_webp(job_id: JobIdDep, settings: SettingsDep):
     """The animation as a looping WebP (smaller than the GIF, full colour),
     made from the frames' PNGs on the first request, then kept."""

@@ -12,7 +12,8 @@ from fastapi.responses import StreamingResponse
 from sqlalchemy import func, select
 from sqlalchemy.orm import defer
 
-from argand.api.deps import JobIdDep, SettingsDep, job_or_404
+from argand.api.deps import JobIdDep, SettingsDep, job_or_404, wake_drainer
+from argand.api.limits import StreamSlots
 from argand.api.schemas import DeltaRange, JobOut, JobPage, JobRequest, PriorityPatch, job_out, job_summary
 from argand.farm.control import delete_job, set_job_status, set_priority
 from argand.farm.database import session_scope
@@ -20,7 +21,7 @@ from argand.farm.models import Frame, Job
 from argand.farm.progress import eta_seconds, jobs_progress
 from argand.farm.states import ACTIONS, ENDED, JOB
 from argand.farm.limits import MAX_PAGE
-from argand.farm.submission import FarmBusy, JobRefused, JobSpec, create_job, sweep_deltas
+from argand.farm.submission import FarmBusy, JobRefused, JobSpec, StoreFull, create_job, sweep_deltas
 from argand.scene import SceneError, load_scene, scene_from_dict
 from argand.scene.presets import PRESETS
 
@@ -45,8 +46,12 @@ def _job(settings, job_id: str) -> JobOut:
 
 
 @router.post("", status_code=201, responses={413: {"description": "The body is above max_body_bytes"},
-                                                 429: {"description": "max_active_jobs are in flight"}})
-def submit(req: JobRequest, settings: SettingsDep) -> JobOut:
+                                                 429: {"description": "max_active_jobs are in flight"},
+                                                 507: {"description": "The data folder's free space is below min_free_bytes"}})
+def submit(req: JobRequest, settings: SettingsDep, request: Request) -> JobOut:
+    """A new job, stored with its messages in one transaction; the messages
+    go to the broker from the outbox, so the answer does not wait on it (a
+    job submitted while Redis is down runs once it is back)."""
     name, scene = resolve_scene(req.scene)
     if req.samples is not None:
         scene["samples"] = req.samples  # the job's scene carries its samples per pixel
@@ -55,11 +60,14 @@ def submit(req: JobRequest, settings: SettingsDep) -> JobOut:
                               settings.max_frames)
         spec = JobSpec(name, scene, float(req.sigma), deltas, req.width, req.height,
                        req.tile or settings.default_tile, req.priority, req.method)
-        job_id = create_job(settings, spec)
+        job_id = create_job(settings, spec, send=False)
     except FarmBusy as exc:
         raise HTTPException(429, detail=str(exc)) from None
+    except StoreFull as exc:
+        raise HTTPException(507, detail=str(exc)) from None
     except JobRefused as exc:
         raise HTTPException(422, detail=str(exc)) from None
+    wake_drainer(request)
     return _job(settings, job_id)
 
 
@@ -99,15 +107,18 @@ def get_job(job_id: str, settings: SettingsDep) -> JobOut:
 
 
 @router.post("/{job_id}/{action}")
-def control(job_id: str, action: Literal[tuple(ACTIONS)], settings: SettingsDep) -> JobOut:
-    set_job_status(settings, job_id, action)
+def control(job_id: str, action: Literal[tuple(ACTIONS)], settings: SettingsDep, request: Request) -> JobOut:
+    set_job_status(settings, job_id, action, send=False)
+    wake_drainer(request)
     return _job(settings, job_id)
 
 
 @router.patch("/{job_id}")
-def patch(job_id: str, body: PriorityPatch, settings: SettingsDep) -> JobOut:
-    """A new priority, in effect at once for the job's queued tiles."""
-    set_priority(settings, job_id, body.priority)
+def patch(job_id: str, body: PriorityPatch, settings: SettingsDep, request: Request) -> JobOut:
+    """A new priority for the job's queued tiles: at once, or (after another
+    change in the last 10 s) within 10 s; the same priority changes nothing."""
+    set_priority(settings, job_id, body.priority, send=False)
+    wake_drainer(request)
     return _job(settings, job_id)
 
 
@@ -185,12 +196,32 @@ class _Poller:
         return self.version, self.payload
 
 
-@router.get("/{job_id}/events")
+class _SlotStream(StreamingResponse):
+    """A stream that gives its slot back however it ends (even when the
+    client leaves before the first byte, when the body never starts)."""
+
+    def __init__(self, body, give_back, **kwargs) -> None:
+        super().__init__(body, **kwargs)
+        self.give_back = give_back
+
+    async def __call__(self, scope, receive, send) -> None:
+        try:
+            await super().__call__(scope, receive, send)
+        finally:
+            self.give_back()
+
+
+@router.get("/{job_id}/events", responses={429: {"description": "Too many event streams open (per client or in all)"}})
 async def events(job_id: JobIdDep, settings: SettingsDep, request: Request):
-    """Server-sent events: the job's progress until it ends."""
-    if not hasattr(request.app.state, "job_pollers"):
-        request.app.state.job_pollers = {}  # (database, job id) -> _Poller, for this app's event loop
-    pollers = request.app.state.job_pollers
+    """Server-sent events: the job's progress until it ends. At most
+    max_streams_per_client open streams per client address and max_streams
+    in all (a 429 beyond)."""
+    state = request.app.state
+    if not hasattr(state, "job_pollers"):
+        state.job_pollers = {}  # (database, job id) -> _Poller, for this app's event loop
+        state.stream_slots = StreamSlots(settings.max_streams_per_client, settings.max_streams)
+    pollers = state.job_pollers
+    give_back = state.stream_slots.take(request.client.host if request.client else "unknown")
 
     async def stream():
         poller = _Poller.join(pollers, settings, job_id)  # when the response starts: left in `finally`
@@ -215,4 +246,4 @@ async def events(job_id: JobIdDep, settings: SettingsDep, request: Request):
         finally:
             poller.streams -= 1
 
-    return StreamingResponse(stream(), media_type="text/event-stream", headers={"Cache-Control": "no-cache"})
+    return _SlotStream(stream(), give_back, media_type="text/event-stream", headers={"Cache-Control": "no-cache"})

@@ -11,10 +11,12 @@ from fastapi import APIRouter, HTTPException, Response
 from sqlalchemy import func, select
 
 from argand.api.deps import SettingsDep
+from argand.api.routers.frames import binary
 from argand.api.schemas import JobRequest
 from argand.core import METHODS
 from argand.farm.database import session_scope
 from argand.farm.models import Job
+from argand.farm.outbox import pending
 from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.farm.previews import PREVIEW_CHANNELS, STATUS_COLOURS
 from argand.farm.queue import PRIORITIES, broker_client
@@ -48,7 +50,10 @@ def meta(settings: SettingsDep) -> dict:
                    "min_tile": MIN_TILE, "max_tile": MAX_TILE, "priority": [PRIORITIES.start, PRIORITIES.stop - 1],
                    "max_degree": MAX_DEGREE, "max_job_tiles": settings.max_job_tiles,
                    "max_active_jobs": settings.max_active_jobs, "max_body_bytes": settings.max_body_bytes,
-                   "max_objects": MAX_OBJECTS, "max_samples": MAX_SAMPLES,
+                   "max_objects": MAX_OBJECTS, "max_streams_per_client": settings.max_streams_per_client,
+                   "max_streams": settings.max_streams, "min_free_bytes": settings.min_free_bytes,
+                   "tile_soft_time_limit_s": settings.tile_soft_time_limit_s,
+                   "tile_hard_time_limit_s": settings.tile_hard_time_limit_s, "max_samples": MAX_SAMPLES,
                    "samples": [k * k for k in range(1, math.isqrt(MAX_SAMPLES) + 1)]},
         "defaults": {"width": fields["width"].default, "height": fields["height"].default,
                      "tile": settings.default_tile, "priority": fields["priority"].default,
@@ -68,7 +73,7 @@ def presets() -> list[dict]:
 _preset_thumbs: dict[str, bytes] = {}
 
 
-@router.get("/api/presets/{name}/thumbnail.png")
+@router.get("/api/presets/{name}/thumbnail.png", **binary("image/png", "A small render of the preset"))
 def preset_thumbnail(name: str):
     """A small render of a preset at delta = pi/18 (cached in memory)."""
     if name not in PRESETS:
@@ -109,9 +114,14 @@ def _check(name: str, probe) -> dict:
         return {"name": name, "ok": False, "error": f"{type(exc).__name__}: {str(exc)[:200]}"}
 
 
+#: Messages older than this in the outbox mean that no drainer sends them.
+OUTBOX_STALE_S = 120.0
+
+
 def farm_health(settings) -> tuple[bool, dict]:
     """(can the farm work, what each part says): the database answers, the
-    broker answers, and at least one worker sent a heartbeat in time."""
+    broker answers, at least one worker sent a heartbeat in time, and the
+    outbox (messages not sent yet: a broker outage shows here) is drained."""
 
     def database():
         with session_scope(settings.sqlalchemy_url) as s:
@@ -128,7 +138,14 @@ def farm_health(settings) -> tuple[bool, dict]:
             raise RuntimeError(f"no worker sent a heartbeat in the last {settings.heartbeat_timeout_s:g} s")
         return {"alive": alive}
 
-    checks = [_check("database", database), _check("redis", broker), _check("workers", workers)]
+    def outbox():
+        n, oldest = pending(settings)
+        if oldest is not None and oldest > OUTBOX_STALE_S:
+            raise RuntimeError(f"{n} messages wait in the outbox, the oldest for {oldest:.0f} s: nothing sends them")
+        return {"pending": n, "oldest_s": None if oldest is None else round(oldest, 1)}
+
+    checks = [_check("database", database), _check("redis", broker), _check("workers", workers),
+              _check("outbox", outbox)]
     ok = all(c["ok"] for c in checks)
     return ok, {"status": "ok" if ok else "unavailable", "checks": checks}
 
@@ -150,7 +167,7 @@ def readyz(settings: SettingsDep, response: Response) -> dict:
     """The API can take jobs: the database and Redis answer (workers may
     still be starting; queued work waits for them). 503 otherwise."""
     _, body = farm_health(settings)
-    ready = all(c["ok"] for c in body["checks"] if c["name"] != "workers")
+    ready = all(c["ok"] for c in body["checks"] if c["name"] in ("database", "redis"))
     if not ready:
         response.status_code = 503
     return {"status": "ready" if ready else "unavailable", "checks": body["checks"]}

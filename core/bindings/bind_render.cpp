@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <complex>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -346,6 +347,83 @@ py::array_t<T> as_image(const std::vector<T>& v, int h, int w, int channels) {
     return a;
 }
 
+/// The exact tier's hook around a Python callable `fn(frame, query) ->
+/// dict` (argand.render.exact.decide_pixel): called from render_tile with
+/// the GIL released, it takes the GIL for the call. `frame` (the objects,
+/// band and caps, as plain Python data) is built once per hook, on its
+/// first call; the callable may cache in it. A Python exception propagates
+/// out of render_tile.
+struct PythonExactSolver {
+    py::object fn;
+    py::object frame;  // built lazily (under the GIL)
+
+    static py::dict frame_dict(const FramePlan& plan) {
+        py::dict f;
+        py::list objects;
+        for (const SurfaceSpec& s : plan.scene.objects) {
+            py::dict o;
+            py::list terms;
+            for (const Term& t : s.terms) terms.append(py::make_tuple(t.ex, t.ey, t.ez, t.coeff));
+            o["terms"] = terms;
+            o["degree"] = s.degree;
+            o["complex"] = s.complex_space;
+            o["clip_radius"] = s.clip_radius;
+            o["linear"] = std::vector<double>(s.linear, s.linear + 9);
+            o["translate"] = std::vector<double>(s.translate, s.translate + 3);
+            objects.append(o);
+        }
+        f["objects"] = objects;
+        f["sigma"] = plan.params.sigma;
+        f["delta"] = plan.params.delta;
+        f["max_bits"] = plan.params.exact_max_bits;
+        return f;
+    }
+
+    ExactAnswer operator()(const FramePlan& plan, const ExactQuery& q) {
+        py::gil_scoped_acquire gil;
+        if (!frame) frame = frame_dict(plan);
+        py::dict query;
+        query["x"] = q.x;
+        query["y"] = q.y;
+        query["origin"] = std::array<double, 3>{q.ray.origin[0], q.ray.origin[1], q.ray.origin[2]};
+        query["direction"] = std::array<double, 3>{q.ray.direction[0], q.ray.direction[1], q.ray.direction[2]};
+        query["explain"] = q.explain;
+        const py::dict r = fn(frame, query).cast<py::dict>();
+        ExactAnswer a;
+        a.decided = r["decided"].cast<bool>();
+        a.status = static_cast<std::uint8_t>(r["status"].cast<int>());
+        if (a.status > kUndecided) throw py::value_error("the exact solver returned status " + std::to_string(a.status));
+        a.multiple = r["multiple"].cast<bool>();
+        a.hit = r["hit"].cast<bool>();
+        a.object = r["object"].cast<int>();
+        if (a.hit && (a.object < 0 || a.object >= static_cast<int>(plan.scene.objects.size())))
+            throw py::value_error("the exact solver returned object " + std::to_string(a.object));
+        a.re = r["re"].cast<double>();
+        a.im = r["im"].cast<double>();
+        a.modulus = r["modulus"].cast<double>();
+        a.eligible = r["eligible"].cast<int>();
+        a.reason = r["reason"].cast<std::string>();
+        if (r.contains("steps")) a.steps = r["steps"].cast<std::vector<std::string>>();
+        return a;
+    }
+};
+
+/// Holds a PythonExactSolver for one binding call (created and destroyed
+/// under the GIL; render_tile only calls it).
+struct ExactHook {
+    std::unique_ptr<PythonExactSolver> holder;
+    ExactSolver solver;
+    explicit ExactHook(const py::object& fn) {
+        if (fn.is_none()) return;
+        if (!PyCallable_Check(fn.ptr())) throw py::type_error("exact must be a callable (frame, query) -> dict, or None");
+        holder = std::make_unique<PythonExactSolver>();
+        holder->fn = fn;
+        PythonExactSolver* h = holder.get();
+        solver = [h](const FramePlan& plan, const ExactQuery& q) { return (*h)(plan, q); };
+    }
+    const ExactSolver* get() const { return solver ? &solver : nullptr; }
+};
+
 }  // namespace
 
 void init_render(py::module_& m) {
@@ -357,7 +435,8 @@ void init_render(py::module_& m) {
     m.def(
         "plan_frame",
         [](const py::object& scene, double sigma, double delta, int width, int height, const std::string& method,
-           int max_depth, bool hue_by_argument, bool seed_from_neighbour, int samples) {
+           int max_depth, bool hue_by_argument, bool seed_from_neighbour, int exact_pixels_per_tile,
+           int exact_max_bits, int samples) {
             const SceneSpec& spec =
                 instance_of<SceneSpec>(scene, "scene", "SceneSpec (argand.render.convert.to_core_scene makes one)");
             FrameParams fp;
@@ -369,6 +448,8 @@ void init_render(py::module_& m) {
             fp.max_depth = max_depth;
             fp.hue_by_argument = hue_by_argument;
             fp.seed_from_neighbour = seed_from_neighbour;
+            fp.exact_pixels_per_tile = exact_pixels_per_tile;
+            fp.exact_max_bits = exact_max_bits;
             fp.samples = samples;
             try {
                 return plan_frame(spec, fp);
@@ -378,14 +459,16 @@ void init_render(py::module_& m) {
         },
         py::arg("scene"), py::arg("sigma"), py::arg("delta"), py::arg("width"), py::arg("height"),
         py::arg("method") = "auto", py::arg("max_depth") = 3, py::arg("hue_by_argument") = false,
-        py::arg("seed_from_neighbour") = true, py::arg("samples") = 1);
+        py::arg("seed_from_neighbour") = true, py::arg("exact_pixels_per_tile") = FrameParams{}.exact_pixels_per_tile,
+        py::arg("exact_max_bits") = FrameParams{}.exact_max_bits, py::arg("samples") = 1);
     m.def(
         "render_tile",
-        [](const FramePlan& plan, int x0, int y0, int x1, int y1) {
+        [](const FramePlan& plan, int x0, int y0, int x1, int y1, const py::object& exact) {
             TileAOVs t;
+            ExactHook hook(exact);
             {
                 py::gil_scoped_release release;
-                render_tile(plan, TileRect{x0, y0, x1, y1}, t);
+                render_tile(plan, TileRect{x0, y0, x1, y1}, t, hook.get());
             }
             py::dict out;
             out["rgba"] = as_image(t.rgba, t.height, t.width, 4);
@@ -401,11 +484,11 @@ void init_render(py::module_& m) {
             out["root_calls"] = t.root_calls;
             return out;
         },
-        py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"));
+        py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("exact") = py::none());
     m.def(
         "render_tile_into",
         [](const FramePlan& plan, int x0, int y0, int x1, int y1, py::array_t<float, py::array::c_style> out, int ox,
-           int oy) {
+           int oy, const py::object& exact) {
             // The farm's layout: the EXR's interleaved channels, written in
             // place (no per-AOV arrays to allocate and stitch in Python).
             // `out` is taken without conversion: a converted copy would take
@@ -423,10 +506,11 @@ void init_render(py::module_& m) {
                 throw py::value_error("the tile does not fit in out at the given offset");
             float* base = out.mutable_data();
             TileAOVs t;
+            ExactHook hook(exact);
             std::int64_t by_status[4] = {0, 0, 0, 0}, hits = 0;
             {
                 py::gil_scoped_release release;
-                render_tile(plan, TileRect{x0, y0, x1, y1}, t);
+                render_tile(plan, TileRect{x0, y0, x1, y1}, t, hook.get());
                 for (int y = 0; y < t.height; ++y) {
                     float* p = base + (static_cast<std::size_t>(oy + y) * ow + ox) * kInterleavedChannels;
                     for (int x = 0; x < t.width; ++x, p += kInterleavedChannels) {
@@ -452,7 +536,7 @@ void init_render(py::module_& m) {
         "Z, arg, re, im, count, status, escalation, certified_share: INTERLEAVED_CHANNELS, the EXR's layout). Returns (escalations, root_calls, pixels per status "
         "code 0..3, pixels that hit a surface).",
         py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("out").noconvert(), py::arg("ox") = 0,
-        py::arg("oy") = 0);
+        py::arg("oy") = 0, py::arg("exact") = py::none());
     m.def(
         "ray_polynomial",
         [](const FramePlan& plan, int object, std::array<double, 3> origin, std::array<double, 3> direction,
@@ -485,10 +569,11 @@ void init_render(py::module_& m) {
           py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("sample") = 0);
     m.def(
         "explain_pixel",
-        [](const FramePlan& plan, int x, int y, int row_start, int sample) {
+        [](const FramePlan& plan, int x, int y, int row_start, int sample, const py::object& exact) {
             PixelExplanation e;
+            ExactHook hook(exact);
             try {
-                e = explain_pixel(plan, x, y, row_start, sample);
+                e = explain_pixel(plan, x, y, row_start, sample, hook.get());
             } catch (const std::invalid_argument& err) {
                 throw py::value_error(err.what());
             }
@@ -532,16 +617,35 @@ void init_render(py::module_& m) {
             out["status"] = static_cast<int>(e.status);
             out["escalation"] = static_cast<int>(e.level);
             out["reason"] = e.reason;
+            out["root"] = std::complex<double>(e.root_re, e.root_im);
+            out["exact_ran"] = e.exact_ran;
+            if (e.exact_ran) {
+                py::dict x;
+                x["decided"] = e.exact.decided;
+                x["status"] = static_cast<int>(e.exact.status);
+                x["multiple"] = e.exact.multiple;
+                x["hit"] = e.exact.hit;
+                x["object"] = e.exact.object;
+                x["root"] = std::complex<double>(e.exact.re, e.exact.im);
+                x["eligible"] = e.exact.eligible;
+                x["reason"] = e.exact.reason;
+                x["steps"] = e.exact.steps;
+                out["exact"] = x;
+            }
             return out;
         },
         "Runs render_tile's code path for sample `sample` of pixel (x, y) of a tile whose rows start at column "
         "row_start, and returns its ray, ray polynomials (with coefficient radii), discs, each decision, the status "
         "and the ladder level.",
-        py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("row_start"), py::arg("sample") = 0);
+        py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("row_start"), py::arg("sample") = 0,
+        py::arg("exact") = py::none());
     m.attr("MAX_OBJECTS") = kMaxObjects;
     m.attr("MAX_SURFACE_DEGREE") = kMaxSurfaceDegree;
     m.attr("MAX_FRAME_SIDE") = kMaxFrameSide;
     m.attr("MAX_SAMPLES") = kMaxSamples;
+    m.attr("MAX_EXACT_BITS") = kMaxExactBits;
+    m.attr("EXACT_PIXELS_PER_TILE") = FrameParams{}.exact_pixels_per_tile;
+    m.attr("EXACT_MAX_BITS") = FrameParams{}.exact_max_bits;
     m.attr("BAND_RULE") = kBandRule;
     py::dict status_names, level_names;
     for (int c = 0; c < static_cast<int>(std::size(kStatusNames)); ++c) status_names[py::int_(c)] = kStatusNames[c];

@@ -6,8 +6,11 @@
 // find_roots with the coefficients' error radii, and every comparison
 // (band, clipping sphere, ordering by modulus, realness) is outward-rounded.
 // When a decision is not proven the pixel climbs the ladder (LadderLevel):
-// the root core's double-double tier, a retry without neighbour seeds, then
-// double-double ray coefficients that shrink the deciding discs.
+// the root core's double-double tier, a retry without neighbour seeds,
+// double-double ray coefficients that shrink the deciding discs, then (for
+// a primary ray, within the tile's budget) the exact tier: an ExactSolver
+// given by the caller decides the pixel on the exact rational ray
+// polynomial.
 #include "argand/render.h"
 
 #include <algorithm>
@@ -141,7 +144,7 @@ bool centre_in_band(const RootDisc& d, double sigma, double delta, bool complex_
 
 class Tracer {
 public:
-    explicit Tracer(const FramePlan& plan) : plan_(plan) {
+    explicit Tracer(const FramePlan& plan, const ExactSolver* exact = nullptr) : plan_(plan), exact_(exact) {
         const int levels = plan.params.max_depth + 2;
         scratch_.resize(static_cast<std::size_t>(levels) * plan.scene.objects.size());
         infos_.resize(static_cast<std::size_t>(levels));
@@ -183,6 +186,41 @@ public:
             level = kLevelDoubleDouble;
             h = decide(roots, infos);
         }
+        const bool exact_tier = h.status != kCertified && primary && exact_ && *exact_ &&
+                                plan_.params.exact_pixels_per_tile > 0 && plan_.params.method != Method::Unverified &&
+                                (trace != nullptr || !explaining_);
+        ExactAnswer answer;
+        bool exact_ran = false;
+        if (exact_tier) {
+            // Level 4: the exact tier, within the tile's budget (--explain
+            // runs it for its pixel whatever the budget).
+            if (trace == nullptr && exact_used_ >= plan_.params.exact_pixels_per_tile) {
+                level = kLevelExactOverCap;
+            } else {
+                ++exact_used_;
+                ExactQuery q{pixel_x_, pixel_y_, Ray{}, trace != nullptr};
+                for (int a = 0; a < 3; ++a) {
+                    q.ray.origin[a] = o[a];
+                    q.ray.direction[a] = d[a];
+                }
+                answer = (*exact_)(plan_, q);
+                exact_ran = true;
+                level = answer.multiple ? kLevelExactMultiple : kLevelExact;
+                h.status = answer.status;
+                if (answer.decided) {
+                    h.hit = answer.hit;
+                    h.eligible = answer.eligible;
+                    if (answer.hit) {
+                        h.object = answer.object;
+                        h.disc = RootDisc{answer.re, answer.im, 0.0, 1, true, answer.im == 0.0};
+                        h.modulus = answer.modulus;
+                    } else {
+                        h.object = -1;
+                        h.modulus = kInf;
+                    }
+                }
+            }
+        }
         h.level = level;
         if (seeds) {
             for (int obj = 0; obj < n_obj; ++obj) {
@@ -198,7 +236,14 @@ public:
                 seeds[obj].valid = r.status == Status::Ok && m == n && r.res.n_infinite == 0;
             }
         }
-        if (trace) record(roots, infos, h, trace);
+        if (trace) {
+            record(roots, infos, h, trace);
+            trace->exact_ran = exact_ran;
+            trace->exact = std::move(answer);
+            if (exact_ran && trace->exact.decided) trace->chosen = -1;  // the root is the exact tier's
+            trace->root_re = h.disc.re;
+            trace->root_im = h.disc.im;
+        }
         return h;
     }
 
@@ -521,9 +566,13 @@ private:
 
 public:
     double current_direction_[3] = {0, 0, 0};
+    int pixel_x_ = 0, pixel_y_ = 0;  // the pixel being traced (for the exact tier)
+    bool explaining_ = false;         // explain_pixel: the exact tier runs only for the traced pixel
 
 private:
     const FramePlan& plan_;
+    const ExactSolver* exact_ = nullptr;
+    int exact_used_ = 0;  // pixels of this tile sent to the exact tier
     std::vector<ObjectRoots> scratch_;
     std::vector<std::vector<DiscInfo>> infos_;
     int chosen_ = -1;
@@ -563,6 +612,10 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
     if (sample_side(params.samples) == 0)
         throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples) +
                                     " (1, 4, 9, 16, 25, 36, 49 or 64), got " + std::to_string(params.samples));
+    if (params.exact_pixels_per_tile < 0)
+        throw std::invalid_argument("exact_pixels_per_tile must be >= 0 (0: no exact tier)");
+    if (params.exact_max_bits < 64 || params.exact_max_bits > kMaxExactBits)
+        throw std::invalid_argument("exact_max_bits must be in 64.." + std::to_string(kMaxExactBits));
     FramePlan plan;
     plan.scene = scene;
     plan.params = params;
@@ -647,6 +700,8 @@ SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, in
                           PixelExplanation* trace) {
     const Ray ray = sample_ray(plan, sx_cell, sy_cell, side);
     for (int a = 0; a < 3; ++a) tracer.current_direction_[a] = ray.direction[a];
+    tracer.pixel_x_ = sx_cell / side;  // the pixel holding the sample (for the exact tier)
+    tracer.pixel_y_ = sy_cell / side;
     SampleResult s;
     s.hit = tracer.intersect(ray.origin, ray.direction, true, seeds, 0, trace);
     if (trace) trace->ray = ray;
@@ -724,14 +779,14 @@ const char* status_reason(std::uint8_t status) {
 
 }  // namespace
 
-void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out) {
+void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, const ExactSolver* exact) {
     const FrameParams& fp = plan.params;
     TileRect r{std::max(0, rect_in.x0), std::max(0, rect_in.y0), std::min(fp.width, rect_in.x1), std::min(fp.height, rect_in.y1)};
     const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
     allocate(out, w, h);
     const int side = sample_side(fp.samples);
     if (side == 0) throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples));
-    Tracer tracer(plan);
+    Tracer tracer(plan, exact);
     std::vector<Seeds> seeds(plan.scene.objects.size());
     std::vector<PixelAccumulator> row(static_cast<std::size_t>(w));
     // The samples are traced in the order of the (side W) x (side H) frame's
@@ -750,7 +805,8 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out) 
     out.root_calls = tracer.root_calls;
 }
 
-PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample) {
+PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample,
+                               const ExactSolver* exact) {
     const FrameParams& fp = plan.params;
     if (x < 0 || x >= fp.width || y < 0 || y >= fp.height)
         throw std::invalid_argument("pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is not inside the " +
@@ -762,12 +818,13 @@ PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_star
     // seeds render_tile would have), then trace the sample.
     const int side = sample_side(fp.samples);
     const int sx_cell = side * x + sample % side, sy_cell = side * y + sample / side;
-    Tracer tracer(plan);
+    Tracer tracer(plan, exact);
+    tracer.explaining_ = true;
     std::vector<Seeds> seeds(plan.scene.objects.size());
     PixelExplanation e;
     for (int c = side * row_start; c <= sx_cell; ++c)
         trace_sample(plan, tracer, c, sy_cell, side, seeds.data(), c == sx_cell ? &e : nullptr);
-    e.reason = status_reason(e.status);
+    e.reason = e.exact_ran && !e.exact.reason.empty() ? e.exact.reason : status_reason(e.status);
     return e;
 }
 

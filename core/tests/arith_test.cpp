@@ -9,17 +9,9 @@
 #include <random>
 
 #include "argand/arith.h"
+#include "check.h"
 
 using namespace argand;
-
-static int failures = 0;
-#define CHECK(cond)                                                              \
-    do {                                                                         \
-        if (!(cond)) {                                                           \
-            std::fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
-            ++failures;                                                          \
-        }                                                                        \
-    } while (0)
 
 int main() {
     // next_up / next_down at the ends of ranges.
@@ -127,10 +119,5 @@ int main() {
         double err = std::hypot((DoubleDouble(p.re) - pd.re).hi, (DoubleDouble(p.im) - pd.im).hi);
         CHECK(err <= ErrorModel<double>::mul_rel * std::hypot(a.re, a.im) * std::hypot(b.re, b.im) * (1 + 1e-10) + 1e-300);
     }
-    if (failures) {
-        std::fprintf(stderr, "arith_test: %d failures\n", failures);
-        return 1;
-    }
-    std::printf("arith_test: all checks passed\n");
-    return 0;
+    return check_summary("arith_test");
 }

@@ -5,6 +5,7 @@
 // long double reference, the double-double refinement, and whole tiles
 // (objects up to kMaxObjects, the refusal above it). Also the program the
 // sanitizer build runs.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -14,18 +15,10 @@
 #include "../src/pixel_decision.h"
 #include "../src/ray_polynomial.h"
 #include "argand/render.h"
+#include "check.h"
 
 using namespace argand;
 using namespace argand::detail;
-
-static int failures = 0;
-#define CHECK(cond)                                                                        \
-    do {                                                                                   \
-        if (!(cond)) {                                                                     \
-            std::fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
-            ++failures;                                                                    \
-        }                                                                                  \
-    } while (0)
 
 static constexpr double kPiDouble = 3.141592653589793;  // just below pi
 
@@ -367,6 +360,128 @@ static void test_tiles_and_limits() {
         }
 }
 
+/// The exact tier's hook contract: called only for primary rays not proven
+/// after level 3, at most exact_pixels_per_tile times per tile, with the
+/// pixel's own ray; its decided answer is what the pixel shows, its
+/// undecided answer keeps the ladder's picture, and pixels beyond the budget
+/// are level 6. (The solver here answers from the query alone: the real one
+/// is argand.render.exact, tested in tests/test_render_exact.py.)
+static void test_exact_hook() {
+    // The unit sphere clipped by the unit ball: every real root lies on the
+    // sphere, which no disc decides (status 3 after level 3).
+    SceneSpec sc = sphere_scene(1.0);
+    sc.camera.position[0] = 0.0;
+    sc.camera.position[2] = 0.3;
+    FrameParams fp;
+    fp.width = fp.height = 9;
+    FramePlan pl = plan_frame(sc, fp);
+    TileAOVs plain;
+    render_tile(pl, TileRect{0, 0, 9, 9}, plain);
+    int open = 0;
+    for (auto v : plain.status) open += v != kCertified;
+    CHECK(open > 4);
+    int calls = 0;
+    bool rays_match = true;
+    ExactSolver undecided = [&](const FramePlan& p, const ExactQuery& q) {
+        ++calls;
+        const Ray r = primary_ray(p, q.x, q.y);
+        for (int a = 0; a < 3; ++a)
+            rays_match = rays_match && r.origin[a] == q.ray.origin[a] && r.direction[a] == q.ray.direction[a];
+        ExactAnswer a;
+        a.status = kUndecided;
+        return a;
+    };
+    pl.params.exact_pixels_per_tile = 3;
+    TileAOVs t;
+    render_tile(pl, TileRect{0, 0, 9, 9}, t, &undecided);
+    CHECK(calls == 3 && rays_match);
+    int at_exact = 0, over = 0;
+    for (std::size_t i = 0; i < t.status.size(); ++i) {
+        at_exact += t.escalation[i] == kLevelExact;
+        over += t.escalation[i] == kLevelExactOverCap;
+        CHECK(t.status[i] == plain.status[i]);            // undecided: the ladder's status
+        CHECK(t.rgba[4 * i + 3] == plain.rgba[4 * i + 3]);  // and its picture
+    }
+    CHECK(at_exact == 3 && over == open - 3);
+    // A decided answer (here: a proven miss) is what the pixel shows.
+    ExactSolver miss = [&](const FramePlan&, const ExactQuery&) {
+        ExactAnswer a;
+        a.decided = true;
+        a.status = kCertified;
+        return a;
+    };
+    pl.params.exact_pixels_per_tile = 100;
+    render_tile(pl, TileRect{0, 0, 9, 9}, t, &miss);
+    for (std::size_t i = 0; i < t.status.size(); ++i) {
+        CHECK(t.status[i] == kCertified);
+        if (plain.status[i] != kCertified) CHECK(t.escalation[i] == kLevelExact && t.rgba[4 * i + 3] == 0.0f);
+    }
+    // Off (budget 0) or no hook: the ladder stops at level 3.
+    pl.params.exact_pixels_per_tile = 0;
+    calls = 0;
+    render_tile(pl, TileRect{0, 0, 9, 9}, t, &undecided);
+    CHECK(calls == 0 && t.escalation == plain.escalation);
+    bool threw = false;
+    fp.exact_max_bits = 32;
+    try {
+        plan_frame(sc, fp);
+    } catch (const std::invalid_argument&) {
+        threw = true;
+    }
+    CHECK(threw);
+}
+
+// Samples per pixel: the squares up to kMaxSamples; sample k of pixel (x, y)
+// is, to the bit, pixel (side x + k % side, side y + k / side) of the frame
+// side times finer; a sampled tile's status is the worst of its samples'.
+static void test_samples() {
+    for (int n = -1; n <= kMaxSamples + 1; ++n) {
+        const int side = sample_side(n);
+        CHECK(side == ((n == 1 || n == 4 || n == 9 || n == 16 || n == 25 || n == 36 || n == 49 || n == 64)
+                           ? static_cast<int>(std::lround(std::sqrt(n)))
+                           : 0));
+    }
+    const SceneSpec sc = sphere_scene(1.2);
+    FrameParams coarse_p, fine_p;
+    coarse_p.width = 5;
+    coarse_p.height = 3;
+    coarse_p.samples = 9;
+    fine_p.width = 15;
+    fine_p.height = 9;
+    const FramePlan coarse = plan_frame(sc, coarse_p), fine = plan_frame(sc, fine_p);
+    for (int y = 0; y < 3; ++y)
+        for (int x = 0; x < 5; ++x)
+            for (int k = 0; k < 9; ++k) {
+                const Ray a = primary_ray(coarse, x, y, k), b = primary_ray(fine, 3 * x + k % 3, 3 * y + k / 3);
+                for (int i = 0; i < 3; ++i) CHECK(a.direction[i] == b.direction[i] && a.origin[i] == b.origin[i]);
+            }
+    TileAOVs c, f;
+    render_tile(coarse, TileRect{0, 0, 5, 3}, c);
+    render_tile(fine, TileRect{0, 0, 15, 9}, f);
+    for (int y = 0; y < 3; ++y)
+        for (int x = 0; x < 5; ++x) {
+            int worst = 0, certified = 0, hits = 0;
+            for (int k = 0; k < 9; ++k) {
+                const std::size_t i = static_cast<std::size_t>(3 * y + k / 3) * 15 + 3 * x + k % 3;
+                worst = std::max<int>(worst, f.status[i]);
+                certified += f.status[i] == kCertified;
+                hits += f.rgba[4 * i + 3] > 0.0f;
+            }
+            const std::size_t p = static_cast<std::size_t>(y) * 5 + x;
+            CHECK(c.status[p] == worst);
+            CHECK(c.certified_share[p] == static_cast<float>(certified / 9.0));
+            CHECK(c.rgba[4 * p + 3] == static_cast<float>(hits / 9.0));
+        }
+    coarse_p.samples = 8;
+    bool refused = false;
+    try {
+        plan_frame(sc, coarse_p);
+    } catch (const std::invalid_argument&) {
+        refused = true;
+    }
+    CHECK(refused);
+}
+
 int main() {
     test_band_rule();
     test_balls();
@@ -377,10 +492,7 @@ int main() {
     test_refinement();
     test_isolation();
     test_tiles_and_limits();
-    if (failures) {
-        std::fprintf(stderr, "render_test: %d failure(s)\n", failures);
-        return 1;
-    }
-    std::printf("render_test: all passed\n");
-    return 0;
+    test_exact_hook();
+    test_samples();
+    return check_summary("render_test");
 }

@@ -124,7 +124,14 @@ def render(
                                         help=EXR_COMPRESSION_HELP),
     explain: Optional[str] = typer.Option(
         None, "--explain", help="X,Y (or X,Y,SAMPLE with --samples): print that pixel's (sample's) ray, ray "
-        "polynomial with coefficient radii, discs, decisions and status (first frame only), and render nothing."),
+        "polynomial with coefficient radii, discs, decisions, the exact tier's steps and status (first frame only), "
+        "and render nothing."),
+    exact_per_tile: Optional[int] = typer.Option(
+        None, "--exact-per-tile", help="The exact tier: at most N pixels per tile decided on the exact rational "
+        "ray polynomial when the double-double tier leaves them unproven (0: off; default: the renderer's, "
+        "argand.render.frames.EXACT_PIXELS_PER_TILE)."),
+    exact_bits: Optional[int] = typer.Option(
+        None, "--exact-bits", help="The exact tier's highest precision in bits (default: EXACT_MAX_BITS)."),
 ) -> None:
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, and animation.gif."""
     from argand.render import FrameParams, delta_sweep, parse_angle, parse_sweep
@@ -152,10 +159,15 @@ def render(
         loaded = load_scene(scene)
     except (ValueError, OSError) as exc:
         fail(str(exc))
+    exact = {}
+    if exact_per_tile is not None:
+        exact["exact_pixels_per_tile"] = exact_per_tile
+    if exact_bits is not None:
+        exact["exact_max_bits"] = exact_bits
     try:
         params = [
             FrameParams(sigma=sigma_value, delta=d, width=width, height=height, method=method, hue_by_argument=hue,
-                        samples=loaded.samples if samples is None else samples)
+                        samples=loaded.samples if samples is None else samples, **exact)
             for d in values
         ]
     except ValueError as exc:
@@ -179,7 +191,9 @@ def render(
     for f in summary:
         console.print(
             f"delta={f['delta']:.5g}: {f['seconds'] * 1000:.0f} ms, {f['ns_per_pixel']:.0f} ns/pixel, "
-            f"certified {100 * f['certified_share']:.3f}%, escalated {100 * f['escalated_share']:.3f}%"
+            f"certified {100 * f['certified_share']:.3f}%, escalated {100 * f['escalated_share']:.3f}%, "
+            f"exact {f['exact_pixels']} (multiple roots proven {f['exact_multiple_roots']}, "
+            f"over the work cap {f['exact_over_cap']})"
         )
     console.print(f"wrote {len(params)} frame(s) to {out}/" + (" and animation.gif" if len(params) > 1 else ""))
 

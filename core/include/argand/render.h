@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -88,6 +89,11 @@ struct FrameParams {
     bool hue_by_argument = false;
     bool seed_from_neighbour = true;
     int samples = 1;             // per pixel: a square (1, 4, 9, ..., kMaxSamples), see sample_side
+    // The exact tier (ladder level 4, an ExactSolver given to render_tile):
+    // at most this many pixels per tile go to it (0: off), and it works up
+    // to this many bits of precision.
+    int exact_pixels_per_tile = 64;
+    int exact_max_bits = 2048;
 };
 
 /// Most samples per pixel (plan_frame refuses more).
@@ -106,6 +112,8 @@ constexpr int kMaxObjects = 32;
 /// Taylor plan and the per-pixel work grow with its number of monomials
 /// ((n + 1)(n + 2)(n + 3) / 6: 455 at degree 12).
 constexpr int kMaxSurfaceDegree = 12;
+/// Highest working precision of the exact tier, in bits (plan_frame refuses more).
+constexpr int kMaxExactBits = 1 << 16;
 /// Largest frame side in pixels (plan_frame refuses more).
 constexpr int kMaxFrameSide = 8192;
 
@@ -150,9 +158,18 @@ enum LadderLevel : std::uint8_t {
     kLevelRootTier = 1,   // the root core needed its double-double tier
     kLevelUnseeded = 2,   // retried without the neighbouring pixel's seeds
     kLevelDoubleDouble = 3,  // discs refined with double-double ray coefficients
+    kLevelExact = 4,         // decided by the exact tier (ExactSolver) on the exact
+                             // rational ray polynomial; status 3 after it: its
+                             // precision cap was reached
+    kLevelExactMultiple = 5, // the exact tier proved a multiple root at the pixel's
+                             // root (or the ray in the surface): status 1, proven
+    kLevelExactOverCap = 6,  // not proven after level 3, and the tile's exact-tier
+                             // budget (exact_pixels_per_tile) was spent
 };
 /// The names of the ladder levels, by level (exported as ESCALATION_NAMES).
-constexpr const char* kLadderLevelNames[] = {"first", "root double-double", "unseeded retry", "double-double ray"};
+constexpr const char* kLadderLevelNames[] = {"first",          "root double-double",          "unseeded retry",
+                                             "double-double ray", "exact", "exact: multiple root proven",
+                                             "exact: over the work cap"};
 
 /// AOVs of one tile, row-major, (y1 - y0) rows of (x1 - x0) pixels.
 /// With several samples per pixel: the colour is the mean of the samples'
@@ -175,6 +192,12 @@ struct TileAOVs {
     // Figures.
     std::int64_t escalations = 0;      // pixels whose ladder level is above 0
     std::int64_t root_calls = 0;
+};
+
+/// A ray: exact double origin and (unit, up to rounding) direction.
+struct Ray {
+    double origin[3];
+    double direction[3];
 };
 
 /// Everything a frame needs that does not depend on the pixel.
@@ -219,20 +242,43 @@ struct FramePlan {
     BandEdge lower_edge, upper_edge;
 };
 
+/// The exact tier: a pixel whose primary ray is not proven after level 3 is
+/// decided on the exact rational ray polynomial of its ray (the exact double
+/// origin and direction, the exact double coefficients and transform) by a
+/// solver outside the C++ core (the Python binding wraps
+/// argand.render.exact). The solver's answer is a proof where `decided` is
+/// true: status 0 (hit on the given root, or a miss), or status 1 with a
+/// proven multiple root at the pixel's root (or the ray in the surface).
+/// `decided` false: its precision cap left a comparison open (`status` 3,
+/// `reason` says which); render_tile then keeps its own picture.
+struct ExactQuery {
+    int x, y;
+    Ray ray;
+    bool explain;            // fill ExactAnswer::steps
+};
+struct ExactAnswer {
+    bool decided = false;
+    std::uint8_t status = kUndecided;
+    bool multiple = false;   // the answer rests on a proven multiple root
+    bool hit = false;
+    int object = -1;
+    double re = 0.0, im = 0.0, modulus = 0.0;  // the chosen root (nearest doubles)
+    int eligible = 0;        // eligible roots with multiplicity
+    std::string reason;
+    std::vector<std::string> steps;  // what it did (explain only)
+};
+using ExactSolver = std::function<ExactAnswer(const FramePlan&, const ExactQuery&)>;
+
 /// Validates the scene and the frame for rendering (1..kMaxObjects objects,
 /// degree 1..kMaxSurfaceDegree per object, frame sides 1..kMaxFrameSide, kBandRule, a valid camera). Throws
 /// std::invalid_argument with the reason.
 FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params);
 
 /// Renders the pixels of `rect` (clamped to the frame). Thread-safe for
-/// distinct tiles of the same plan. Never touches Python.
-void render_tile(const FramePlan& plan, const TileRect& rect, TileAOVs& out);
-
-/// A ray: exact double origin and (unit, up to rounding) direction.
-struct Ray {
-    double origin[3];
-    double direction[3];
-};
+/// distinct tiles of the same plan. Never touches Python itself; `exact`
+/// (optional) is called for primary rays still unproven after level 3, at
+/// most params.exact_pixels_per_tile times per tile.
+void render_tile(const FramePlan& plan, const TileRect& rect, TileAOVs& out, const ExactSolver* exact = nullptr);
 
 /// The primary ray of sample `sample` (0..samples - 1) of pixel (x, y):
 /// the very doubles render_tile uses.
@@ -274,11 +320,16 @@ struct PixelExplanation {
     std::uint8_t status = kCertified;
     std::uint8_t level = kLevelFirst;
     std::string reason;      // why the status is what it is
+    bool exact_ran = false;  // the exact tier ran for this pixel
+    ExactAnswer exact;       // its answer (with its steps)
+    double root_re = 0.0, root_im = 0.0;  // the pixel's root (on a hit)
 };
 
 /// Runs render_tile's code path for sample `sample` of pixel (x, y), as part
 /// of a tile whose rows start at column row_start (the neighbour seeds of
-/// that row of samples are replayed), and records every decision.
-PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample = 0);
+/// that row of samples are replayed), and records every decision. The exact
+/// tier (when given) runs for that sample only, whatever the tile's budget.
+PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample = 0,
+                               const ExactSolver* exact = nullptr);
 
 }  // namespace argand

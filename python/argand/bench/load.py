@@ -327,7 +327,9 @@ def bench_load(out_dir: Path = Path("docs/bench"), url: str | None = None, smoke
         work = Path(tmp)
         if url is None:
             progress("starting argand serve --workers 2")
-            with LocalFarm(work / "farm", 2) as farm:
+            # Every simulated user comes from 127.0.0.1: the per-client stream
+            # limit (made for distinct addresses) would count them as one client.
+            with LocalFarm(work / "farm", 2, env={"ARGAND_MAX_STREAMS_PER_CLIENT": "1000"}) as farm:
                 report = _bench(farm.url, farm.proc.pid, work / "farm" / "argand.db", work, smoke, ramp_users, step_s,
                                 steady_s, steady_users, drain_timeout_s, seed, wait_s, sse_hold_s, profile, probes,
                                 progress)

@@ -65,7 +65,7 @@ IDLE_LEAVES = ("Condition.wait", "Event.wait", "select (", "epoll", "Runner.run"
                "Condition.notify", "run_forever")
 #: Functions whose inclusive share of the API's busy samples the diagnosis cites.
 NAMED = ("list_jobs", "get_job", "job_out", "job_view", "job_progress", "_emit_lazyload", "submit", "create_job",
-         "send_runs", "_send", "_progress",
+         "send_messages", "drain", "_send", "_progress",
          "control", "set_job_status", "dispatch_job", "patch", "stream", "reap", "_file", "metrics", "validate_scene",
          "do_execute", "do_commit", "send_task")
 #: Our own functions worth naming in the summary.

@@ -193,13 +193,12 @@ def causes(report: dict) -> list[str]:
             f"**Celery dispatch in the request path.** `POST /api/jobs` p50/p99 {_ms(submit['p50_ms'])}/"
             f"{_ms(submit['p99_ms'])} ms"
             + (f", resume {_ms(resume['p50_ms'])}/{_ms(resume['p99_ms'])} ms" if resume else "")
-            + ": the request inserts every tile and sends every message before it answers (`create_job` → "
-            "`send_runs`)"
-            + (f"; `create_job` is in {pct('create_job')} of the API's active samples, `send_task` {pct('send_task')}"
+            + ": the request inserts every tile and its messages into the outbox in one transaction (`create_job`)"
+            + (f"; `create_job` is in {pct('create_job')} of the API's active samples, `drain` {pct('drain')}"
                if prof else "") + ". "
-            "Since issue 13 argand/farm/queue.py `send_runs` publishes a job's messages on one producer connection "
-            "(`app.producer_or_acquire()`); left open: answering 201 once the rows are committed and sending from a "
-            "background task.")
+            "Since issue 12 the request answers once the rows are committed: a sender thread drains the outbox "
+            "(argand/farm/outbox.py `drain` -> argand/farm/queue.py `send_messages`, one producer connection), "
+            "and the workers' reaper sends whatever an API left behind.")
     scrape = report.get("metrics_ms") or {}
     if prof and prof.get("metrics", 0.0) >= 0.05 and scrape.get("p50_ms"):
         out.append(

@@ -189,6 +189,7 @@ def _section_stability(report: dict, out_dir: Path, page: Path) -> list[str]:
 
 def _section_render(report: dict, out_dir: Path, page: Path) -> list[str]:
     from argand.bench.rays import scenes
+    from argand.bench.render import escalation_section, exact_cell
 
     degrees = {name: "+".join(str(o.polynomial.degree) for o in scene.objects) for name, scene in scenes().items()}
     frames = report["frames"]
@@ -197,16 +198,19 @@ def _section_render(report: dict, out_dir: Path, page: Path) -> list[str]:
              f"`argand bench render`: one core, each preset and the degree 5-8 surfaces of the roots benchmark at "
              f"{size}×{size} (and smaller, in render.json) for three deltas; the same frame with `method=unverified` "
              "beside it (the price of the proof).", "",
-             "| scene | degree | δ | ms / frame | ns / pixel | certified | escalated | unverified ms | proof overhead |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+             "| scene | degree | δ | ms / frame | ns / pixel | certified | escalated | exact tier | unverified ms "
+             "| proof overhead |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for f in frames:
         if f["width"] != size:
             continue
         lines.append(f"| {f['scene']} | {f.get('degree') or degrees.get(f['scene'], '?')} | {f['delta']:.4f} | {f['ms']:.0f} | "
                      f"{f['ns_per_pixel']:.0f} | {100 * f['certified_share']:.2f}% | "
-                     f"{100 * f.get('escalated_share', 0.0):.3f}% | {f['unverified_ms']:.0f} | "
+                     f"{100 * f.get('escalated_share', 0.0):.3f}% | {exact_cell(f)} | {f['unverified_ms']:.0f} | "
                      f"{f['ms'] / f['unverified_ms']:.2f}× |")
-    lines += ["", f"![contact sheet]({_rel(out_dir / 'render_contact.png', page)})", ""]
+    lines += ["", f"![contact sheet]({_rel(out_dir / 'render_contact.png', page)})"]
+    lines += escalation_section(report, _rel(out_dir / "render_escalation.png", page))
+    lines += [""]
     return lines
 
 

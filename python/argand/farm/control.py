@@ -4,11 +4,14 @@ deletion. Runs in flight see a cancel or pause between two tiles."""
 
 from __future__ import annotations
 
-from sqlalchemy import update
+import time
+
+from sqlalchemy import delete, update
 
 from argand.farm.database import session_scope
-from argand.farm.dispatch import dispatch_job
-from argand.farm.models import Job, Tile
+from argand.farm.dispatch import alive_workers, queue_job_tiles
+from argand.farm.models import Job, Outbox, Tile
+from argand.farm.outbox import PRIORITY_RESEND_S, try_drain
 from argand.farm.settings import Settings
 from argand.farm.states import ACTIONS, ACTIVE, JOB, TILE
 from argand.farm.store import store_for
@@ -21,13 +24,15 @@ class NoSuchJob(LookupError):
         super().__init__(f"no job {job_id!r}")
 
 
-def set_job_status(settings: Settings, job_id: str, action: str) -> str:
+def set_job_status(settings: Settings, job_id: str, action: str, send: bool = True) -> str:
     """Applies ``action`` if the job's state allows it (else changes
     nothing); resume and retry give the unfinished tiles back to the queue
-    and send them. Returns the job's state after."""
+    and write their messages in the same transaction (argand.farm.outbox),
+    sent here with ``send``. Returns the job's state after."""
     if action not in ACTIONS:
         raise ValueError(f"action must be one of {', '.join(ACTIONS)}, not {action!r}")
     applies_to, target = ACTIONS[action]
+    workers = alive_workers(settings)
     with session_scope(settings.sqlalchemy_url) as s:
         job = s.get(Job, job_id)
         if job is None:
@@ -42,24 +47,41 @@ def set_job_status(settings: Settings, job_id: str, action: str) -> str:
             s.execute(update(Tile).where(Tile.job_id == job_id, Tile.status.in_(TILE.sources("queued")))
                       .values(status="queued", attempts=0, worker=None))
             job.error = None
-    if resend:
-        dispatch_job(settings, job_id)
-    with session_scope(settings.sqlalchemy_url) as s:
-        return s.get(Job, job_id).status
+            s.flush()
+            queue_job_tiles(s.connection(), settings, job_id, workers)
+        status = job.status
+    if resend and send:
+        try_drain(settings, job_id)
+    return status
 
 
-def set_priority(settings: Settings, job_id: str, priority: int) -> None:
-    """A new priority takes effect at once: an active job's queued tiles are
-    sent again at that priority (the older messages become no-ops, since a
-    tile is claimed by compare-and-set)."""
+def set_priority(settings: Settings, job_id: str, priority: int, send: bool = True) -> None:
+    """A new priority: an active job's queued tiles are sent again at that
+    priority (the older messages become no-ops, since a tile is claimed by
+    compare-and-set). Bounded: the same priority sends nothing, and a job's
+    tiles are sent again at most once per PRIORITY_RESEND_S (a later change
+    replaces the messages still waiting, and goes out when that time has
+    passed), so PATCHes in a loop cannot flood the broker."""
+    workers = alive_workers(settings)
     with session_scope(settings.sqlalchemy_url) as s:
         job = s.get(Job, job_id)
         if job is None:
             raise NoSuchJob(job_id)
+        if job.priority == priority:
+            return
         job.priority = priority
-        active = job.status in ACTIVE
-    if active:
-        dispatch_job(settings, job_id)
+        if job.status not in ACTIVE:
+            return
+        now = time.time()
+        last = job.priority_resent or 0.0
+        due = last if last > now else max(now, last + PRIORITY_RESEND_S)  # one waiting re-send at most
+        job.priority_resent = due
+        s.flush()
+        # The messages not sent yet carry the old priority: replaced.
+        s.execute(delete(Outbox).where(Outbox.job_id == job_id, Outbox.lease_until < now))
+        queue_job_tiles(s.connection(), settings, job_id, workers, not_before=due)
+    if send:
+        try_drain(settings, job_id)
 
 
 def delete_job(settings: Settings, job_id: str) -> None:

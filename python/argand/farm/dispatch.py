@@ -1,5 +1,6 @@
 """Sending a job's tiles to the workers: the tiles in given states, grouped
-by argand.farm.planning into runs, sent by argand.farm.queue."""
+by argand.farm.planning into runs, written to the outbox (argand.farm.outbox)
+in the caller's transaction and sent by a drainer."""
 
 from __future__ import annotations
 
@@ -9,8 +10,8 @@ from sqlalchemy import func, select
 
 from argand.farm.database import engine_for
 from argand.farm.models import Frame, Job, Tile, Worker
+from argand.farm.outbox import add_runs, try_drain
 from argand.farm.planning import plan_runs, tile_rects
-from argand.farm.queue import send_runs
 from argand.farm.settings import Settings
 
 
@@ -21,22 +22,34 @@ def alive_workers(settings: Settings) -> int:
             Worker.heartbeat > time.time() - settings.heartbeat_timeout_s)).scalar() or 0)
 
 
-def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] = ("queued",),
-                 priority: int | None = None) -> int:
-    """Sends messages for every tile of the job in one of the given states
-    (see plan_runs), at the job's priority unless ``priority`` is given.
-    Returns the number of tiles sent."""
-    with engine_for(settings.sqlalchemy_url).connect() as c:
-        job = c.execute(select(Job.priority, Job.width, Job.height, Job.tile).where(Job.id == job_id)).first()
-        if job is None:
-            return 0
-        n_frames = c.execute(select(func.count()).select_from(Frame).where(Frame.job_id == job_id)).scalar()
-        rows = c.execute(select(Tile.frame_index, Tile.tile_index).where(
-            Tile.job_id == job_id, Tile.status.in_(only_status)).order_by(Tile.frame_index, Tile.tile_index)).all()
+def queue_job_tiles(conn, settings: Settings, job_id: str, workers: int, only_status: tuple[str, ...] = ("queued",),
+                    priority: int | None = None, not_before: float = 0.0) -> int:
+    """In the caller's transaction (``conn``): outbox rows for every tile of
+    the job in one of the given states (see plan_runs), at the job's priority
+    unless ``priority`` is given. Returns the number of tiles."""
+    job = conn.execute(select(Job.priority, Job.width, Job.height, Job.tile).where(Job.id == job_id)).first()
+    if job is None:
+        return 0
+    n_frames = conn.execute(select(func.count()).select_from(Frame).where(Frame.job_id == job_id)).scalar()
+    rows = conn.execute(select(Tile.frame_index, Tile.tile_index).where(
+        Tile.job_id == job_id, Tile.status.in_(only_status)).order_by(Tile.frame_index, Tile.tile_index)).all()
     by_frame: dict[int, list[int]] = {}
     for f, t in rows:
         by_frame.setdefault(f, []).append(t)
     runs = plan_runs(by_frame, n_frames, tile_rects(job.width, job.height, job.tile), settings.batch_pixels,
-                     max(1, alive_workers(settings)))
-    send_runs(settings, job_id, runs, job.priority if priority is None else priority)
+                     max(1, workers))
+    add_runs(conn, job_id, runs, job.priority if priority is None else priority, not_before)
     return len(rows)
+
+
+def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] = ("queued",),
+                 priority: int | None = None, send: bool = True) -> int:
+    """queue_job_tiles in a transaction of its own, then (``send``) an
+    attempt to send the job's messages (they wait in the outbox if the
+    broker does not answer). Returns the number of tiles queued."""
+    workers = alive_workers(settings)
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        n = queue_job_tiles(c, settings, job_id, workers, only_status, priority)
+    if send and n:
+        try_drain(settings, job_id)
+    return n

@@ -32,6 +32,9 @@ class Job(Base):
     started: Mapped[float | None] = mapped_column(Float, nullable=True)
     finished: Mapped[float | None] = mapped_column(Float, nullable=True)
     error: Mapped[str | None] = mapped_column(Text, nullable=True)
+    #: When the queued tiles were last sent again for a new priority (a PATCH
+    #: re-sends at most once per argand.farm.outbox.PRIORITY_RESEND_S).
+    priority_resent: Mapped[float | None] = mapped_column(Float, nullable=True)
     frames: Mapped[list["Frame"]] = relationship(back_populates="job", cascade="all, delete-orphan", order_by="Frame.index")
 
 
@@ -73,6 +76,28 @@ class Tile(Base):
     #: The store file holding the tile's AOVs (the tiles a worker finished
     #: between two commits share one file); "frame": assembled whole from memory.
     chunk: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    #: Why the tile's last attempt ended without it (an error, a time limit).
+    error: Mapped[str | None] = mapped_column(Text, nullable=True)
+
+
+class Outbox(Base):
+    """A message to the workers not sent yet: written in the transaction that
+    makes its tiles queued (a job's submission, a resume, a tile given back),
+    deleted once the broker took it (argand.farm.outbox). A broker outage
+    leaves the rows here, and a drainer sends them when it is back."""
+
+    __tablename__ = "outbox"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    job_id: Mapped[str] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), index=True)
+    frame_index: Mapped[int] = mapped_column(Integer)
+    tile_indices: Mapped[list] = mapped_column(JSON)
+    priority: Mapped[int] = mapped_column(Integer)  # the job's 0..9, 9 first
+    created: Mapped[float] = mapped_column(Float)
+    #: Not sent before this time (a priority change re-sends at a bounded rate).
+    not_before: Mapped[float] = mapped_column(Float, default=0.0, server_default="0")
+    #: A drainer sending the row holds it until then (a drainer that died lets go).
+    lease_until: Mapped[float] = mapped_column(Float, default=0.0, server_default="0")
+    sender: Mapped[str | None] = mapped_column(String(64), nullable=True)
 
 
 class Worker(Base):

@@ -58,17 +58,22 @@ def _sender(settings: Settings) -> Celery:
     return _senders[key]
 
 
-def send_runs(settings: Settings, job_id: str, runs: list[tuple[int, list[int]]], priority: int) -> None:
-    """One message per run of tiles, at the job's ``priority`` (9 first), all
-    published on one producer (one broker connection, acquired once)."""
-    if not runs:
+def priority_level(priority: int) -> int:
+    """A job's priority (0..9, 9 first) as Redis's priority step (0 first)."""
+    return max(0, min(9, 9 - priority))
+
+
+def send_messages(settings: Settings, messages: list[tuple[str, int, list[int], int]]) -> None:
+    """Sends (job, frame, tile indices, job priority) messages, in order, on
+    one producer (one broker connection, acquired once). Raises the broker's
+    error if it does not take them. Callers go through argand.farm.outbox."""
+    if not messages:
         return
     app = _sender(settings)
-    level = max(0, min(9, 9 - priority))
     with app.producer_or_acquire() as producer:
-        for frame_index, tile_indices in runs:
-            app.send_task(TASK_NAME, args=[job_id, frame_index, tile_indices, time.time()], priority=level,
-                          queue=QUEUE, producer=producer)
+        for job_id, frame_index, tile_indices, priority in messages:
+            app.send_task(TASK_NAME, args=[job_id, frame_index, list(tile_indices), time.time()],
+                          priority=priority_level(priority), queue=QUEUE, producer=producer)
 
 
 def broker_client(settings: Settings):

@@ -6,6 +6,9 @@
   after the visibility timeout, every queued tile of the unfinished jobs is
   sent again at the top priority (a duplicate message is a no-op: a tile is
   claimed by compare-and-set).
+* The outbox (argand.farm.outbox): messages that a broker outage kept from
+  being sent are sent (the reaper holds its lease in Redis, so it runs
+  exactly when Redis is back).
 * A frame whose assembler died (or hangs) is assembled again.
 * A worker that died between its last commit and the assembly (or between
   the last frame and the animation) left a frame with every tile done but
@@ -27,6 +30,7 @@ from argand.farm import assembly
 from argand.farm.database import session_scope
 from argand.farm.dispatch import dispatch_job
 from argand.farm.models import Frame, Job, Tile, Worker
+from argand.farm.outbox import drain
 from argand.farm.settings import Settings
 from argand.farm.states import ACTIVE, FRAME, JOB, TILE
 
@@ -44,7 +48,8 @@ def _requeue_tiles_of(s: Session, settings: Settings, dead: set[str], now: float
                 job = s.get(Job, t.job_id)
                 if JOB.allowed(job.status, "failed"):
                     job.status = JOB.check(job.status, "failed")
-                    job.error = f"tile {t.frame_index}/{t.tile_index} failed {t.attempts} times"
+                    why = t.error or f"its worker stopped: no heartbeat for {settings.heartbeat_timeout_s:g} s"
+                    job.error = f"tile {t.frame_index}/{t.tile_index} failed {t.attempts} times ({why})"
                 continue
             t.status = TILE.check(t.status, "queued")
             t.worker = None
@@ -108,4 +113,7 @@ class Reaper:
         for job_id in finish:
             assembly.finish_job_if_last(settings, job_id)
         # Work given back goes ahead of everything (the highest priority).
-        return sum(dispatch_job(settings, job_id, priority=9) for job_id in requeue)
+        n = sum(dispatch_job(settings, job_id, priority=9, send=False) for job_id in requeue)
+        # Everything the outbox holds: this round's, and what a broker outage left.
+        drain(settings)
+        return n

@@ -27,10 +27,10 @@ from argand.farm import assembly
 from argand.farm.database import engine_for
 from argand.farm.models import Frame, Job, Tile
 from argand.farm.planning import Rect, samples_of, tile_rects
-from argand.farm.queue import send_runs
+from argand.farm.outbox import add_runs, try_drain
 from argand.farm.settings import Settings
 from argand.farm.states import FRAME, JOB, STOPPED, TILE
-from argand.farm.store import store_for
+from argand.farm.store import is_store_error, store_for
 from argand.render.convert import to_core_scene
 from argand.render.frames import INTERLEAVED_CHANNELS, FrameParams, TileRect, plan, render_tile_into
 from argand.scene import scene_from_dict
@@ -41,8 +41,12 @@ STOP_CHECK_S = 0.05
 COMMIT_INTERVAL_S = 0.5
 
 #: What this worker process is doing; its heartbeat thread reports it (so a
-#: tile costs no extra database writes for bookkeeping).
-ACTIVITY: dict[str, Any] = {"tile": None, "done": 0}
+#: tile costs no extra database writes for bookkeeping), and its watchdog
+#: (argand.worker.watchdog) reads the run's hard deadline (time.monotonic()).
+ACTIVITY: dict[str, Any] = {"tile": None, "done": 0, "hard_at": None, "run": None}
+
+#: Why a run stopped before its end because of its soft time limit.
+SOFT_LIMIT = "soft time limit"
 
 _plan_cache: dict[tuple[str, int], Any] = {}
 _job_cache: dict[str, Any] = {}
@@ -109,6 +113,8 @@ class TileRun:
     #: tile -> render seconds, rendered but not yet committed.
     pending: dict[int, float] = field(default_factory=dict)
     done: int = 0
+    #: time.monotonic() after which no further tile is started (the soft time limit).
+    soft_at: float = float("inf")
 
     def unrendered(self) -> list[int]:
         return [t for t in self.claimed if t not in self.local]
@@ -158,7 +164,9 @@ def _render_claimed(run: TileRun) -> str | None:
     stopped early (the job's state, or "gone"), or None."""
     channels = len(INTERLEAVED_CHANNELS)
     last_check = last_commit = time.monotonic()
-    for i in run.claimed:
+    for n, i in enumerate(run.claimed):
+        if n and time.monotonic() > run.soft_at:
+            return SOFT_LIMIT
         if time.monotonic() - last_check > STOP_CHECK_S:
             status = _job_status(run.settings, run.job_id)
             last_check = time.monotonic()
@@ -184,10 +192,27 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
               sent_at: float | None = None) -> str:
     """Renders a run of tiles of one frame, skipping those done or held by
     another worker, and stopping between tiles when the job is cancelled or
-    paused. Returns what happened (for logs and tests)."""
+    paused. Returns what happened (for logs and tests).
+
+    Time limits (the solo pool does not enforce Celery's): past
+    ``tile_soft_time_limit_s`` the run starts no further tile and gives the
+    rest back (not counted as an attempt); past ``tile_hard_time_limit_s``
+    the worker's watchdog ends the process (argand.worker.watchdog), its
+    tiles staying claimed until the reaper sees its heartbeats stop."""
+    started = time.monotonic()
     why, claimed = claim(settings, job_id, frame_index, tile_indices, worker, sent_at)
     if why:
         return why
+    ACTIVITY["run"] = (job_id, frame_index, claimed, worker)
+    ACTIVITY["hard_at"] = started + settings.tile_hard_time_limit_s
+    try:
+        return _run_claimed(settings, job_id, frame_index, worker, claimed, started)
+    finally:
+        ACTIVITY["hard_at"] = ACTIVITY["run"] = None
+
+
+def _run_claimed(settings: Settings, job_id: str, frame_index: int, worker: str, claimed: list[int],
+                 started: float) -> str:
     try:
         fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index)
     except BaseException as exc:
@@ -195,21 +220,45 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
         # attempts, fail the job with the reason), never stay "running".
         release(settings, job_id, frame_index, worker, claimed, resend=True, reason=_reason(exc))
         raise
-    run = TileRun(settings, job_id, frame_index, worker, claimed, fplan, rects, total)
+    run = TileRun(settings, job_id, frame_index, worker, claimed, fplan, rects, total,
+                  soft_at=started + settings.tile_soft_time_limit_s)
     # A run that holds the whole frame renders straight into the frame's
     # buffer (the EXR's layout); otherwise each tile gets a block of its own.
     if len(claimed) == total:
         run.frame_px = np.empty((fplan.height, fplan.width, len(INTERLEAVED_CHANNELS)), np.float32)
     try:
-        stopped = _render_claimed(run)
+        return _finish_run(run, _render_claimed(run))
     except BaseException as exc:
-        # A time limit or an error: keep what is written, give back the rest.
-        run.commit()
-        release(settings, job_id, frame_index, worker, run.unrendered(), resend=True, reason=_reason(exc))
+        # An error: keep what is written, give back the rest (after the
+        # attempts, the job fails); a store that refuses writes stops the job.
+        try:
+            run.commit()
+        except Exception:  # the store is what failed: the pending tiles go back too
+            pass
+        if is_store_error(exc):
+            stop_for_store(settings, job_id, worker, exc)
+        else:
+            release(settings, job_id, frame_index, worker, run.claimed, resend=True, reason=_reason(exc))
         raise
     finally:
         ACTIVITY["tile"] = None
-    return _finish_run(run, stopped)
+
+
+def stop_for_store(settings: Settings, job_id: str, worker: str, exc: BaseException) -> None:
+    """A write to the store failed (full, read-only, refused): the job fails
+    at once with the reason, the tiles this worker held go back to the
+    queue without counting an attempt, and a frame it was assembling goes
+    back to rendering. Written files are whole or absent (atomic renames),
+    so a retry, once the store is fixed, takes the job up where it stopped."""
+    reason = f"the store cannot be written ({_reason(exc)}); free space or fix {settings.store_path}, then retry the job"
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        c.execute(update(Job).where(Job.id == job_id, Job.status.in_(JOB.sources("failed")))
+                  .values(status="failed", error=reason[:600]))
+        c.execute(update(Tile).where(Tile.job_id == job_id, Tile.status == "running", Tile.worker == worker)
+                  .values(status=TILE.check("running", "queued"), worker=None, error=reason[:600],
+                          attempts=Tile.attempts - 1))
+        c.execute(update(Frame).where(Frame.job_id == job_id, Frame.assembler == worker,
+                                      Frame.status == FRAME.step("assembling", "rendering")).values(status="rendering"))
 
 
 def _finish_run(run: TileRun, stopped: str | None) -> str:
@@ -219,6 +268,11 @@ def _finish_run(run: TileRun, stopped: str | None) -> str:
         if _finish_whole_frame(run):
             return "rendered"
     run.commit()
+    if stopped == SOFT_LIMIT:
+        release(run.settings, run.job_id, run.frame_index, run.worker, run.unrendered(), resend=True, untried=True,
+                reason=f"TimeLimitExceeded: the run of {len(run.claimed)} tiles passed the soft time limit of "
+                       f"{run.settings.tile_soft_time_limit_s} s after {len(run.local)}; the rest was given back")
+        return stopped
     if stopped:
         release(run.settings, run.job_id, run.frame_index, run.worker, run.unrendered(), resend=False)
         return stopped
@@ -305,23 +359,30 @@ def _reason(exc: BaseException) -> str:
 
 
 def release(settings: Settings, job_id: str, frame_index: int, worker: str, tiles: list[int], resend: bool,
-            reason: str | None = None) -> None:
+            reason: str | None = None, untried: bool = False) -> None:
     """Gives tiles this worker claimed but did not finish back to the queue
-    (a pause, a cancel, a time limit or an error), and sends them again if
-    the job goes on; after an error, a tile that failed too often fails
-    its job instead."""
+    (a pause, a cancel, a time limit or an error) and, if the job goes on,
+    writes their message to the outbox in the same transaction (then sends
+    it if the broker answers); after an error, a tile that failed too often
+    fails its job instead. ``untried``: the tiles were never started (a run
+    stopped by its soft time limit), so the attempt is not counted."""
     if not tiles:
         return
     with engine_for(settings.sqlalchemy_url).begin() as c:
         mine = (*tile_key(job_id, frame_index), Tile.tile_index.in_(tiles), Tile.status == "running", Tile.worker == worker)
-        if resend:
+        if resend and not untried:
             failed = c.execute(update(Tile).where(*mine, Tile.attempts >= settings.max_tile_attempts)
-                               .values(status=TILE.check("running", "failed")).returning(Tile.tile_index)).scalars().all()
+                               .values(status=TILE.check("running", "failed"), error=reason)
+                               .returning(Tile.tile_index)).scalars().all()
             if failed:
                 c.execute(update(Job).where(Job.id == job_id, Job.status.in_(JOB.sources("failed"))).values(
                     status="failed", error=f"tile {frame_index}/{failed[0]} failed {settings.max_tile_attempts} times"
                     + (f" ({reason})" if reason else "")))
                 resend = False
-        c.execute(update(Tile).where(*mine).values(status=TILE.check("running", "queued"), worker=None))
+        back = c.execute(update(Tile).where(*mine).values(
+            status=TILE.check("running", "queued"), worker=None, error=reason,
+            **({"attempts": Tile.attempts - 1} if untried else {})).returning(Tile.tile_index)).scalars().all()
+        if resend and back:
+            add_runs(c, job_id, [(frame_index, sorted(back))], priority=9)
     if resend:
-        send_runs(settings, job_id, [(frame_index, tiles)], priority=9)
+        try_drain(settings, job_id, who=f"argand worker {worker}")

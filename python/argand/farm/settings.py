@@ -40,6 +40,14 @@ class Settings(BaseSettings):
     max_active_jobs: int = Field(100, ge=1)
     #: Bytes in one request body; more is a 413.
     max_body_bytes: int = Field(1 << 20, ge=1024)
+    #: Free bytes the data folder must keep: below it new jobs are refused (507).
+    min_free_bytes: int = Field(256 << 20, ge=0)
+    #: Event streams (SSE) open at once, from one client address and in all; more is a 429.
+    max_streams_per_client: int = Field(8, ge=1)
+    max_streams: int = Field(64, ge=1)
+    #: Reads (GET) need the token too (when a token is set). Off by default:
+    #: on loopback the front end's images and event stream are plain GETs.
+    token_for_reads: bool = False
     default_tile: int = Field(64, ge=MIN_TILE, le=MAX_TILE)
     #: Most pixels in one message to a worker: a message carries a run of
     #: tiles of one frame (the tile stays the unit of state, storage and

@@ -12,6 +12,7 @@ one write and one rename.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import shutil
@@ -58,6 +59,22 @@ def unpack_arrays(data: bytes) -> dict[str, np.ndarray]:
     return out
 
 
+#: A write that fails with one of these is the store's fault, not the
+#: tile's: the job stops at once with the reason (retrying elsewhere would
+#: fail the same way), and a retry takes it up once the store is fixed.
+STORE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EACCES, errno.EPERM, errno.EROFS, errno.EFBIG})
+
+
+def is_store_error(exc: BaseException) -> bool:
+    """A failed write to the store: a full disk or quota, a folder or file
+    system that refuses writes, a file size limit; or an image writer's
+    refusal (argand.render.output raises OSError("cannot write ...") with
+    OpenImageIO's message, without an errno)."""
+    if not isinstance(exc, OSError):
+        return False
+    return exc.errno in STORE_ERRNOS or (exc.errno is None and str(exc).startswith("cannot write"))
+
+
 class FrameStore:
     def __init__(self, root: Path) -> None:
         self.root = Path(root)
@@ -82,10 +99,14 @@ class FrameStore:
         """Writes ``data`` (bytes, or a list of buffers written in order) to
         ``path``: readers see the whole file or none."""
         tmp = path.with_name(f"{path.name}.{uuid.uuid4().hex}.tmp")
-        with os.fdopen(self._open_new(tmp), "wb") as f:
-            for part in data if isinstance(data, list) else [data]:
-                f.write(part)
-        os.replace(tmp, path)
+        try:
+            with os.fdopen(self._open_new(tmp), "wb") as f:
+                for part in data if isinstance(data, list) else [data]:
+                    f.write(part)
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)  # nothing half-written stays behind
+            raise
 
     def prepare(self, path: Path) -> Path:
         """``path``, its folder made if missing: for OpenImageIO's EXR and PNG

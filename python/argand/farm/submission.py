@@ -3,9 +3,11 @@ its first messages sent."""
 
 from __future__ import annotations
 
+import shutil
 import time
 import uuid
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from sqlalchemy import func, insert, select
@@ -13,9 +15,8 @@ from sqlalchemy import func, insert, select
 from argand.farm.database import engine_for
 from argand.farm.dispatch import alive_workers
 from argand.farm.models import Frame, Job, Tile
-from argand.farm.planning import plan_runs, preview_order, tile_rects
-from argand.farm.queue import send_runs
-from argand.farm.planning import samples_of
+from argand.farm.outbox import add_runs, try_drain
+from argand.farm.planning import plan_runs, samples_of, tile_rects
 from argand.farm.rendering import core_scene_of, frame_plan
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
@@ -80,10 +81,42 @@ def check_renderable(spec: JobSpec) -> None:
     refused here, with the renderer's reason, instead of failing in a worker."""
     try:
         core = core_scene_of(spec.scene)
-        for delta in sorted(set(spec.deltas)):
-            frame_plan(core, spec.sigma, delta, spec.width, spec.height, spec.method, samples_of(spec.scene))
     except (ValueError, ArithmeticError, RuntimeError) as exc:
         raise JobRefused(f"the scene cannot be rendered: {exc}") from None
+    first = {}
+    for index, delta in enumerate(spec.deltas):
+        first.setdefault(delta, index)
+    for delta, index in sorted(first.items()):
+        try:
+            frame_plan(core, spec.sigma, delta, spec.width, spec.height, spec.method, samples_of(spec.scene))
+        except (ValueError, ArithmeticError, RuntimeError) as exc:
+            where = f"frame {index} (sigma {spec.sigma:.17g}, delta {delta:.17g})" if len(spec.deltas) > 1 else \
+                f"sigma {spec.sigma:.17g}, delta {delta:.17g}"
+            raise JobRefused(f"the scene cannot be rendered: {exc} [at {where}]") from None
+
+
+class StoreFull(JobRefused):
+    """The data folder's free space is below the floor (a 507)."""
+
+
+def free_bytes(path) -> int:
+    """Free bytes (for an unprivileged user) on the file system of ``path``
+    (or of its nearest existing parent)."""
+    path = Path(path)
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return shutil.disk_usage(path).free
+
+
+def check_disk(settings: Settings) -> None:
+    """Raises StoreFull when the data folder has less free space than
+    min_free_bytes: a new job would fill the disk, and the jobs already
+    accepted need the room to finish."""
+    free = free_bytes(settings.store_path)
+    if free < settings.min_free_bytes:
+        raise StoreFull(f"the data folder {settings.data_path} has {free // (1 << 20)} MiB free, below the floor of "
+                        f"{settings.min_free_bytes // (1 << 20)} MiB (setting ARGAND_MIN_FREE_BYTES): new jobs are "
+                        "refused until space is freed (delete finished jobs)")
 
 
 def check_in_flight(settings: Settings) -> None:
@@ -95,37 +128,32 @@ def check_in_flight(settings: Settings) -> None:
                        "retry when some have finished")
 
 
-def create_job(settings: Settings, spec: JobSpec) -> str:
-    """Checks the limits, stores the job, its frames and tiles, and sends its
-    messages. The first frames' tiles are stored and sent first, so workers
-    start while the rest is written. Returns the job's id."""
+def create_job(settings: Settings, spec: JobSpec, send: bool = True) -> str:
+    """Checks the limits, then stores the job, its frames, its tiles and its
+    messages (outbox rows, argand.farm.outbox) in one transaction: a broker
+    outage, or a crash right after the commit, cannot leave a queued job
+    without work. With ``send``, the messages are then sent here if the
+    broker answers (else they wait for a drainer); the API passes False and
+    wakes its drainer instead, so a submission never waits on the broker.
+    Returns the job's id."""
     check_limits(settings, spec)
     check_renderable(spec)
     check_in_flight(settings)
+    check_disk(settings)
     job_id = uuid.uuid4().hex[:12]
     rects = tile_rects(spec.width, spec.height, spec.tile)
     n_frames = len(spec.deltas)
     workers = max(1, alive_workers(settings))
     runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects, settings.batch_pixels, workers)
-    early = set(preview_order(n_frames)[:2 * workers])
-    split = next((k for k, (f, _) in enumerate(runs) if f not in early), len(runs))
-
-    def tiles_of(frames):
-        return [dict(job_id=job_id, frame_index=i, tile_index=t, status="queued", attempts=0, renders=0)
-                for i in sorted(frames) for t in range(len(rects))]
-
-    eng = engine_for(settings.sqlalchemy_url)
-    with eng.begin() as c:
+    with engine_for(settings.sqlalchemy_url).begin() as c:
         c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=spec.scene,
                                      sigma=spec.sigma, width=spec.width, height=spec.height, tile=spec.tile,
                                      method=spec.method, priority=spec.priority, created=time.time()))
         c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=spec.sigma, delta=d, status="queued",
                                        tiles_total=len(rects), tiles_done=0) for i, d in enumerate(spec.deltas)])
-        c.execute(insert(Tile), tiles_of(early))
-    send_runs(settings, job_id, runs[:split], spec.priority)
-    rest = set(range(n_frames)) - early
-    if rest:
-        with eng.begin() as c:
-            c.execute(insert(Tile), tiles_of(rest))
-        send_runs(settings, job_id, runs[split:], spec.priority)
+        c.execute(insert(Tile), [dict(job_id=job_id, frame_index=i, tile_index=t, status="queued", attempts=0,
+                                      renders=0) for i in range(n_frames) for t in range(len(rects))])
+        add_runs(c, job_id, runs, spec.priority)
+    if send:
+        try_drain(settings, job_id)
     return job_id

@@ -4,7 +4,11 @@ render_tile runs (``_core.explain_pixel``), so that anyone can check a pixel
 independently (e.g. with python-flint on the exact ray polynomial).
 
 The ray's origin and direction are the exact doubles the renderer uses;
-``float.hex`` prints them without loss.
+``float.hex`` prints them without loss. When the pixel reaches the exact
+tier (ladder level 4), its steps are printed too: the exact polynomial's
+squarefree factors, the root balls at each precision with their decisions,
+and its conclusion (the tier runs for the explained pixel whatever its
+tile's budget).
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ from __future__ import annotations
 from typing import Any
 
 from argand.core import _core
+from argand.render.exact import decide_pixel
 from argand.render.frames import ESCALATION_NAMES, STATUS_NAMES, FrameParams, plan
 
 
@@ -30,7 +35,7 @@ def explain_pixel(scene: Any, params: FrameParams, x: int, y: int, tile: int = 6
     if not 0 <= sample < params.samples:
         raise ValueError(f"sample {sample} is not one of the pixel's {params.samples} samples (0..{params.samples - 1})")
     frame_plan = plan(to_core_scene(scene), params)
-    return _core.explain_pixel(frame_plan, int(x), int(y), int(x) // tile * tile, int(sample))
+    return _core.explain_pixel(frame_plan, int(x), int(y), int(x) // tile * tile, int(sample), exact=decide_pixel)
 
 
 def format_explanation(e: dict) -> list[str]:
@@ -51,13 +56,21 @@ def format_explanation(e: dict) -> list[str]:
     lines.append("discs (in band / inside clip: yes, no, unknown):")
     for i, d in enumerate(e["discs"]):
         z = d["center"]
-        mark = "  <- chosen" if i == e["chosen"] else ""
+        mark = "  <- chosen" if i == e["chosen"] and e["chosen"] >= 0 else ""
         lines.append(
             f"  [{i}] object {d['object']} centre {z.real!r} {'-' if z.imag < 0 else '+'} {abs(z.imag)!r}i radius {d['radius']:.3e} count {d['count']} "
             f"verified {d['verified']} real {d['real']} |t| in [{d['modulus'][0]!r}, {d['modulus'][1]!r}] "
             f"band {d['in_band']} clip {d['inside_clip']} at t=0 {d['at_origin']} live {d['live']} "
             f"eligible {d['eligible']}{mark}"
         )
+    if e.get("exact_ran"):
+        x = e["exact"]
+        lines.append("exact tier (the exact rational ray polynomial, python-flint/arb):")
+        lines += [f"  {step}" for step in x["steps"]]
+        if x["decided"] and x["hit"]:
+            z = x["root"]
+            lines.append(f"  the pixel's root: object {x['object']}, t = {z.real!r} {'-' if z.imag < 0 else '+'} "
+                         f"{abs(z.imag)!r}i (nearest doubles), eligible roots {x['eligible']}")
     lines.append(
         f"status {e['status']} ({STATUS_NAMES[e['status']]}): {e['reason']}; "
         f"{'hit' if e['hit'] else 'miss'}; ladder level {e['escalation']} ({ESCALATION_NAMES[e['escalation']]})"

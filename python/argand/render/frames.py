@@ -19,6 +19,7 @@ from typing import Any, Callable, Iterable
 import numpy as np
 
 from argand.core import _core
+from argand.render.exact import decide_pixel
 
 #: AOV names, in the order they are stored in EXR files after R, G, B, A
 #: (the one channel list: the farm, the EXR writer and the tests read it).
@@ -33,6 +34,19 @@ STATUS_NAMES: dict[int, str] = dict(_core.STATUS_NAMES)
 #: Ladder levels (the ``escalation`` AOV): how far a pixel had to go before
 #: its decision was proven (or the ladder ran out). Defined in C++.
 ESCALATION_NAMES: dict[int, str] = dict(_core.ESCALATION_NAMES)
+#: The exact tier's levels (argand.render.exact decides the pixel on the exact
+#: rational ray polynomial), and the level of a pixel the tier's per-tile
+#: budget left undecided.
+EXACT_LEVELS = (4, 5)
+EXACT_MULTIPLE_LEVEL = 5
+EXACT_OVER_CAP_LEVEL = 6
+
+#: The exact tier's bounds (defaults of FrameParams, defined in C++): pixels
+#: per tile it may take, its highest working precision in bits, and the
+#: largest precision a frame may ask for.
+EXACT_PIXELS_PER_TILE: int = _core.EXACT_PIXELS_PER_TILE
+EXACT_MAX_BITS: int = _core.EXACT_MAX_BITS
+MAX_EXACT_BITS: int = _core.MAX_EXACT_BITS
 
 #: Most objects in one scene, the largest frame side, and the band rule (all
 #: defined in C++, where plan_frame enforces them).
@@ -57,6 +71,10 @@ class FrameParams:
     #: Per pixel, a square (1, 4, ..., MAX_SAMPLES): a side x side grid of
     #: strata, each sampled at its centre.
     samples: int = 1
+    #: The exact tier: at most this many pixels per tile (0: off), up to
+    #: this many bits of precision.
+    exact_pixels_per_tile: int = EXACT_PIXELS_PER_TILE
+    exact_max_bits: int = EXACT_MAX_BITS
 
     def __post_init__(self) -> None:
         from argand.scene.model import check_samples
@@ -69,6 +87,11 @@ class FrameParams:
         if not (1 <= self.width <= MAX_FRAME_SIDE and 1 <= self.height <= MAX_FRAME_SIDE):
             side = MAX_FRAME_SIDE
             raise ValueError(f"frame size must be between 1x1 and {side}x{side}, got {self.width}x{self.height}")
+        if not (isinstance(self.exact_pixels_per_tile, int) and self.exact_pixels_per_tile >= 0):
+            raise ValueError(f"exact_pixels_per_tile must be an integer >= 0 (0: no exact tier), "
+                             f"got {self.exact_pixels_per_tile!r}")
+        if not (isinstance(self.exact_max_bits, int) and 64 <= self.exact_max_bits <= MAX_EXACT_BITS):
+            raise ValueError(f"exact_max_bits must be an integer in 64..{MAX_EXACT_BITS}, got {self.exact_max_bits!r}")
 
 
 @dataclass(frozen=True)
@@ -139,12 +162,14 @@ def plan(core_scene: dict, params: FrameParams) -> Any:
         params.method,
         int(params.max_depth),
         bool(params.hue_by_argument),
+        exact_pixels_per_tile=int(params.exact_pixels_per_tile),
+        exact_max_bits=int(params.exact_max_bits),
         samples=int(params.samples),
     )
 
 
 def render_tile_planned(frame_plan: Any, rect: TileRect) -> TileAOVs:
-    out = _core.render_tile(frame_plan, rect.x0, rect.y0, rect.x1, rect.y1)
+    out = _core.render_tile(frame_plan, rect.x0, rect.y0, rect.x1, rect.y1, exact=decide_pixel)
     aovs = {name: out[name] for name in AOV_CHANNELS}
     return TileAOVs(rect, out["rgba"], aovs, int(out["escalations"]), int(out["root_calls"]))
 
@@ -169,7 +194,8 @@ def render_tile_into(frame_plan: Any, rect: TileRect, out: np.ndarray, ox: int =
     (h, w, len(INTERLEAVED_CHANNELS)) float32 array in that order (count,
     status and escalation as floats, exactly). Returns (escalations, root_calls, stats) with stats
     = [pixels per status code 0..3, pixels that hit] (int64)."""
-    esc, calls, counts, hits = _core.render_tile_into(frame_plan, rect.x0, rect.y0, rect.x1, rect.y1, out, ox, oy)
+    esc, calls, counts, hits = _core.render_tile_into(frame_plan, rect.x0, rect.y0, rect.x1, rect.y1, out, ox, oy,
+                                                      exact=decide_pixel)
     return int(esc), int(calls), np.array([*counts, hits], np.int64)
 
 
@@ -247,6 +273,9 @@ def render_frame(
 def frame_figures(result: FrameResult) -> dict[str, Any]:
     p = result.params
     n = p.width * p.height
+    levels = np.bincount(np.asarray(result.aovs["escalation"]).astype(np.intp, copy=False).ravel(),
+                         minlength=len(ESCALATION_NAMES))
+    exact = int(sum(levels[k] for k in EXACT_LEVELS))
     return {
         "sigma": p.sigma,
         "delta": p.delta,
@@ -262,6 +291,16 @@ def frame_figures(result: FrameResult) -> dict[str, Any]:
         "hit_share": result.hit_share,
         "escalations": result.escalations,
         "escalated_share": result.escalations / n,
+        # Pixels per ladder level (ESCALATION_NAMES), and the exact tier's
+        # share: pixels it decided or tried (levels 4, 5), multiple roots it
+        # proved, pixels its per-tile budget left out.
+        "escalation_levels": {ESCALATION_NAMES[k]: int(levels[k]) for k in range(len(ESCALATION_NAMES))},
+        "exact_pixels": exact,
+        "exact_share": exact / n,
+        "exact_multiple_roots": int(levels[EXACT_MULTIPLE_LEVEL]),
+        "exact_over_cap": int(levels[EXACT_OVER_CAP_LEVEL]),
+        "exact_pixels_per_tile": p.exact_pixels_per_tile,
+        "exact_max_bits": p.exact_max_bits,
         "root_calls": result.root_calls,
     }
 
