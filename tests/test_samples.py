@@ -229,6 +229,9 @@ def test_the_farm_s_sampled_frame_equals_argand_render(tmp_path):
                              ("many", "valid integer"), (0, "greater than or equal to 1")]:
             r = farm.post("/api/jobs", {"scene": "whitney", "samples": bad})
             assert r.status_code == 422 and message in r.text, r.text
+        # A sample costs what a pixel does: the job's size limit counts rays.
+        r = farm.post("/api/jobs", {"scene": "whitney", "width": 4096, "height": 4096, "samples": 64})
+        assert r.status_code == 422 and "16777216 pixels x 64 samples per pixel = 1073741824 rays" in r.text, r.text
         r = farm.post("/api/jobs", {"scene": "whitney", "deltas": [0.0, 0.3], "width": 20, "height": 14, "tile": 8,
                                     "samples": 9})
         assert r.status_code == 201, r.text

@@ -66,8 +66,10 @@ def check_limits(settings: Settings, spec: JobSpec) -> None:
     if len(spec.deltas) > settings.max_frames:
         raise JobRefused(f"{len(spec.deltas)} frames exceed the limit of {settings.max_frames}")
     pixels = spec.width * spec.height * len(spec.deltas)
-    if pixels > settings.max_job_pixels:
-        raise JobRefused(f"the job has {pixels} pixels, above the limit of {settings.max_job_pixels}")
+    samples = samples_of(spec.scene)  # a sample costs what a pixel does: the limit counts traced rays
+    if pixels * samples > settings.max_job_pixels:
+        rays = f" x {samples} samples per pixel = {pixels * samples} rays" if samples > 1 else ""
+        raise JobRefused(f"the job has {pixels} pixels{rays}, above the limit of {settings.max_job_pixels}")
     tiles = -(-spec.width // spec.tile) * -(-spec.height // spec.tile) * len(spec.deltas)
     if tiles > settings.max_job_tiles:
         raise JobRefused(f"the job has {tiles} tiles ({spec.tile}-pixel tiles), above the limit of "
