@@ -30,13 +30,14 @@ def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] =
         job = c.execute(select(Job.priority, Job.width, Job.height, Job.tile).where(Job.id == job_id)).first()
         if job is None:
             return 0
-        n_frames = c.execute(select(func.count()).select_from(Frame).where(Frame.job_id == job_id)).scalar()
+        positions = [tuple(p) for p in c.execute(select(Frame.sigma_index, Frame.delta_index).where(
+            Frame.job_id == job_id).order_by(Frame.index))]
         rows = c.execute(select(Tile.frame_index, Tile.tile_index).where(
             Tile.job_id == job_id, Tile.status.in_(only_status)).order_by(Tile.frame_index, Tile.tile_index)).all()
     by_frame: dict[int, list[int]] = {}
     for f, t in rows:
         by_frame.setdefault(f, []).append(t)
-    runs = plan_runs(by_frame, n_frames, tile_rects(job.width, job.height, job.tile), settings.batch_pixels,
-                     max(1, alive_workers(settings)))
+    runs = plan_runs(by_frame, len(positions), tile_rects(job.width, job.height, job.tile), settings.batch_pixels,
+                     max(1, alive_workers(settings)), positions)
     send_runs(settings, job_id, runs, job.priority if priority is None else priority)
     return len(rows)

@@ -18,7 +18,8 @@ from argand.farm.queue import send_runs
 from argand.farm.rendering import core_scene_of, frame_plan
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
-from argand.render.frames import delta_sweep
+from argand.render.grid import (BandRuleError, FrameGrid, atlas_frames, atlas_grid, axis_values, check_band_rule,
+                               frame_grid)
 
 
 class JobRefused(ValueError):
@@ -33,8 +34,7 @@ class FarmBusy(JobRefused):
 class JobSpec:
     scene_name: str
     scene: dict
-    sigma: float
-    deltas: list[float]
+    frames: FrameGrid
     width: int
     height: int
     tile: int
@@ -42,31 +42,50 @@ class JobSpec:
     method: str = "auto"
 
 
-def sweep_deltas(deltas: Any, max_frames: int | None = None) -> list[float]:
-    """A job's deltas: a list, or {start, stop, count} swept as `argand
-    render --deltas` sweeps it (the same values to the last bit). With
-    ``max_frames``, a count above it is refused before anything is expanded."""
-    n = int(deltas["count"]) if isinstance(deltas, dict) else len(deltas)
+def _count(axis: Any) -> int:
+    return int(axis["count"]) if isinstance(axis, dict) else len(axis)
+
+
+def sweep_axis(axis: Any) -> list[float]:
+    """One axis of a job (σ or δ): a list, or {start, stop, count} swept as
+    `argand render --sigmas/--deltas` sweeps it (the same values to the last bit)."""
+    if isinstance(axis, dict):
+        return axis_values((float(axis["start"]), float(axis["stop"]), int(axis["count"])))
+    return [float(v) for v in axis]
+
+
+def job_frames(sigmas: Any = (0.0,), deltas: Any = (0.0,), atlas: int | None = None,
+               max_frames: int | None = None) -> FrameGrid:
+    """A job's (σ, δ) frames: the grid sigmas x deltas (each a list or
+    {start, stop, count}), or with ``atlas`` the triangular grid of that many
+    steps over σ ≥ 0, σ + δ ≤ π (argand.render.grid). With ``max_frames`` a
+    job above it is refused before anything is expanded; a pair that breaks
+    the band rule is refused naming it."""
+    n = atlas_frames(atlas) if atlas is not None else _count(sigmas) * _count(deltas)
     if max_frames is not None and n > max_frames:
         raise JobRefused(f"{n} frames exceed the limit of {max_frames}")
-    if isinstance(deltas, dict):
-        return delta_sweep(float(deltas["start"]), float(deltas["stop"]), int(deltas["count"]))
-    return [float(d) for d in deltas]
+    try:
+        return atlas_grid(atlas) if atlas is not None else frame_grid(sweep_axis(sigmas), sweep_axis(deltas))
+    except ValueError as exc:
+        raise JobRefused(str(exc)) from None
 
 
 def check_limits(settings: Settings, spec: JobSpec) -> None:
     """Raises JobRefused, naming the limit, for a job above the settings' limits."""
-    if any(d < 0 for d in spec.deltas):
-        raise JobRefused("every delta must be >= 0")
+    n_frames = len(spec.frames)
+    try:
+        check_band_rule([(p.sigma, p.delta) for p in spec.frames.points])
+    except BandRuleError as exc:
+        raise JobRefused(str(exc)) from None
     if spec.width > settings.max_width or spec.height > settings.max_height:
         raise JobRefused(f"frame size {spec.width}x{spec.height} exceeds the limit "
                          f"{settings.max_width}x{settings.max_height}")
-    if len(spec.deltas) > settings.max_frames:
-        raise JobRefused(f"{len(spec.deltas)} frames exceed the limit of {settings.max_frames}")
-    pixels = spec.width * spec.height * len(spec.deltas)
+    if n_frames > settings.max_frames:
+        raise JobRefused(f"{n_frames} frames exceed the limit of {settings.max_frames}")
+    pixels = spec.width * spec.height * n_frames
     if pixels > settings.max_job_pixels:
         raise JobRefused(f"the job has {pixels} pixels, above the limit of {settings.max_job_pixels}")
-    tiles = -(-spec.width // spec.tile) * -(-spec.height // spec.tile) * len(spec.deltas)
+    tiles = -(-spec.width // spec.tile) * -(-spec.height // spec.tile) * n_frames
     if tiles > settings.max_job_tiles:
         raise JobRefused(f"the job has {tiles} tiles ({spec.tile}-pixel tiles), above the limit of "
                          f"{settings.max_job_tiles}: use larger tiles or fewer frames")
@@ -79,8 +98,8 @@ def check_renderable(spec: JobSpec) -> None:
     refused here, with the renderer's reason, instead of failing in a worker."""
     try:
         core = core_scene_of(spec.scene)
-        for delta in sorted(set(spec.deltas)):
-            frame_plan(core, spec.sigma, delta, spec.width, spec.height, spec.method)
+        for sigma, delta in sorted({(p.sigma, p.delta) for p in spec.frames.points}):
+            frame_plan(core, sigma, delta, spec.width, spec.height, spec.method)
     except (ValueError, ArithmeticError, RuntimeError) as exc:
         raise JobRefused(f"the scene cannot be rendered: {exc}") from None
 
@@ -103,10 +122,11 @@ def create_job(settings: Settings, spec: JobSpec) -> str:
     check_in_flight(settings)
     job_id = uuid.uuid4().hex[:12]
     rects = tile_rects(spec.width, spec.height, spec.tile)
-    n_frames = len(spec.deltas)
+    n_frames, positions = len(spec.frames), spec.frames.positions
     workers = max(1, alive_workers(settings))
-    runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects, settings.batch_pixels, workers)
-    early = set(preview_order(n_frames)[:2 * workers])
+    runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects, settings.batch_pixels,
+                     workers, positions)
+    early = set(preview_order(n_frames, positions=positions)[:2 * workers])
     split = next((k for k, (f, _) in enumerate(runs) if f not in early), len(runs))
 
     def tiles_of(frames):
@@ -116,10 +136,11 @@ def create_job(settings: Settings, spec: JobSpec) -> str:
     eng = engine_for(settings.sqlalchemy_url)
     with eng.begin() as c:
         c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=spec.scene,
-                                     sigma=spec.sigma, width=spec.width, height=spec.height, tile=spec.tile,
+                                     width=spec.width, height=spec.height, tile=spec.tile,
                                      method=spec.method, priority=spec.priority, created=time.time()))
-        c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=spec.sigma, delta=d, status="queued",
-                                       tiles_total=len(rects), tiles_done=0) for i, d in enumerate(spec.deltas)])
+        c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=p.sigma, delta=p.delta, sigma_index=p.sigma_index,
+                                       delta_index=p.delta_index, status="queued", tiles_total=len(rects), tiles_done=0)
+                                  for i, p in enumerate(spec.frames.points)])
         c.execute(insert(Tile), tiles_of(early))
     send_runs(settings, job_id, runs[:split], spec.priority)
     rest = set(range(n_frames)) - early
