@@ -72,20 +72,23 @@ def test_a_grid_job_over_http_is_argand_render_of_the_same_grid(farm, tmp_path):
     with av.open(str(local / "animation.mp4")) as container:
         assert sum(1 for _ in container.decode(video=0)) == 9
     # Each decoded frame is nearest to its own PNG (the MP4 keeps the order).
-    pngs = [np.asarray(__import__("PIL.Image").Image.open(local / f"frame_{k:04d}.png").convert("RGB")) for k in range(9)]
+    from PIL import Image
+
+    pngs = []
+    for k in range(9):
+        with Image.open(local / f"frame_{k:04d}.png") as im:
+            pngs.append(np.asarray(im.convert("RGB")))
     for k, fr in enumerate(frames):
         err = [np.abs(fr.astype(int) - p.astype(int)).mean() for p in pngs]
         assert err[k] == min(err) and err[k] < 6, (k, err)
     assert httpx.get(farm.url + job["mp4_url"]).content == mp4.content  # made once, kept
 
     # The atlas: a PNG with a cell per frame, served, and written by argand render.
-    from PIL import Image
-
     atlas = httpx.get(farm.url + job["atlas_url"], timeout=60)
     assert atlas.status_code == 200 and atlas.headers["content-type"] == "image/png"
     for data in (atlas.content, (local / "atlas.png").read_bytes()):
-        im = Image.open(io.BytesIO(data))
-        assert im.width > 3 * 40 and im.height > 3 * 32
+        with Image.open(io.BytesIO(data)) as im:
+            assert im.width > 3 * 40 and im.height > 3 * 32
     # A sweep (one σ) has no atlas.
     one = farm.post("/api/jobs", {**GRID, "sigmas": "pi/36", "width": 16, "height": 16}).json()
     one = farm.wait_job(one["id"])

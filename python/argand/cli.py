@@ -151,7 +151,7 @@ def render(
         else:
             def axis(one: Optional[str], sweep: Optional[str], name: str) -> list[float]:
                 try:
-                    return axis_values(parse_sweep(sweep) if sweep is not None else parse_angle(one or "0"))
+                    return axis_values(parse_sweep(sweep) if sweep is not None else parse_angle("0" if one is None else one))
                 except ValueError as exc:
                     raise ValueError(f"--{name}: {exc}") from None
             grid = frame_grid(axis(sigma, sigmas, "sigmas" if sigmas else "sigma"),
