@@ -3,12 +3,16 @@
 The commit that completes a frame elects its assembler (compare-and-set on
 the frame's state); assembly (EXR with every channel, PNG, thumbnail, the
 frame's GIF fragment) is idempotent. The frame that completes the job
-splices the animation from the fragments (argand.render.gif)."""
+splices the animation from the fragments (argand.render.gif). The WebP, the
+MP4 and a grid's atlas.png are made from the frames' files on their first
+request, so no encoding stands between the last frame and the job's end."""
 
 from __future__ import annotations
 
 import json
+import os
 import time
+import uuid
 from typing import Any
 
 import numpy as np
@@ -23,8 +27,11 @@ from argand.farm.settings import Settings
 from argand.farm.states import FRAME, JOB
 from argand.farm.store import FrameStore, store_for
 from argand.render import gif
+from argand.render.atlas import atlas_png as draw_atlas, cell_size, scale_to_cell
 from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, STATUS_NAMES, FrameParams, FrameResult, frame_figures
+from argand.render.grid import FrameGrid, FramePoint
 from argand.render.output import to_srgb8, write_exr, write_png
+from argand.render.video import Mp4Encoder
 
 #: The thumbnail keeps every step-th pixel, step = max(width, height) // THUMBNAIL_SIZE.
 THUMBNAIL_SIZE = 160
@@ -173,11 +180,6 @@ def animation_mp4(settings: Settings, job_id: str, n_frames: int, fps: float = 8
     one at a time, made on first request and kept: encoding it is no step
     between the last frame and the job's end. Two first requests at once
     each write their own temporary file; the last rename wins, whole."""
-    import os
-    import uuid
-
-    from argand.render.video import Mp4Encoder
-
     layout = store_for(settings).job(job_id)
     path = layout.animation("mp4")
     if path.exists():
@@ -195,9 +197,6 @@ def animation_mp4(settings: Settings, job_id: str, n_frames: int, fps: float = 8
 def atlas_png(settings: Settings, job_id: str) -> bool:
     """atlas.png of a finished grid job, from the frames' thumbnails, made on
     first request and kept (False: the job is not a grid of several σ and δ)."""
-    from argand.render.atlas import atlas_png as draw_atlas, cell_size, scale_to_cell
-    from argand.render.grid import FrameGrid, FramePoint
-
     store = store_for(settings)
     layout = store.job(job_id)
     path = layout.atlas()
