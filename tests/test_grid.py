@@ -88,6 +88,17 @@ def test_the_preview_order_on_a_grid_is_every_other_row_and_column_first():
     assert sorted(order) == list(range(len(a)))
 
 
+def test_a_grid_jobs_messages_go_out_in_its_preview_order():
+    from argand.farm.planning import plan_runs, tile_rects
+
+    for g in (frame_grid([0.0, 0.1, 0.2], [0.1, 0.2, 0.3, 0.4]), atlas_grid(5)):
+        rects = tile_rects(64, 48, 16)
+        by_frame = {f: list(range(len(rects))) for f in range(len(g))}
+        runs = plan_runs(by_frame, len(g), rects, 64 * 48, 2, g.positions)
+        assert list(dict.fromkeys(f for f, _ in runs)) == preview_order(len(g), positions=g.positions)
+        assert sorted((f, t) for f, run in runs for t in run) == [(f, t) for f in range(len(g)) for t in range(len(rects))]
+
+
 def test_angles_are_labelled_as_fractions_of_pi():
     assert [format_angle(v) for v in (0.0, math.pi, math.pi / 4, 2 * math.pi / 3, math.pi / 36, -math.pi / 9)] == \
         ["0", "π", "π/4", "2π/3", "π/36", "-π/9"]

@@ -190,6 +190,19 @@ def test_a_grid_job_plays_along_both_axes_and_its_atlas_opens_frames(farm, page,
     assert page.is_hidden("#canvas")
     page.click("#show-mp4")
     assert page.is_visible("#canvas") and page.is_hidden("#video")
+    # The form's atlas: the whole space on a triangle of 3 steps (6 frames).
+    page.goto(farm.url + "/#/new")
+    page.click("[data-preset=whitney]")
+    page.check("#atlas")
+    page.fill("#atlas-steps", "3")
+    for field, value in (("#width", "32"), ("#height", "32"), ("#tile", "32")):
+        page.fill(field, value)
+    page.click("#submit")
+    page.wait_for_url("**/#/job/*")
+    page.wait_for_function("document.querySelector('#status')?.textContent === 'done'", timeout=120_000)
+    atlas = farm.get(f"/api/jobs/{page.url.rsplit('/', 1)[1]}")
+    assert len(atlas["frames"]) == 6 and len(atlas["sigmas"]) == len(atlas["deltas"]) == 3
+    assert page.locator("#grid.atlas .cell").count() == 6
     assert not page.errors, page.errors
 
 

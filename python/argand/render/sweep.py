@@ -41,12 +41,13 @@ def render_sweep(
     on_frame: Callable[[int, FrameParams], None] | None = None,
     on_tile: Callable[[TileAOVs], None] | None = None,
     grid: FrameGrid | None = None,
+    mp4: bool = True,
 ) -> list[dict]:
     """Renders ``params`` in order on ``workers`` threads (encoding too) and
     writes frame_NNNN.exr/.png/.json under ``out``, animation.gif and
-    animation.mp4 when there is more than one frame, and atlas.png when
-    ``grid`` (the frames' places, one per param) has more than one σ and δ.
-    Returns each frame's figures."""
+    animation.mp4 (unless not ``mp4``) when there is more than one frame, and
+    atlas.png when ``grid`` (the frames' places, one per param) has more than
+    one σ and δ. Returns each frame's figures."""
     from argand.render import gif
     from argand.render.atlas import atlas_png, cell_size, scale_to_cell
     from argand.render.output import to_srgb8, write_frame
@@ -61,7 +62,7 @@ def render_sweep(
     mp4_tmp = out / "animation.mp4.tmp"
     if animated:
         out.mkdir(parents=True, exist_ok=True)
-    with oiio_threads(workers), (Mp4Encoder(mp4_tmp, fps) if animated else nullcontext()) as mp4:
+    with oiio_threads(workers), (Mp4Encoder(mp4_tmp, fps) if animated and mp4 else nullcontext()) as video:
         for index, p in enumerate(params):
             if on_frame:
                 on_frame(index, p)
@@ -70,13 +71,15 @@ def render_sweep(
             write_frame(result, out, index, srgb8=srgb, compression=compression)
             if animated:
                 previews.append(gif.encode_frame(srgb))
-                mp4.add(srgb)
+                if video is not None:
+                    video.add(srgb)
             if atlas:  # kept at the atlas's cell size only
                 cells[index] = scale_to_cell(srgb, cell_size(p.width, p.height))
             figures.append(result.figures)
     if previews:
         _write_atomic(out / "animation.gif", gif.splice(previews, fps=fps))
-        mp4_tmp.replace(out / "animation.mp4")
+        if mp4:
+            mp4_tmp.replace(out / "animation.mp4")
     if atlas:
         _write_atomic(out / "atlas.png", atlas_png(grid, cells, params[0].width, params[0].height))
     return figures
