@@ -91,9 +91,10 @@ def check_band_rule(pairs: Sequence[tuple[float, float]]) -> None:
         return
     named = ", ".join(f"(sigma = {s!r}, delta = {d!r})" for s, d in bad[:QUOTED_PAIRS])
     more = f" and {len(bad) - QUOTED_PAIRS} more" if len(bad) > QUOTED_PAIRS else ""
-    raise BandRuleError(
-        f"{len(bad)} of the {len(pairs)} frames break the band rule ({BAND_RULE}): {named}{more}; "
-        "an atlas covers the whole space within the rule")
+    which = "the frame breaks" if len(pairs) == 1 else \
+        f"{len(bad)} of the {len(pairs)} frames {'breaks' if len(bad) == 1 else 'break'}"
+    raise BandRuleError(f"{which} the band rule ({BAND_RULE}): {named}{more}; "
+                        "an atlas covers the whole space within the rule")
 
 
 def frame_grid(sigmas: Sequence[float], deltas: Sequence[float]) -> FrameGrid:
