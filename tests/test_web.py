@@ -90,6 +90,7 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     page.eval_on_selector("#scrub", "(el) => { el.value = 3; el.dispatchEvent(new Event('input')); }")
     assert f"δ = {job['frames'][3]['delta']:.4f}" in page.text_content("#scrub-label")
     page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'beauty/3'")
+    assert page.is_hidden("#scrub-sigma") and page.is_hidden("#play-axis")  # one σ: δ only
     page.screenshot(path=str(SHOTS / "job.png"), full_page=True)
     # The status channel.
     page.select_option("#channel", "status")
@@ -152,6 +153,7 @@ def test_a_grid_job_plays_along_both_axes_and_its_atlas_opens_frames(farm, page,
     page.wait_for_function("[...document.querySelectorAll('#grid.atlas .cell img')].length === 12 && "
                            "[...document.querySelectorAll('#grid .cell img')].every(i => i.complete && i.naturalWidth > 0)")
     assert page.locator("#grid .axis").count() == 3 + 4
+    assert page.is_visible("#scrub") and page.is_visible("#scrub-sigma") and page.is_visible("#play-axis")
     # The σ slider moves down the current column, the δ slider along the row.
     page.eval_on_selector("#scrub-sigma", "(el) => { el.value = 2; el.dispatchEvent(new Event('input')); }")
     assert frame() == at[(2, 0)]["index"]
