@@ -63,9 +63,9 @@ class JobRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
     scene: str | dict = Field(description="A preset name or a scene object")
     sigma: float | str | None = Field(None, description="One σ (the default, 0); or give sigmas")
-    sigmas: list[float | str] | AngleRange | None = Field(
+    sigmas: float | str | list[float | str] | AngleRange | None = Field(
         None, description="σ values: a number, a list or {start, stop, count}; with several deltas, a grid")
-    deltas: list[float | str] | AngleRange | None = Field(
+    deltas: float | str | list[float | str] | AngleRange | None = Field(
         None, description="δ values: a number, a list or {start, stop, count} (default 0)")
     atlas: int | None = Field(None, ge=1, le=MAX_ATLAS_STEPS, description=(
         "N: the whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of N rows and columns, step π/N "

@@ -54,7 +54,7 @@ async function jobsPage() {
           return `<tr data-job="${j.id}">
           <td>${thumb ? `<img src="${thumb.thumbnail_url}" alt="">` : ""}</td>
           <td><a href="#/job/${j.id}">${esc(j.scene_name)}</a><div class="muted">${j.width}×${j.height}</div></td>
-          <td>${j.frames.length}</td>
+          <td>${j.frames.length}${j.sigmas.length > 1 && j.deltas.length > 1 ? `<div class="muted">${j.sigmas.length} σ × ${j.deltas.length} δ</div>` : ""}</td>
           <td><span class="badge ${j.status}">${j.status}</span></td>
           <td><div class="bar" role="progressbar" aria-valuenow="${Math.round(100 * j.progress)}" aria-valuemin="0" aria-valuemax="100"><span style="width:${pct(j.progress)}"></span></div></td>
           <td>${fmtEta(j.eta_s)}</td>
