@@ -42,12 +42,11 @@ def exact_sum_at_most_pi(s: float, d: float) -> bool:
     """sigma + delta <= pi decided on exact rationals (pi to 60 digits)."""
     import flint
 
-    old, flint.ctx.prec = flint.ctx.prec, 200
-    try:
+    from truth import Precision
+
+    with Precision(200):
         exact = flint.arb(s) + flint.arb(d)  # arb(float) is exact; the sum too at 200 bits
         return bool(exact <= flint.arb.pi())  # pi's ball is far narrower than any gap here
-    finally:
-        flint.ctx.prec = old
 
 
 @pytest.mark.parametrize("steps", [1, 2, 3, 5, 7, 12, 24, 36, 49])
