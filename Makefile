@@ -8,7 +8,7 @@ PIP     := $(PY) -m pip
 STAMP   := $(VENV)/.argand-deps
 SOURCES := $(shell find core python api worker web -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name '*.mako' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: setup build run test test-cpp test-py test-sanitize test-fuzz fuzz fuzz-build bench bench-render bench-smoke bench-all load clean
+.PHONY: docs-atlas setup build run test test-cpp test-py test-sanitize test-fuzz fuzz fuzz-build bench bench-render bench-smoke bench-all load clean
 
 setup: $(VENV)/.argand-built
 
@@ -121,6 +121,14 @@ bench-smoke: setup
 # The full report, docs/benchmarks.md (tens of minutes on 2 cores).
 bench-all: setup
 	$(VENV)/bin/argand bench all
+
+# The atlas pictures in README.md and docs/jobs.md: a grid near the real
+# axis, and the whole space sigma >= 0, sigma + delta <= pi (a minute).
+docs-atlas: setup
+	$(VENV)/bin/argand render whitney --sigmas 0:pi/9:5 --deltas pi/36:pi/6:6 --size 128x128 --out build/atlas-grid
+	cp build/atlas-grid/atlas.png docs/atlas-grid.png
+	$(VENV)/bin/argand render whitney --atlas 12 --size 96x96 --out build/atlas-space
+	cp build/atlas-space/atlas.png docs/atlas-space.png
 
 clean:
 	rm -rf build dist $(VENV)

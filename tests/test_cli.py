@@ -119,6 +119,40 @@ def test_render_writes_frames_aovs_and_animation(tmp_path):
     assert n == 3
 
 
+def test_render_sweeps_sigma_and_grids_with_an_atlas_and_an_mp4(tmp_path):
+    import av
+    from PIL import Image
+
+    from argand.render.grid import atlas_grid
+    from argand.render.output import read_band
+
+    # A sigma sweep at one delta: a "rotating band"; 3 frames, no atlas.
+    out = tmp_path / "rotating"
+    r = run("render", "whitney", "--sigmas", "0:pi/18:3", "--delta", "pi/9", "--size", "21x15", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    bands = [read_band(out / f"frame_{i:04d}.exr") for i in range(3)]
+    assert bands == [(0.0, math.pi / 9), (math.pi / 36, math.pi / 9), (math.pi / 18, math.pi / 9)]
+    assert not (out / "atlas.png").exists()
+    with av.open(str(out / "animation.mp4")) as container:  # odd 21x15 -> 22x16
+        frames = [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
+    assert len(frames) == 3 and all(f.shape == (16, 22, 3) for f in frames)
+    # The atlas: the triangle, labelled, and the frames in its order.
+    out = tmp_path / "atlas"
+    r = run("render", "whitney", "--atlas", "3", "--size", "16x16", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    grid = atlas_grid(3)
+    assert [read_band(out / f"frame_{i:04d}.exr") for i in range(6)] == [(p.sigma, p.delta) for p in grid.points]
+    with Image.open(out / "atlas.png") as im:
+        assert im.size[0] > 3 * 16 and "atlas.png" in r.stdout
+    # Refusals: both forms of an axis, an atlas with an axis, a pair outside the rule.
+    for args, message in ((["--sigma", "0", "--sigmas", "0:1:2"], "--sigma or --sigmas"),
+                          (["--atlas", "3", "--delta", "0.1"], "--atlas lays out its own"),
+                          (["--sigmas", "0:pi:2", "--delta", "pi/2"], "1 of the 2 frames breaks the band rule"),
+                          (["--sigmas", "0:1"], "--sigmas: expected START:STOP:COUNT")):
+        r = run("render", "whitney", *args, "--size", "8x8", "--out", str(tmp_path / "bad"))
+        assert r.returncode == 2 and message in " ".join(r.stderr.split()), (args, r.stderr)
+
+
 def test_render_uses_the_exr_compression_asked_for(tmp_path):
     import OpenImageIO as oiio
 

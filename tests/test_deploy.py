@@ -139,7 +139,8 @@ def test_a_wheel_built_from_the_dockerfiles_files_serves_the_front_end(tmp_path)
     names = set(zipfile.ZipFile(wheel).namelist())
     assert {"argand/web/index.html", "argand/web/app.js", "argand/api/app.py",
             "argand/farm/migrations/versions/0001_initial.py",
-            "argand/farm/migrations/versions/0002_outbox.py", "argand/worker/redis.conf"} <= names
+            "argand/farm/migrations/versions/0002_outbox.py", "argand/farm/migrations/versions/0003_frame_grid.py",
+            "argand/worker/redis.conf"} <= names
     site = tmp_path / "site"
     zipfile.ZipFile(wheel).extractall(site)
     # -S: no site-packages hooks (this checkout's editable install stays out); the dependencies come after the wheel.

@@ -16,6 +16,7 @@ from sqlalchemy import update
 from served import start as served_start
 from test_farm_work import farm_parts, queued_messages, submit  # noqa: F401  (the fixture)
 
+from argand.render.grid import frame_grid
 from argand.farm import rendering
 from argand.farm.database import engine_for, session_scope
 from argand.farm.models import Job, Tile
@@ -360,10 +361,17 @@ def test_a_planning_failure_says_what_and_where(api):
     r = c.post("/api/jobs", json={**JOB, "sigma": 0.5, "deltas": [0.1, 0.2, 3.0, 0.2]})
     assert r.status_code == 422
     detail = r.json()["detail"]
-    assert detail.startswith("the scene cannot be rendered: ") and "band rule" in detail, detail
-    assert detail.endswith("[at frame 2 (sigma 0.5, delta 3)]"), detail
+    assert "band rule" in detail and "(sigma = 0.5, delta = 3.0)" in detail and "1 of the 4 frames" in detail, detail
     r = c.post("/api/jobs", json={**JOB, "sigma": 3.5})
-    assert r.json()["detail"].endswith("[at sigma 3.5, delta 0]"), r.text
+    assert "(sigma = 3.5, delta = 0.0)" in r.json()["detail"], r.text
+    scene = next(p["scene"] for p in c.get("/api/presets").json() if p["name"] == "plucker")
+    bad = _changed(scene, {"camera": {"position": [1e308, 1e308, 1.0]}})
+    r = c.post("/api/jobs", json={**JOB, "scene": bad, "sigma": 0.5, "deltas": [0.2, 0.1]})
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert detail.startswith("the scene cannot be rendered: ") and detail.endswith("[at frame 1 (sigma 0.5, delta 0.10000000000000001)]"), detail
+    r = c.post("/api/jobs", json={**JOB, "scene": bad, "sigma": 0.5, "deltas": [0.2]})
+    assert r.json()["detail"].endswith("[at sigma 0.5, delta 0.20000000000000001]"), r.text
 
 
 def test_reads_need_the_token_when_asked(farm_parts):  # noqa: F811
@@ -393,7 +401,7 @@ def test_the_reaper_sends_what_an_api_left_in_the_outbox(farm_parts):  # noqa: F
     from argand.scene import load_scene
 
     settings, redis_server = farm_parts
-    job_id = create_job(settings, JobSpec("plucker", load_scene("plucker").to_dict(), 0.0, [0.0, 0.1], 32, 32, 16),
+    job_id = create_job(settings, JobSpec("plucker", load_scene("plucker").to_dict(), frame_grid([0.0], [0.0, 0.1]), 32, 32, 16),
                         send=False)
     assert queued_messages(redis_server) == 0
     Reaper(settings).round()

@@ -16,6 +16,7 @@ from argand.farm.planning import batch_runs, plan_runs, preview_order, tile_rect
 from argand.farm.reaper import Reaper
 from argand.farm.store import FrameStore, pack_arrays, unpack_arrays
 from argand.farm.submission import JobSpec, create_job
+from argand.render.grid import frame_grid
 from argand.scene import load_scene
 
 
@@ -101,11 +102,36 @@ def test_the_migrations_make_the_models_schema_and_a_second_upgrade_changes_noth
     eng = engine_for(url)
     with eng.connect() as c:
         assert compare_metadata(MigrationContext.configure(c), Base.metadata) == []
-        assert c.exec_driver_sql("select version_num from alembic_version").scalar() == "0002"
+        assert c.exec_driver_sql("select version_num from alembic_version").scalar() == "0003"
     assert "ix_tiles_key" in {i["name"] for i in inspect(eng).get_indexes("tiles")}
     upgrade(url)  # a second time: nothing to do, nothing fails
     with eng.connect() as c:
         assert compare_metadata(MigrationContext.configure(c), Base.metadata) == []
+
+
+def test_the_grid_migration_keeps_earlier_jobs_frames_as_row_zero(tmp_path):
+    """Frames stored before (σ, δ) jobs become row 0 with their index as
+    column, and none is lost (dropping the jobs' sigma in place, not by a
+    table copy, which with foreign keys on would delete every frame)."""
+    from argand.farm.database import engine_for, upgrade
+
+    url = f"sqlite:///{tmp_path / 'old.db'}"
+    upgrade(url, "0001")
+    eng = engine_for(url)
+    with eng.begin() as c:
+        c.exec_driver_sql("insert into jobs (id, status, scene_name, scene, sigma, width, height, tile, method, priority,"
+                          " created) values ('j', 'done', 'whitney', '{}', 0.25, 8, 8, 8, 'auto', 5, 0)")
+        for i in range(3):
+            c.exec_driver_sql("insert into frames (job_id, \"index\", sigma, delta, status, tiles_total, tiles_done)"
+                              f" values ('j', {i}, 0.25, {0.1 * i}, 'done', 1, 1)")
+        c.exec_driver_sql("insert into tiles (job_id, frame_index, tile_index, status, attempts, renders)"
+                          " values ('j', 0, 0, 'done', 1, 1)")
+    upgrade(url)
+    with eng.connect() as c:
+        rows = c.exec_driver_sql('select "index", sigma, sigma_index, delta_index from frames order by "index"').all()
+        assert [tuple(r) for r in rows] == [(0, 0.25, 0, 0), (1, 0.25, 0, 1), (2, 0.25, 0, 2)]
+        assert c.exec_driver_sql("select count(*) from tiles").scalar() == 1
+        assert "sigma" not in {col["name"] for col in inspect(eng).get_columns("jobs")}
 
 
 @pytest.fixture
@@ -124,7 +150,7 @@ def farm_parts(tmp_path, monkeypatch):
 
 
 def submit(settings, scene: str, deltas: list[float], width: int, height: int, tile: int) -> str:
-    return create_job(settings, JobSpec(scene, load_scene(scene).to_dict(), 0.0, deltas, width, height, tile))
+    return create_job(settings, JobSpec(scene, load_scene(scene).to_dict(), frame_grid([0.0], deltas), width, height, tile))
 
 
 def queued_messages(redis_server) -> int:
@@ -315,13 +341,13 @@ def test_a_jobs_sweep_is_argand_renders_sweep_to_the_last_bit():
     """The same sweep over HTTP and on the command line gives the same
     deltas, so a farm's frame and `argand render`'s are the same frame
     (an earlier formula differed in the last bit for 13 of 36 frames)."""
-    from argand.api.schemas import DeltaRange
-    from argand.farm.submission import sweep_deltas
+    from argand.api.schemas import AngleRange
+    from argand.farm.submission import sweep_axis
     from argand.render import delta_sweep, parse_sweep
 
     for count in (1, 2, 5, 12, 24, 36, 48, 100):
-        spec = DeltaRange(start="pi/36", stop="pi/9", count=count).model_dump()
-        assert sweep_deltas(spec) == delta_sweep(*parse_sweep(f"pi/36:pi/9:{count}")), count
+        spec = AngleRange(start="pi/36", stop="pi/9", count=count).model_dump()
+        assert sweep_axis(spec) == delta_sweep(*parse_sweep(f"pi/36:pi/9:{count}")), count
 
 
 def test_one_worker_at_a_time_holds_the_reapers_lease(farm_parts, monkeypatch):

@@ -92,6 +92,7 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     page.eval_on_selector("#scrub", "(el) => { el.value = 3; el.dispatchEvent(new Event('input')); }")
     assert f"δ = {job['frames'][3]['delta']:.4f}" in page.text_content("#scrub-label")
     page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'beauty/3'")
+    assert page.is_hidden("#scrub-sigma") and page.is_hidden("#play-axis")  # one σ: δ only
     page.screenshot(path=str(SHOTS / "job.png"), full_page=True)
     # The status channel.
     page.select_option("#channel", "status")
@@ -130,6 +131,87 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     assert "30%" in page.get_attribute("#img-b", "style")
     page.wait_for_function("document.querySelector('#img-b')?.complete")
     page.screenshot(path=str(SHOTS / "compare.png"), full_page=True)
+    assert not page.errors, page.errors
+
+
+def test_a_grid_job_plays_along_both_axes_and_its_atlas_opens_frames(farm, page, tmp_path):
+    """A 3 σ x 4 δ grid through the form: the δ and σ sliders and the arrow
+    keys move along the two axes, play runs along the chosen one, the atlas
+    lays the thumbnails out by (σ, δ) and a click opens that frame, the
+    player shows the MP4, and the downloads list GIF, WebP, MP4 and atlas.png."""
+    page.goto(farm.url + "/#/new")
+    page.click("[data-preset=whitney]")
+    page.fill("#sigma", "0")
+    page.fill("#sigma-stop", "pi/12")
+    page.fill("#sigma-count", "3")
+    page.fill("#start", "pi/36")
+    page.fill("#stop", "pi/9")
+    page.fill("#count", "4")
+    for field, value in (("#width", "96"), ("#height", "96"), ("#tile", "48")):
+        page.fill(field, value)
+    page.click("#submit")
+    page.wait_for_url("**/#/job/*")
+    page.wait_for_function("document.querySelector('#status')?.textContent === 'done'", timeout=180_000)
+    job = farm.get(f"/api/jobs/{page.url.rsplit('/', 1)[1]}")
+    assert len(job["sigmas"]) == 3 and len(job["deltas"]) == 4
+    at = {(f["sigma_index"], f["delta_index"]): f for f in job["frames"]}
+    frame = lambda: int(page.get_attribute("#canvas", "data-frame"))  # noqa: E731
+    # The atlas: a cell per frame at its row and column, every thumbnail loaded.
+    page.wait_for_function("[...document.querySelectorAll('#grid.atlas .cell img')].length === 12 && "
+                           "[...document.querySelectorAll('#grid .cell img')].every(i => i.complete && i.naturalWidth > 0)")
+    assert page.locator("#grid .axis").count() == 3 + 4
+    assert page.is_visible("#scrub") and page.is_visible("#scrub-sigma") and page.is_visible("#play-axis")
+    # The σ slider moves down the current column, the δ slider along the row.
+    page.eval_on_selector("#scrub-sigma", "(el) => { el.value = 2; el.dispatchEvent(new Event('input')); }")
+    assert frame() == at[(2, 0)]["index"]
+    page.eval_on_selector("#scrub", "(el) => { el.value = 3; el.dispatchEvent(new Event('input')); }")
+    assert frame() == at[(2, 3)]["index"]
+    f = at[(2, 3)]
+    assert f"δ = {f['delta']:.4f}, σ = {f['sigma']:.4f}" in page.text_content("#scrub-label")
+    # Arrow keys: up and down for σ, left and right for δ (wrapping).
+    page.keyboard.press("ArrowUp")
+    assert frame() == at[(1, 3)]["index"]
+    page.keyboard.press("ArrowLeft")
+    assert frame() == at[(1, 2)]["index"]
+    page.keyboard.press("ArrowDown")
+    page.keyboard.press("ArrowDown")
+    assert frame() == at[(0, 2)]["index"]
+    assert page.eval_on_selector("#scrub-sigma", "el => el.value") == "0"
+    # Play along σ: the frame changes, the column stays.
+    page.select_option("#play-axis", "sigma")
+    page.click("#play")
+    page.wait_for_function(f"document.querySelector('#canvas').dataset.frame !== '{at[(0, 2)]['index']}'", timeout=10_000)
+    page.click("#play")
+    assert job["frames"][frame()]["delta_index"] == 2
+    # A click on the atlas opens that frame.
+    page.click(f"#grid .cell[data-sigma-index='1'][data-delta-index='3']")
+    assert frame() == at[(1, 3)]["index"]
+    page.wait_for_function(f"document.querySelector('#canvas')?.dataset?.drawn === 'beauty/{at[(1, 3)]['index']}'")
+    page.screenshot(path=str(SHOTS / "job-atlas.png"), full_page=True)
+    # The downloads: the three animations and the atlas, each served.
+    for link, kind in (("#gif", "image/gif"), ("#webp", "image/webp"), ("#mp4", "video/mp4"), ("#atlas-png", "image/png")):
+        r = httpx.get(farm.url + page.get_attribute(link, "href"), timeout=120)
+        assert r.status_code == 200 and r.headers["content-type"] == kind, (link, r.status_code)
+    # The player shows the MP4: the browser decodes it to the frame's size.
+    page.click("#show-mp4")
+    page.wait_for_function("document.querySelector('#video').readyState >= 2", timeout=30_000)
+    assert page.eval_on_selector("#video", "v => [v.videoWidth, v.videoHeight]") == [96, 96]
+    assert page.is_hidden("#canvas")
+    page.click("#show-mp4")
+    assert page.is_visible("#canvas") and page.is_hidden("#video")
+    # The form's atlas: the whole space on a triangle of 3 steps (6 frames).
+    page.goto(farm.url + "/#/new")
+    page.click("[data-preset=whitney]")
+    page.check("#atlas")
+    page.fill("#atlas-steps", "3")
+    for field, value in (("#width", "32"), ("#height", "32"), ("#tile", "32")):
+        page.fill(field, value)
+    page.click("#submit")
+    page.wait_for_url("**/#/job/*")
+    page.wait_for_function("document.querySelector('#status')?.textContent === 'done'", timeout=120_000)
+    atlas = farm.get(f"/api/jobs/{page.url.rsplit('/', 1)[1]}")
+    assert len(atlas["frames"]) == 6 and len(atlas["sigmas"]) == len(atlas["deltas"]) == 3
+    assert page.locator("#grid.atlas .cell").count() == 6
     assert not page.errors, page.errors
 
 

@@ -54,7 +54,7 @@ async function jobsPage() {
           return `<tr data-job="${j.id}">
           <td>${thumb ? `<img src="${thumb.thumbnail_url}" alt="">` : ""}</td>
           <td><a href="#/job/${j.id}">${esc(j.scene_name)}</a><div class="muted">${j.width}×${j.height}</div></td>
-          <td>${j.frames.length}</td>
+          <td>${j.frames.length}${j.sigmas.length > 1 && j.deltas.length > 1 ? `<div class="muted">${j.sigmas.length} σ × ${j.deltas.length} δ</div>` : ""}</td>
           <td><span class="badge ${j.status}">${j.status}</span></td>
           <td><div class="bar" role="progressbar" aria-valuenow="${Math.round(100 * j.progress)}" aria-valuemin="0" aria-valuemax="100"><span style="width:${pct(j.progress)}"></span></div></td>
           <td>${fmtEta(j.eta_s)}</td>
@@ -90,10 +90,14 @@ async function newPage() {
         <input id="surface" name="surface" placeholder="x^2*z + y^2" autocomplete="off" aria-describedby="surface-msg">
         <span id="surface-msg" class="muted"></span></label>
       <label>Clip radius <input id="clip" type="number" step="any" min="0" value="2"></label>
-      <label>σ (sigma) <input id="sigma" value="0"></label>
+      <label>σ from <input id="sigma" value="0"></label>
+      <label>σ to <input id="sigma-stop" value="0"></label>
+      <label>σ values <input id="sigma-count" type="number" min="1" max="${meta.limits.max_frames}" value="1"></label>
       <label>δ from <input id="start" value="0"></label>
       <label>δ to <input id="stop" value="pi/9"></label>
-      <label>Frames <input id="count" type="number" min="1" max="${meta.limits.max_frames}" value="12"></label>
+      <label>Frames (δ values) <input id="count" type="number" min="1" max="${meta.limits.max_frames}" value="12"></label>
+      <label class="wide check"><span><input id="atlas" type="checkbox"> Atlas: the whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of
+        <input id="atlas-steps" type="number" min="1" max="${Math.floor((Math.sqrt(8 * meta.limits.max_frames + 1) - 1) / 2)}" value="6" style="width:4rem" aria-label="Atlas steps"> steps (step π/N; replaces the σ and δ values)</span></label>
       <label>Width <input id="width" type="number" min="8" max="${meta.limits.max_width}" value="${meta.defaults.width}"></label>
       <label>Height <input id="height" type="number" min="8" max="${meta.limits.max_height}" value="${meta.defaults.height}"></label>
       <label>Tile <input id="tile" type="number" min="${meta.limits.min_tile}" max="${meta.limits.max_tile}" value="${meta.defaults.tile}"></label>
@@ -136,7 +140,11 @@ async function newPage() {
       if (Number(val("clip")) > 0) obj.clip_radius = Number(val("clip"));
       scene = { objects: [obj] };
     }
-    const body = { scene, sigma: val("sigma"), deltas: { start: val("start"), stop: val("stop"), count: Number(val("count")) },
+    const sigmaCount = Number(val("sigma-count"));
+    const frames = view.querySelector("#atlas").checked ? { atlas: Number(val("atlas-steps")) } : {
+      sigmas: sigmaCount > 1 ? { start: val("sigma"), stop: val("sigma-stop"), count: sigmaCount } : val("sigma"),
+      deltas: { start: val("start"), stop: val("stop"), count: Number(val("count")) } };
+    const body = { scene, ...frames,
       width: Number(val("width")), height: Number(val("height")), tile: Number(val("tile")), priority: Number(val("priority")),
       samples: Number(val("samples")) };
     try { const job = await api("/api/jobs", { method: "POST", body: JSON.stringify(body) }); location.hash = `#/job/${job.id}`; }
@@ -145,6 +153,11 @@ async function newPage() {
 }
 
 // ---------------------------------------------------------------- job page
+// A job's frames are (σ, δ) pairs on a grid (row: sigma_index, column:
+// delta_index): a δ sweep is one row, a σ sweep one column, an atlas a
+// triangle. The player moves along either axis through the current frame.
+const angle = (v) => v.toFixed(4);
+
 async function jobPage(id) {
   view.replaceChildren(h(`<p class="muted">Loading job…</p>`));
   let job;
@@ -154,24 +167,37 @@ async function jobPage(id) {
     <p class="muted" id="progress-text"></p>
     <div class="player"><div>
       <canvas id="canvas" width="${job.width}" height="${job.height}" aria-label="Frame"></canvas>
+      <video id="video" width="${job.width}" height="${job.height}" controls loop muted playsinline hidden aria-label="Animation (MP4)"></video>
       <div class="controls">
         <button id="play" aria-label="Play or pause (space)">▶ play</button>
         <button id="prev" aria-label="Previous frame (left arrow)">◀</button>
         <button id="next" aria-label="Next frame (right arrow)">▶</button>
+        <label>along <select id="play-axis" aria-label="Play along"><option value="delta">δ</option><option value="sigma">σ</option></select></label>
         <label>mode <select id="mode"><option value="loop">loop</option><option value="pingpong">ping-pong</option></select></label>
         <label>fps <input id="fps" type="number" min="1" max="60" value="8" style="width:4rem"></label>
         <label>channel <select id="channel" aria-label="Channel">${meta.channels.map((c) => `<option>${c}</option>`).join("")}</select></label>
+        <button id="show-mp4" hidden aria-pressed="false">MP4</button>
       </div>
-      <input id="scrub" type="range" min="0" max="${job.frames.length - 1}" value="0" style="width:100%" aria-label="Frame (delta)">
+      <label class="slider">δ <input id="scrub" type="range" min="0" max="0" value="0" aria-label="Frame along δ (left and right arrows)"></label>
+      <label class="slider">σ <input id="scrub-sigma" type="range" min="0" max="0" value="0" aria-label="Frame along σ (up and down arrows)"></label>
       <div id="scrub-label" class="muted"></div>
       <div id="legend" class="legend muted" hidden>status:${meta.pixel_statuses.map((p) => `<span style="background:${p.colour}"></span>${p.name}`).join("")}</div>
     </div><aside><h2 style="font-size:1rem">Frame</h2><dl id="figures"></dl>
       <h2 style="font-size:1rem">Downloads</h2><div id="downloads" class="muted">when the frames are done</div></aside></div>
+    <h2 id="atlas-title" style="font-size:1rem">Frames</h2>
     <div class="frames" id="grid"></div>`));
-  const canvas = view.querySelector("#canvas"), ctx = canvas.getContext("2d");
-  const scrub = view.querySelector("#scrub"), channel = view.querySelector("#channel");
+  const canvas = view.querySelector("#canvas"), ctx = canvas.getContext("2d"), video = view.querySelector("#video");
+  const scrub = view.querySelector("#scrub"), scrubSigma = view.querySelector("#scrub-sigma"), channel = view.querySelector("#channel");
+  const axisSelect = view.querySelector("#play-axis");
   const images = new Map();  // `${channel}/${index}` -> HTMLImageElement (preloaded)
-  let current = 0, playing = false, dir = 1, timer = null;
+  let current = 0, playing = false, dir = 1, timer = null, gridKey = "";
+  const isGrid = () => job.sigmas.length > 1 && job.deltas.length > 1;
+  // The frames through the current one along an axis, in order.
+  const line = (axis) => {
+    const f = job.frames[current];
+    return axis === "delta" ? job.frames.filter((g) => g.sigma_index === f.sigma_index).sort((a, b) => a.delta_index - b.delta_index)
+                            : job.frames.filter((g) => g.delta_index === f.delta_index).sort((a, b) => a.sigma_index - b.sigma_index);
+  };
   const url = (f, ch) => ch === "beauty" ? f.png_url : `/api/jobs/${id}/frames/${f.index}/${ch}.png`;
   function image(f, ch) {
     const key = `${ch}/${f.index}`;
@@ -179,59 +205,98 @@ async function jobPage(id) {
     return images.get(key);
   }
   function show(i) {
-    current = i; scrub.value = i;
+    current = i;
     const f = job.frames[i];
-    view.querySelector("#scrub-label").textContent = `frame ${i + 1}/${job.frames.length} — δ = ${f.delta.toFixed(4)}, σ = ${f.sigma.toFixed(4)}`;
+    const row = line("delta"), col = line("sigma");
+    scrub.max = row.length - 1; scrub.value = row.findIndex((g) => g.index === i);
+    scrubSigma.max = col.length - 1; scrubSigma.value = col.findIndex((g) => g.index === i);
+    view.querySelector("#scrub-label").textContent = `frame ${i + 1}/${job.frames.length} — δ = ${angle(f.delta)}, σ = ${angle(f.sigma)}`;
     canvas.dataset.frame = String(i);
     const img = image(f, channel.value);
     const draw = () => { ctx.drawImage(img, 0, 0, canvas.width, canvas.height); canvas.dataset.drawn = `${channel.value}/${i}`; };
     if (img) { img.complete && img.naturalWidth ? draw() : img.addEventListener("load", draw, { once: true }); }
     else { ctx.fillStyle = "#000"; ctx.fillRect(0, 0, canvas.width, canvas.height); canvas.dataset.drawn = ""; }
     const fig = f.figures || {};
-    view.querySelector("#figures").replaceChildren(h(`<dt>δ</dt><dd>${f.delta.toFixed(5)}</dd><dt>status</dt><dd>${f.status}</dd>
+    view.querySelector("#figures").replaceChildren(h(`<dt>σ</dt><dd>${f.sigma.toFixed(5)}</dd><dt>δ</dt><dd>${f.delta.toFixed(5)}</dd><dt>status</dt><dd>${f.status}</dd>
       <dt>certified</dt><dd>${f.certified_share == null ? "—" : (100 * f.certified_share).toFixed(3) + "%"}</dd>
       <dt>render time</dt><dd>${fig.seconds == null ? "—" : (1000 * fig.seconds).toFixed(0) + " ms"}</dd>
       <dt>escalated</dt><dd>${fig.escalated_share == null ? "—" : (100 * fig.escalated_share).toFixed(3) + "%"}</dd>`));
     view.querySelectorAll("#grid .cell").forEach((c) => c.classList.toggle("current", Number(c.dataset.index) === i));
   }
-  function step(d) {
-    const n = job.frames.length; if (n < 2) return show(0);
+  // One step along an axis (wrapping, or bouncing in ping-pong mode).
+  function step(d, axis = axisSelect.value) {
+    const frames = line(axis), n = frames.length;
+    const at = frames.findIndex((g) => g.index === current);
+    if (n < 2) return show(current);
+    let k;
     if (view.querySelector("#mode").value === "pingpong") {
-      let k = current + d * dir; if (k < 0 || k >= n) { dir = -dir; k = current + d * dir; } show(k);
-    } else show((current + d + n) % n);
+      k = at + d * dir; if (k < 0 || k >= n) { dir = -dir; k = at + d * dir; }
+    } else k = (at + d + n) % n;
+    show(frames[k].index);
   }
   function setPlaying(p) {
     playing = p; clearInterval(timer);
     view.querySelector("#play").textContent = p ? "❚❚ pause" : "▶ play";
     if (p) timer = setInterval(() => step(1), 1000 / Math.max(1, Number(view.querySelector("#fps").value) || 8));
   }
+  // The frames as a contact sheet: one row per σ, one column per δ (an
+  // atlas); a sweep along one axis is a strip of thumbnails.
+  function cells(j) {
+    const cell = (f) => `<button type="button" class="cell" data-index="${f.index}" data-sigma-index="${f.sigma_index}" data-delta-index="${f.delta_index}"
+      title="σ = ${angle(f.sigma)}, δ = ${angle(f.delta)}" style="grid-row:${isGrid() ? f.sigma_index + 2 : "auto"};grid-column:${isGrid() ? f.delta_index + 2 : "auto"}">
+      ${f.thumbnail_url ? `<img src="${f.thumbnail_url}" alt="frame ${f.index}">` : f.status}</button>`;
+    if (!isGrid()) return j.frames.map(cell).join("");
+    return `<span class="corner" style="grid-row:1;grid-column:1">σ ↓ δ →</span>`
+      + j.deltas.map((d, c) => `<span class="axis" style="grid-row:1;grid-column:${c + 2}">${angle(d)}</span>`).join("")
+      + j.sigmas.map((s, r) => `<span class="axis" style="grid-row:${r + 2};grid-column:1">${angle(s)}</span>`).join("")
+      + j.frames.map(cell).join("");
+  }
   function refresh(j) {
     job = j;
     view.querySelector("#status").textContent = j.status; view.querySelector("#status").className = `badge ${j.status}`;
     view.querySelector("#progress > span").style.width = pct(j.progress);
     view.querySelector("#progress-text").textContent = `${j.tiles_done}/${j.tiles_total} tiles${j.eta_s ? ", about " + fmtEta(j.eta_s) + " left" : ""}`;
-    view.querySelector("#grid").replaceChildren(h(j.frames.map((f) =>
-      `<div class="cell" data-index="${f.index}" title="δ = ${f.delta.toFixed(4)}">${f.thumbnail_url ? `<img src="${f.thumbnail_url}" alt="frame ${f.index}">` : f.status}</div>`).join("")));
+    const grid = view.querySelector("#grid");
+    grid.classList.toggle("atlas", isGrid());
+    grid.style.gridTemplateColumns = isGrid() ? `auto repeat(${j.deltas.length}, minmax(48px, 96px))` : "";
+    view.querySelector("#atlas-title").textContent = isGrid() ? `Atlas: ${j.sigmas.length} σ × ${j.deltas.length} δ (click a frame to open it)` : "Frames";
+    const key = j.frames.map((f) => f.status).join();
+    if (key !== gridKey) { gridKey = key; grid.replaceChildren(h(cells(j))); }
     j.frames.forEach((f) => image(f, channel.value));
+    view.querySelector("#play-axis").closest("label").hidden = !isGrid();
+    axisSelect.value = isGrid() ? axisSelect.value : (j.deltas.length > 1 ? "delta" : "sigma");
+    scrub.closest("label").hidden = j.deltas.length < 2 && j.sigmas.length > 1;
+    scrubSigma.closest("label").hidden = j.sigmas.length < 2;
     if (j.status === "done") {
-      view.querySelector("#downloads").replaceChildren(h(`${j.animation_url ? `<p><a id="gif" href="${j.animation_url}" download>animation.gif</a> · <a id="webp" href="${j.webp_url}" download>animation.webp</a></p>` : ""}
-        <details><summary>frames</summary>${j.frames.map((f) => `<div>${f.index}: <a href="${f.png_url}" download>PNG</a> <a href="${f.exr_url}" download>EXR</a></div>`).join("")}</details>`));
+      view.querySelector("#show-mp4").hidden = !j.mp4_url;
+      view.querySelector("#downloads").replaceChildren(h(`${j.animation_url ? `<p><a id="gif" href="${j.animation_url}" download>animation.gif</a> · <a id="webp" href="${j.webp_url}" download>animation.webp</a> · <a id="mp4" href="${j.mp4_url}" download>animation.mp4</a></p>` : ""}
+        ${j.atlas_url ? `<p><a id="atlas-png" href="${j.atlas_url}" target="_blank">atlas.png</a> (the grid, labelled)</p>` : ""}
+        <details><summary>frames</summary>${j.frames.map((f) => `<div>${f.index} (σ ${angle(f.sigma)}, δ ${angle(f.delta)}): <a href="${f.png_url}" download>PNG</a> <a href="${f.exr_url}" download>EXR</a></div>`).join("")}</details>`));
     }
     show(Math.min(current, j.frames.length - 1));
   }
   refresh(job);
+  // The MP4 in place of the canvas (the browser's own player), and back.
+  view.querySelector("#show-mp4").addEventListener("click", (ev) => {
+    const on = video.hidden;
+    setPlaying(false);
+    if (on && !video.src) video.src = job.mp4_url;
+    video.hidden = !on; canvas.hidden = on; ev.target.setAttribute("aria-pressed", String(on));
+    if (on) video.play().catch(() => {}); else video.pause();
+  });
   view.querySelector("#play").addEventListener("click", () => setPlaying(!playing));
   view.querySelector("#prev").addEventListener("click", () => { setPlaying(false); step(-1); });
   view.querySelector("#next").addEventListener("click", () => { setPlaying(false); step(1); });
   view.querySelector("#fps").addEventListener("change", () => playing && setPlaying(true));
-  scrub.addEventListener("input", () => { setPlaying(false); show(Number(scrub.value)); });
+  scrub.addEventListener("input", () => { setPlaying(false); show(line("delta")[Number(scrub.value)].index); });
+  scrubSigma.addEventListener("input", () => { setPlaying(false); show(line("sigma")[Number(scrubSigma.value)].index); });
   channel.addEventListener("change", () => { view.querySelector("#legend").hidden = channel.value !== "status"; job.frames.forEach((f) => image(f, channel.value)); show(current); });
   view.querySelector("#grid").addEventListener("click", (ev) => { const c = ev.target.closest(".cell"); if (c) { setPlaying(false); show(Number(c.dataset.index)); } });
   const keys = (ev) => {
     if (ev.target.matches("input, select, textarea")) return;
+    const moves = { ArrowRight: [1, "delta"], ArrowLeft: [-1, "delta"], ArrowDown: [1, "sigma"], ArrowUp: [-1, "sigma"] };
     if (ev.key === " ") { ev.preventDefault(); setPlaying(!playing); }
-    else if (ev.key === "ArrowRight") { setPlaying(false); step(1); }
-    else if (ev.key === "ArrowLeft") { setPlaying(false); step(-1); }
+    else if (moves[ev.key]) { ev.preventDefault(); setPlaying(false); step(...moves[ev.key]); }
   };
   document.addEventListener("keydown", keys);
   let source = null;
@@ -241,7 +306,7 @@ async function jobPage(id) {
     source.addEventListener("end", async () => { source.close(); refresh(await api(`/api/jobs/${id}`)); });
     source.onerror = () => { view.querySelector("#progress-text").textContent += " (reconnecting…)"; };
   }
-  cleanup = () => { clearInterval(timer); document.removeEventListener("keydown", keys); source?.close(); };
+  cleanup = () => { clearInterval(timer); document.removeEventListener("keydown", keys); source?.close(); video.pause(); };
 }
 
 // ---------------------------------------------------------------- workers
@@ -273,7 +338,7 @@ async function comparePage() {
   try { jobs = (await api("/api/jobs?status=done&per_page=200")).jobs; }
   catch (e) { view.querySelector("#pickers").replaceChildren(h(`<p class="error">${esc(e.message)}</p>`)); return; }
   if (!jobs.length) { view.querySelector("#pickers").replaceChildren(h(`<p class="muted">No finished jobs to compare yet.</p>`)); return; }
-  const opts = jobs.flatMap((j) => j.frames.map((f) => `<option value="${j.id}:${f.index}">${esc(j.scene_name)} ${j.id.slice(0, 6)} — δ=${f.delta.toFixed(4)}</option>`)).join("");
+  const opts = jobs.flatMap((j) => j.frames.map((f) => `<option value="${j.id}:${f.index}">${esc(j.scene_name)} ${j.id.slice(0, 6)} — σ=${f.sigma.toFixed(4)}, δ=${f.delta.toFixed(4)}</option>`)).join("");
   view.querySelector("#pickers").replaceChildren(h(`<label>left <select id="cmp-a">${opts}</select></label><label>right <select id="cmp-b">${opts}</select></label>`));
   const a = view.querySelector("#cmp-a"), b = view.querySelector("#cmp-b"), mode = view.querySelector("#cmp-mode"), split = view.querySelector("#cmp-split");
   if (params.get("a")) a.value = params.get("a");

@@ -1,5 +1,6 @@
-"""A job's files: each frame's PNG, EXR, thumbnail and channel previews, and
-the animation (GIF, or WebP made on first request). Paths: argand.farm.layout."""
+"""A job's files: each frame's PNG, EXR, thumbnail and channel previews, the
+animation (GIF; WebP and MP4 made on first request) and a grid's atlas.
+Paths: argand.farm.layout."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from fastapi import APIRouter, HTTPException
 from fastapi.responses import FileResponse, Response
 
 from argand.api.deps import JobIdDep, SettingsDep, job_or_404
-from argand.farm.assembly import animation_webp
+from argand.farm.assembly import animation_mp4, animation_webp, atlas_png
 from argand.farm.database import session_scope
 from argand.farm.previews import PREVIEW_CHANNELS, channel_png
 from argand.farm.store import store_for
@@ -65,15 +66,42 @@ def animation_gif(job_id: JobIdDep, settings: SettingsDep):
     return _file(store_for(settings).job(job_id).animation("gif"), "image/gif")
 
 
-@router.get("/animation.webp", **binary("image/webp", "The animation as WebP"))
-def animation_as_webp(job_id: JobIdDep, settings: SettingsDep):
-    """The animation as a looping WebP (smaller than the GIF, full colour),
-    made from the frames' PNGs on the first request, then kept."""
+def _done_frames(settings, job_id: str, what: str) -> int:
+    """The number of frames of a finished job; 404 while it is not done."""
     with session_scope(settings.sqlalchemy_url) as s:
         job = job_or_404(s, job_id)
         status, n = job.status, len(job.frames)
     if status != "done":
-        raise HTTPException(404, detail=f"the animation is not ready: the job is {status}")
+        raise HTTPException(404, detail=f"the {what} is not ready: the job is {status}")
+    return n
+
+
+@router.get("/animation.webp", **binary("image/webp", "The animation as WebP"))
+def animation_as_webp(job_id: JobIdDep, settings: SettingsDep):
+    """The animation as a looping WebP (smaller than the GIF, full colour),
+    made from the frames' PNGs on the first request, then kept."""
+    n = _done_frames(settings, job_id, "animation")
     if not animation_webp(settings, job_id, n):
         raise HTTPException(501, detail="this installation's Pillow has no WebP support")
     return FileResponse(store_for(settings).job(job_id).animation("webp"), media_type="image/webp")
+
+
+@router.get("/animation.mp4", **binary("video/mp4", "The animation as MP4 (H.264)"))
+def animation_as_mp4(job_id: JobIdDep, settings: SettingsDep):
+    """The animation as MP4 (H.264, yuv420p: every browser plays it), made
+    from the frames' PNGs on the first request, then kept."""
+    n = _done_frames(settings, job_id, "animation")
+    if n < 2:
+        raise HTTPException(404, detail="a job of one frame has no animation")
+    animation_mp4(settings, job_id, n)
+    return FileResponse(store_for(settings).job(job_id).animation("mp4"), media_type="video/mp4")
+
+
+@router.get("/atlas.png", **binary("image/png", "The grid's frames as one labelled contact sheet"))
+def atlas(job_id: JobIdDep, settings: SettingsDep):
+    """The frames of a grid job (several σ and δ) as one contact sheet,
+    labelled with σ (rows) and δ (columns), made on the first request, then kept."""
+    _done_frames(settings, job_id, "atlas")
+    if not atlas_png(settings, job_id):
+        raise HTTPException(404, detail="the job is not a grid (an atlas needs several sigmas and several deltas)")
+    return FileResponse(store_for(settings).job(job_id).atlas(), media_type="image/png")

@@ -14,14 +14,14 @@ from sqlalchemy.orm import defer
 
 from argand.api.deps import JobIdDep, SettingsDep, job_or_404, wake_drainer
 from argand.api.limits import StreamSlots
-from argand.api.schemas import DeltaRange, JobOut, JobPage, JobRequest, PriorityPatch, job_out, job_summary
+from argand.api.schemas import JobOut, JobPage, JobRequest, PriorityPatch, job_out, job_summary
 from argand.farm.control import delete_job, set_job_status, set_priority
 from argand.farm.database import session_scope
 from argand.farm.models import Frame, Job
 from argand.farm.progress import eta_seconds, jobs_progress
 from argand.farm.states import ACTIONS, ENDED, JOB
 from argand.farm.limits import MAX_PAGE
-from argand.farm.submission import FarmBusy, JobRefused, JobSpec, StoreFull, create_job, sweep_deltas
+from argand.farm.submission import FarmBusy, JobRefused, JobSpec, StoreFull, create_job, job_frames
 from argand.scene import SceneError, load_scene, scene_from_dict
 from argand.scene.presets import PRESETS
 
@@ -56,10 +56,9 @@ def submit(req: JobRequest, settings: SettingsDep, request: Request) -> JobOut:
     if req.samples is not None:
         scene["samples"] = req.samples  # the job's scene carries its samples per pixel
     try:
-        deltas = sweep_deltas(req.deltas.model_dump() if isinstance(req.deltas, DeltaRange) else req.deltas,
-                              settings.max_frames)
-        spec = JobSpec(name, scene, float(req.sigma), deltas, req.width, req.height,
-                       req.tile or settings.default_tile, req.priority, req.method)
+        frames = job_frames(*req.axes(), atlas=req.atlas, max_frames=settings.max_frames)
+        spec = JobSpec(name, scene, frames, req.width, req.height, req.tile or settings.default_tile, req.priority,
+                       req.method)
         job_id = create_job(settings, spec, send=False)
     except FarmBusy as exc:
         raise HTTPException(429, detail=str(exc)) from None
@@ -93,8 +92,8 @@ def list_jobs(
         progress = jobs_progress(s, ids)
         frames: dict[str, list[tuple]] = {i: [] for i in ids}
         if ids:
-            for job_id, *f in s.execute(select(Frame.job_id, Frame.index, Frame.sigma, Frame.delta, Frame.status,
-                                               Frame.finished).where(Frame.job_id.in_(ids))
+            for job_id, *f in s.execute(select(Frame.job_id, Frame.index, Frame.sigma, Frame.delta, Frame.sigma_index,
+                                               Frame.delta_index, Frame.status, Frame.finished).where(Frame.job_id.in_(ids))
                                         .order_by(Frame.job_id, Frame.index)):
                 frames[job_id].append(tuple(f))
         return JobPage(total=total, page=page, per_page=per_page,

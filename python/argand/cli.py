@@ -107,9 +107,13 @@ EXR_COMPRESSION_HELP = "none, rle, zip, zips, piz, zstd (OpenEXR 3.5+ readers on
 @app.command()
 def render(
     scene: str = typer.Argument(..., help="A preset name (argand presets) or a scene file (.yaml/.json)."),
-    sigma: str = typer.Option("0", "--sigma", help="Start of the argument band (e.g. 0, pi/36)."),
-    delta: Optional[str] = typer.Option(None, "--delta", help="Width of the band, one frame (e.g. pi/9)."),
+    sigma: Optional[str] = typer.Option(None, "--sigma", help="Start of the argument band, one value (default 0; e.g. pi/36)."),
+    sigmas: Optional[str] = typer.Option(None, "--sigmas", help="A sweep of sigma START:STOP:COUNT (e.g. 0:pi/2:12); "
+                                         "with --deltas, a grid sigmas x deltas."),
+    delta: Optional[str] = typer.Option(None, "--delta", help="Width of the band, one value (default 0; e.g. pi/9)."),
     deltas: Optional[str] = typer.Option(None, "--deltas", help="A sweep START:STOP:COUNT (e.g. 0:pi/9:24)."),
+    atlas: Optional[int] = typer.Option(None, "--atlas", min=1, help="N: the whole space sigma >= 0, sigma + delta <= pi "
+                                        "on a triangular grid of N rows and columns (N(N+1)/2 frames), step pi/N."),
     size: str = typer.Option("512x512", "--size", help="WxH in pixels."),
     out: Path = typer.Option(Path("render"), "--out", help="Output folder."),
     workers: int = typer.Option(0, "--workers", help="Threads (0: all cores)."),
@@ -133,25 +137,35 @@ def render(
     exact_bits: Optional[int] = typer.Option(
         None, "--exact-bits", help="The exact tier's highest precision in bits (default: EXACT_MAX_BITS)."),
 ) -> None:
-    """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, and animation.gif."""
-    from argand.render import FrameParams, delta_sweep, parse_angle, parse_sweep
+    """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, animation.gif and .mp4,
+    and atlas.png for a grid of (sigma, delta)."""
+    from argand.render import FrameParams, parse_angle, parse_sweep
+    from argand.render.grid import atlas_grid, axis_values, frame_grid
     from argand.render.output import check_exr_compression
     from argand.render.sweep import render_sweep
     from argand.scene import load_scene
 
     if delta is not None and deltas is not None:
         fail("give --delta or --deltas, not both")
+    if sigma is not None and sigmas is not None:
+        fail("give --sigma or --sigmas, not both")
+    if atlas is not None and any(v is not None for v in (sigma, sigmas, delta, deltas)):
+        fail("--atlas lays out its own sigmas and deltas: give it without --sigma(s) and --delta(s)")
     try:
         check_exr_compression(exr_compression)
     except ValueError as exc:
         fail(f"--exr-compression: {exc}")
     try:
-        sigma_value = parse_angle(sigma)
-        if deltas is not None:
-            start, stop, count = parse_sweep(deltas)
-            values = delta_sweep(start, stop, count)
+        if atlas is not None:
+            grid = atlas_grid(atlas)
         else:
-            values = [parse_angle(delta) if delta is not None else 0.0]
+            def axis(one: Optional[str], sweep: Optional[str], name: str) -> list[float]:
+                try:
+                    return axis_values(parse_sweep(sweep) if sweep is not None else parse_angle("0" if one is None else one))
+                except ValueError as exc:
+                    raise ValueError(f"--{name}: {exc}") from None
+            grid = frame_grid(axis(sigma, sigmas, "sigmas" if sigmas else "sigma"),
+                              axis(delta, deltas, "deltas" if deltas else "delta"))
     except ValueError as exc:
         fail(str(exc))
     width, height = _parse_size(size)
@@ -165,11 +179,9 @@ def render(
     if exact_bits is not None:
         exact["exact_max_bits"] = exact_bits
     try:
-        params = [
-            FrameParams(sigma=sigma_value, delta=d, width=width, height=height, method=method, hue_by_argument=hue,
-                        samples=loaded.samples if samples is None else samples, **exact)
-            for d in values
-        ]
+        params = [FrameParams(sigma=p.sigma, delta=p.delta, width=width, height=height, method=method,
+                              hue_by_argument=hue, samples=loaded.samples if samples is None else samples, **exact)
+                  for p in grid.points]
     except ValueError as exc:
         fail(f"--samples: {exc}" if "samples" in str(exc) else str(exc))
     if explain is not None:
@@ -184,18 +196,21 @@ def render(
         try:
             summary = render_sweep(
                 loaded, params, out, tile=tile, workers=workers or None, compression=exr_compression, fps=fps,
-                on_frame=lambda i, p: progress.update(task, description=f"frame {i + 1}/{len(params)} (delta={p.delta:.4g})"),
-                on_tile=lambda t: progress.advance(task))
+                on_frame=lambda i, p: progress.update(
+                    task, description=f"frame {i + 1}/{len(params)} (sigma={p.sigma:.4g}, delta={p.delta:.4g})"),
+                on_tile=lambda t: progress.advance(task), grid=grid)
         except ValueError as exc:
             fail(str(exc))
     for f in summary:
         console.print(
-            f"delta={f['delta']:.5g}: {f['seconds'] * 1000:.0f} ms, {f['ns_per_pixel']:.0f} ns/pixel, "
+            f"sigma={f['sigma']:.5g} delta={f['delta']:.5g}: {f['seconds'] * 1000:.0f} ms, "
+            f"{f['ns_per_pixel']:.0f} ns/pixel, "
             f"certified {100 * f['certified_share']:.3f}%, escalated {100 * f['escalated_share']:.3f}%, "
             f"exact {f['exact_pixels']} (multiple roots proven {f['exact_multiple_roots']}, "
             f"over the work cap {f['exact_over_cap']})"
         )
-    console.print(f"wrote {len(params)} frame(s) to {out}/" + (" and animation.gif" if len(params) > 1 else ""))
+    extras = (["animation.gif", "animation.mp4"] if len(params) > 1 else []) + (["atlas.png"] if grid.is_grid else [])
+    console.print(f"wrote {len(params)} frame(s) to {out}/" + (f" and {', '.join(extras)}" if extras else ""))
 
 
 def _explain(scene, params, where: str, tile: int) -> None:

@@ -196,7 +196,8 @@ def _local_render(out: Path, frames: int, size: int, tile: int, threads: int, co
     params = [FrameParams(sigma=0.0, delta=d, width=size, height=size)
               for d in delta_sweep(0.0, parse_angle(SWEEP_STOP), frames)]
     start = time.perf_counter()
-    figures = render_sweep(scene, params, out, tile=tile, workers=threads, compression=compression)
+    # (No MP4: the farm makes it on request, not while the job runs.)
+    figures = render_sweep(scene, params, out, tile=tile, workers=threads, compression=compression, mp4=False)
     wall = time.perf_counter() - start
     return {"threads": threads, "tile": tile, "wall_s": wall, "fps": frames / wall,
             "render_s": sum(f["seconds"] for f in figures)}

@@ -235,7 +235,7 @@ def replay(client: httpx.Client, work: list[tuple[dict, list[dict]]], timeout_s:
     ids = []
     for view, frames in work:
         body = {"scene": view["scene_name"] if view["scene_name"] != "custom" else view["scene"],
-                "sigma": view["sigma"], "deltas": [f["delta"] for f in frames], "width": view["width"],
+                "sigma": frames[0]["sigma"], "deltas": [f["delta"] for f in frames], "width": view["width"],
                 "height": view["height"], "tile": view["tile"], "method": view["method"], "priority": 9}
         r = client.post("/api/jobs", json=body, timeout=120)
         r.raise_for_status()

@@ -3,12 +3,16 @@
 The commit that completes a frame elects its assembler (compare-and-set on
 the frame's state); assembly (EXR with every channel, PNG, thumbnail, the
 frame's GIF fragment) is idempotent. The frame that completes the job
-splices the animation from the fragments (argand.render.gif)."""
+splices the animation from the fragments (argand.render.gif). The WebP, the
+MP4 and a grid's atlas.png are made from the frames' files on their first
+request, so no encoding stands between the last frame and the job's end."""
 
 from __future__ import annotations
 
 import json
+import os
 import time
+import uuid
 from typing import Any
 
 import numpy as np
@@ -23,8 +27,11 @@ from argand.farm.settings import Settings
 from argand.farm.states import FRAME, JOB
 from argand.farm.store import FrameStore, store_for
 from argand.render import gif
+from argand.render.atlas import atlas_png as draw_atlas, cell_size, scale_to_cell
 from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, STATUS_NAMES, FrameParams, FrameResult, frame_figures
+from argand.render.grid import FrameGrid, FramePoint
 from argand.render.output import to_srgb8, write_exr, write_png
+from argand.render.video import Mp4Encoder
 
 #: The thumbnail keeps every step-th pixel, step = max(width, height) // THUMBNAIL_SIZE.
 THUMBNAIL_SIZE = 160
@@ -147,6 +154,12 @@ def build_animation(settings: Settings, job_id: str, fps: float = 8.0) -> None:
     store.write_atomic(layout.animation("gif"), gif.splice(fragments, fps=fps))
 
 
+def _frame_pngs(layout: JobLayout, n_frames: int):
+    """The frames' PNGs as (h, w, 3) uint8, one at a time."""
+    for i in range(n_frames):
+        yield oiio.ImageBuf(str(layout.frame(i, "png"))).get_pixels(oiio.UINT8)[..., :3]
+
+
 def animation_webp(settings: Settings, job_id: str, n_frames: int, fps: float = 8.0) -> bool:
     """animation.webp from the frames' PNGs, made once and kept (False: this
     installation's Pillow has no WebP)."""
@@ -155,9 +168,50 @@ def animation_webp(settings: Settings, job_id: str, n_frames: int, fps: float = 
     path = layout.animation("webp")
     if path.exists():
         return True
-    frames = [oiio.ImageBuf(str(layout.frame(i, "png"))).get_pixels(oiio.UINT8)[..., :3] for i in range(n_frames)]
-    data = gif.encode_animation_webp(frames, fps=fps)
+    data = gif.encode_animation_webp(list(_frame_pngs(layout, n_frames)), fps=fps)
     if data is None:
         return False
     store.write_atomic(path, data)
+    return True
+
+
+def animation_mp4(settings: Settings, job_id: str, n_frames: int, fps: float = 8.0) -> None:
+    """animation.mp4 (H.264, yuv420p) from the frames' PNGs, read and encoded
+    one at a time, made on first request and kept: encoding it is no step
+    between the last frame and the job's end. Two first requests at once
+    each write their own temporary file; the last rename wins, whole."""
+    layout = store_for(settings).job(job_id)
+    path = layout.animation("mp4")
+    if path.exists():
+        return
+    tmp = path.with_name(f"animation.{uuid.uuid4().hex[:12]}.tmp.mp4")
+    try:
+        with Mp4Encoder(tmp, fps) as encoder:
+            for picture in _frame_pngs(layout, n_frames):
+                encoder.add(picture)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def atlas_png(settings: Settings, job_id: str) -> bool:
+    """atlas.png of a finished grid job, from the frames' thumbnails, made on
+    first request and kept (False: the job is not a grid of several σ and δ)."""
+    store = store_for(settings)
+    layout = store.job(job_id)
+    path = layout.atlas()
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        job = c.execute(select(Job.scene_name, Job.width, Job.height).where(Job.id == job_id)).one()
+        rows = c.execute(select(Frame.sigma_index, Frame.delta_index, Frame.sigma, Frame.delta)
+                         .where(Frame.job_id == job_id).order_by(Frame.index)).all()
+    grid = FrameGrid.from_points([FramePoint(*r) for r in rows])
+    if not grid.is_grid:
+        return False
+    if path.exists():
+        return True
+    size = cell_size(job.width, job.height)
+    cells = {i: scale_to_cell(oiio.ImageBuf(str(layout.thumbnail(i))).get_pixels(oiio.UINT8)[..., :3], size)
+             for i in range(len(grid))}
+    title = f"{job.scene_name}: {len(grid)} frames of {job.width}x{job.height}"
+    store.write_atomic(path, draw_atlas(grid, cells, job.width, job.height, title=title))
     return True

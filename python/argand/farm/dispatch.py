@@ -30,14 +30,15 @@ def queue_job_tiles(conn, settings: Settings, job_id: str, workers: int, only_st
     job = conn.execute(select(Job.priority, Job.width, Job.height, Job.tile).where(Job.id == job_id)).first()
     if job is None:
         return 0
-    n_frames = conn.execute(select(func.count()).select_from(Frame).where(Frame.job_id == job_id)).scalar()
+    positions = [tuple(p) for p in conn.execute(select(Frame.sigma_index, Frame.delta_index).where(
+        Frame.job_id == job_id).order_by(Frame.index))]
     rows = conn.execute(select(Tile.frame_index, Tile.tile_index).where(
         Tile.job_id == job_id, Tile.status.in_(only_status)).order_by(Tile.frame_index, Tile.tile_index)).all()
     by_frame: dict[int, list[int]] = {}
     for f, t in rows:
         by_frame.setdefault(f, []).append(t)
-    runs = plan_runs(by_frame, n_frames, tile_rects(job.width, job.height, job.tile), settings.batch_pixels,
-                     max(1, workers))
+    runs = plan_runs(by_frame, len(positions), tile_rects(job.width, job.height, job.tile), settings.batch_pixels,
+                     max(1, workers), positions)
     add_runs(conn, job_id, runs, job.priority if priority is None else priority, not_before)
     return len(rows)
 

@@ -5,7 +5,8 @@ the writer of tiles, the assembler and the API.
     store/jobs/<job>/thumb_NNNN.png              its thumbnail
     store/jobs/<job>/<channel>_NNNN.png          a false-colour channel (made on request)
     store/jobs/<job>/gif/NNNN.gif                the frame's GIF fragment
-    store/jobs/<job>/animation.gif|.webp         the animation
+    store/jobs/<job>/animation.gif|.webp|.mp4    the animation (WebP, MP4: made on request)
+    store/jobs/<job>/atlas.png                   a grid's frames as a labelled contact sheet (on request)
     store/jobs/<job>/tiles/NNNN/<name>.chunk     tiles of an unassembled frame
 """
 
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 FRAME_FILES = ("exr", "png", "json")
+ANIMATIONS = ("gif", "webp", "mp4")
 
 
 @dataclass(frozen=True)
@@ -42,9 +44,12 @@ class JobLayout:
         return self.folder / "gif" / f"{index:04d}.gif"
 
     def animation(self, kind: str) -> Path:
-        if kind not in ("gif", "webp"):
-            raise ValueError(f"an animation is gif or webp, not {kind!r}")
+        if kind not in ANIMATIONS:
+            raise ValueError(f"an animation is one of {', '.join(ANIMATIONS)}, not {kind!r}")
         return self.folder / f"animation.{kind}"
+
+    def atlas(self) -> Path:
+        return self.folder / "atlas.png"
 
     def tiles(self, index: int) -> Path:
         return self.folder / "tiles" / f"{index:04d}"

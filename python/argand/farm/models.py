@@ -22,7 +22,6 @@ class Job(Base):
     status: Mapped[str] = mapped_column(String(16), default="queued", index=True)  # states.JOB
     scene_name: Mapped[str] = mapped_column(String(200))
     scene: Mapped[dict] = mapped_column(JSON)
-    sigma: Mapped[float] = mapped_column(Float, default=0.0)
     width: Mapped[int] = mapped_column(Integer)
     height: Mapped[int] = mapped_column(Integer)
     tile: Mapped[int] = mapped_column(Integer)
@@ -45,6 +44,9 @@ class Frame(Base):
     index: Mapped[int] = mapped_column(Integer)
     sigma: Mapped[float] = mapped_column(Float)
     delta: Mapped[float] = mapped_column(Float)
+    #: The frame's place in its job's grid (argand.render.grid): row (σ) and column (δ).
+    sigma_index: Mapped[int] = mapped_column(Integer, default=0, server_default="0")
+    delta_index: Mapped[int] = mapped_column(Integer, default=0, server_default="0")
     status: Mapped[str] = mapped_column(String(16), default="queued")  # states.FRAME
     tiles_total: Mapped[int] = mapped_column(Integer)
     #: Tiles counted done (incremented in the transaction that completes them).

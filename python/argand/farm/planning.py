@@ -3,6 +3,8 @@ rectangles, the frames' sending order, and runs of tiles of one frame."""
 
 from __future__ import annotations
 
+from typing import Sequence
+
 from argand.render.frames import tiles
 
 Rect = tuple[int, int, int, int]
@@ -11,9 +13,18 @@ Rect = tuple[int, int, int, int]
 MIN_TILE, MAX_TILE = 8, 4096
 
 
-def preview_order(n_frames: int, stride: int = 4) -> list[int]:
+def preview_order(n_frames: int, stride: int = 4, positions: Sequence[tuple[int, int]] | None = None) -> list[int]:
     """Every stride-th frame first, then the gaps: a coarse preview of the
-    whole animation appears early."""
+    whole animation appears early. On a grid (``positions``: each frame's
+    (row, column), more than one of each) every fourth frame is every other
+    row and column: the frames at (even, even) first, then (even, odd),
+    (odd, even) and (odd, odd), each in frame order, so a coarse atlas fills
+    in early; a single row or column is a sweep as above."""
+    if positions is not None and len({r for r, _ in positions}) > 1 and len({c for _, c in positions}) > 1:
+        if len(positions) != n_frames:
+            raise ValueError(f"{len(positions)} positions for {n_frames} frames")
+        phase = [(r % 2, c % 2) for r, c in positions]
+        return [i for p in ((0, 0), (0, 1), (1, 0), (1, 1)) for i in range(n_frames) if phase[i] == p]
     order: list[int] = []
     for start in range(stride):
         order += list(range(start, n_frames, stride))
@@ -49,15 +60,16 @@ def batch_runs(tile_indices: list[int], rects: list[Rect], target_pixels: int) -
 
 
 def plan_runs(by_frame: dict[int, list[int]], n_frames: int, rects: list[Rect], batch_pixels: int,
-              workers: int) -> list[tuple[int, list[int]]]:
+              workers: int, positions: Sequence[tuple[int, int]] | None = None) -> list[tuple[int, list[int]]]:
     """The messages, in sending order, as (frame, tiles): frames in preview
     order, runs of at most ``batch_pixels``, small enough that every worker
-    gets four or more. (Cutting the last runs smaller, so that the workers
+    gets four or more; ``positions``: the frames' grid places (preview_order).
+    (Cutting the last runs smaller, so that the workers
     finish together, was measured: the tiles' trip through the store costs
     what the balance saves, 36 frames of 512x512 on two workers.)"""
     pixels = sum(_area(rects[t]) for ts in by_frame.values() for t in ts)
     target = max(1, min(batch_pixels, pixels // (4 * workers)))
-    return [(f, run) for f in preview_order(n_frames) for run in batch_runs(by_frame.get(f, []), rects, target)]
+    return [(f, run) for f in preview_order(n_frames, positions=positions) for run in batch_runs(by_frame.get(f, []), rects, target)]
 
 
 def samples_of(scene: dict) -> int:

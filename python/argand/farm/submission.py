@@ -20,7 +20,8 @@ from argand.farm.planning import plan_runs, samples_of, tile_rects
 from argand.farm.rendering import core_scene_of, frame_plan
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
-from argand.render.frames import delta_sweep
+from argand.render.grid import (BandRuleError, FrameGrid, atlas_frames, atlas_grid, axis_values, check_band_rule,
+                               frame_grid)
 
 
 class JobRefused(ValueError):
@@ -35,8 +36,7 @@ class FarmBusy(JobRefused):
 class JobSpec:
     scene_name: str
     scene: dict
-    sigma: float
-    deltas: list[float]
+    frames: FrameGrid
     width: int
     height: int
     tile: int
@@ -44,33 +44,52 @@ class JobSpec:
     method: str = "auto"
 
 
-def sweep_deltas(deltas: Any, max_frames: int | None = None) -> list[float]:
-    """A job's deltas: a list, or {start, stop, count} swept as `argand
-    render --deltas` sweeps it (the same values to the last bit). With
-    ``max_frames``, a count above it is refused before anything is expanded."""
-    n = int(deltas["count"]) if isinstance(deltas, dict) else len(deltas)
+def _count(axis: Any) -> int:
+    return int(axis["count"]) if isinstance(axis, dict) else len(axis)
+
+
+def sweep_axis(axis: Any) -> list[float]:
+    """One axis of a job (σ or δ): a list, or {start, stop, count} swept as
+    `argand render --sigmas/--deltas` sweeps it (the same values to the last bit)."""
+    if isinstance(axis, dict):
+        return axis_values((float(axis["start"]), float(axis["stop"]), int(axis["count"])))
+    return [float(v) for v in axis]
+
+
+def job_frames(sigmas: Any = (0.0,), deltas: Any = (0.0,), atlas: int | None = None,
+               max_frames: int | None = None) -> FrameGrid:
+    """A job's (σ, δ) frames: the grid sigmas x deltas (each a list or
+    {start, stop, count}), or with ``atlas`` the triangular grid of that many
+    steps over σ ≥ 0, σ + δ ≤ π (argand.render.grid). With ``max_frames`` a
+    job above it is refused before anything is expanded; a pair that breaks
+    the band rule is refused naming it."""
+    n = atlas_frames(atlas) if atlas is not None else _count(sigmas) * _count(deltas)
     if max_frames is not None and n > max_frames:
         raise JobRefused(f"{n} frames exceed the limit of {max_frames}")
-    if isinstance(deltas, dict):
-        return delta_sweep(float(deltas["start"]), float(deltas["stop"]), int(deltas["count"]))
-    return [float(d) for d in deltas]
+    try:
+        return atlas_grid(atlas) if atlas is not None else frame_grid(sweep_axis(sigmas), sweep_axis(deltas))
+    except ValueError as exc:
+        raise JobRefused(str(exc)) from None
 
 
 def check_limits(settings: Settings, spec: JobSpec) -> None:
     """Raises JobRefused, naming the limit, for a job above the settings' limits."""
-    if any(d < 0 for d in spec.deltas):
-        raise JobRefused("every delta must be >= 0")
+    n_frames = len(spec.frames)
+    try:
+        check_band_rule([(p.sigma, p.delta) for p in spec.frames.points])
+    except BandRuleError as exc:
+        raise JobRefused(str(exc)) from None
     if spec.width > settings.max_width or spec.height > settings.max_height:
         raise JobRefused(f"frame size {spec.width}x{spec.height} exceeds the limit "
                          f"{settings.max_width}x{settings.max_height}")
-    if len(spec.deltas) > settings.max_frames:
-        raise JobRefused(f"{len(spec.deltas)} frames exceed the limit of {settings.max_frames}")
-    pixels = spec.width * spec.height * len(spec.deltas)
+    if n_frames > settings.max_frames:
+        raise JobRefused(f"{n_frames} frames exceed the limit of {settings.max_frames}")
+    pixels = spec.width * spec.height * n_frames
     samples = samples_of(spec.scene)  # a sample costs what a pixel does: the limit counts traced rays
     if pixels * samples > settings.max_job_pixels:
         rays = f" x {samples} samples per pixel = {pixels * samples} rays" if samples > 1 else ""
         raise JobRefused(f"the job has {pixels} pixels{rays}, above the limit of {settings.max_job_pixels}")
-    tiles = -(-spec.width // spec.tile) * -(-spec.height // spec.tile) * len(spec.deltas)
+    tiles = -(-spec.width // spec.tile) * -(-spec.height // spec.tile) * n_frames
     if tiles > settings.max_job_tiles:
         raise JobRefused(f"the job has {tiles} tiles ({spec.tile}-pixel tiles), above the limit of "
                          f"{settings.max_job_tiles}: use larger tiles or fewer frames")
@@ -85,15 +104,15 @@ def check_renderable(spec: JobSpec) -> None:
         core = core_scene_of(spec.scene)
     except (ValueError, ArithmeticError, RuntimeError) as exc:
         raise JobRefused(f"the scene cannot be rendered: {exc}") from None
-    first = {}
-    for index, delta in enumerate(spec.deltas):
-        first.setdefault(delta, index)
-    for delta, index in sorted(first.items()):
+    first: dict[tuple[float, float], int] = {}
+    for index, p in enumerate(spec.frames.points):
+        first.setdefault((p.sigma, p.delta), index)
+    for (sigma, delta), index in sorted(first.items()):
         try:
-            frame_plan(core, spec.sigma, delta, spec.width, spec.height, spec.method, samples_of(spec.scene))
+            frame_plan(core, sigma, delta, spec.width, spec.height, spec.method, samples_of(spec.scene))
         except (ValueError, ArithmeticError, RuntimeError) as exc:
-            where = f"frame {index} (sigma {spec.sigma:.17g}, delta {delta:.17g})" if len(spec.deltas) > 1 else \
-                f"sigma {spec.sigma:.17g}, delta {delta:.17g}"
+            where = f"frame {index} (sigma {sigma:.17g}, delta {delta:.17g})" if len(first) > 1 else \
+                f"sigma {sigma:.17g}, delta {delta:.17g}"
             raise JobRefused(f"the scene cannot be rendered: {exc} [at {where}]") from None
 
 
@@ -144,15 +163,17 @@ def create_job(settings: Settings, spec: JobSpec, send: bool = True) -> str:
     check_disk(settings)
     job_id = uuid.uuid4().hex[:12]
     rects = tile_rects(spec.width, spec.height, spec.tile)
-    n_frames = len(spec.deltas)
+    n_frames, positions = len(spec.frames), spec.frames.positions
     workers = max(1, alive_workers(settings))
-    runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects, settings.batch_pixels, workers)
+    runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects, settings.batch_pixels,
+                     workers, positions)
     with engine_for(settings.sqlalchemy_url).begin() as c:
         c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=spec.scene,
-                                     sigma=spec.sigma, width=spec.width, height=spec.height, tile=spec.tile,
+                                     width=spec.width, height=spec.height, tile=spec.tile,
                                      method=spec.method, priority=spec.priority, created=time.time()))
-        c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=spec.sigma, delta=d, status="queued",
-                                       tiles_total=len(rects), tiles_done=0) for i, d in enumerate(spec.deltas)])
+        c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=p.sigma, delta=p.delta, sigma_index=p.sigma_index,
+                                       delta_index=p.delta_index, status="queued", tiles_total=len(rects), tiles_done=0)
+                                  for i, p in enumerate(spec.frames.points)])
         c.execute(insert(Tile), [dict(job_id=job_id, frame_index=i, tile_index=t, status="queued", attempts=0,
                                       renders=0) for i in range(n_frames) for t in range(len(rects))])
         add_runs(c, job_id, runs, spec.priority)

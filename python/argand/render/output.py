@@ -111,8 +111,12 @@ def write_exr(result: FrameResult, path: Path, pixels: np.ndarray | None = None,
     spec.alpha_channel = 3
     spec.z_channel = 4
     spec.attribute("compression", compression)
+    # The frame's (sigma, delta), exactly the doubles rendered: as their
+    # shortest round-trip text (float(text) gives them back), since a float
+    # attribute is single precision and OpenImageIO's Python binding does
+    # not write double attributes.
     for key, value in (("argand:sigma", result.params.sigma), ("argand:delta", result.params.delta)):
-        spec.attribute(key, float(value))
+        spec.attribute(key, repr(float(value)))
     spec.attribute("argand:certified_share", float(result.certified_share))
     spec.attribute("argand:samples", int(result.params.samples))  # per pixel (the certified_share AOV counts them)
     _write(oiio, path, spec, exr_pixels(result) if pixels is None else pixels)
@@ -157,6 +161,17 @@ def write_frame(result: FrameResult, out_dir: Path, index: int, exr: np.ndarray 
     figures = dict(result.figures, index=index)
     paths["json"].write_text(json.dumps(figures, indent=2) + "\n")
     return paths
+
+
+def read_band(path: Path) -> tuple[float, float]:
+    """The (sigma, delta) an EXR written above was rendered at, exactly."""
+    oiio = _oiio()
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        raise OSError(f"cannot read {path}: {oiio.geterror()}")
+    spec = inp.spec()
+    inp.close()
+    return float(spec.get_string_attribute("argand:sigma")), float(spec.get_string_attribute("argand:delta"))
 
 
 def read_exr(path: Path) -> tuple[list[str], np.ndarray]:

@@ -1,0 +1,165 @@
+"""A job's frames as (σ, δ) pairs: a δ sweep at one σ, a σ sweep at one δ
+(a "rotating band"), a grid sigmas x deltas, or the atlas, a triangular grid
+over the whole space the paper says is enough (section 3: "it is only
+necessary to sample the complex space determined by σ ≥ 0 and σ + δ ≤ π").
+
+One definition for `argand render` and the farm: the same request gives the
+same pairs, in the same order, to the last bit. Frames are ordered by row
+(σ) then column (δ), so a single-σ sweep keeps the order it always had.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from argand.core import _core
+from argand.render.frames import BAND_RULE, delta_sweep
+
+#: How many offending pairs a refusal quotes (the count says how many more).
+QUOTED_PAIRS = 5
+
+
+class BandRuleError(ValueError):
+    """Pairs outside σ ≥ 0, δ ≥ 0, σ + δ ≤ π; the message quotes the rule and names them."""
+
+
+@dataclass(frozen=True)
+class FramePoint:
+    """One frame's place: its row (σ index) and column (δ index) in the
+    grid, and the exact values rendered."""
+
+    sigma_index: int
+    delta_index: int
+    sigma: float
+    delta: float
+
+
+@dataclass(frozen=True)
+class FrameGrid:
+    """The σ axis (rows), the δ axis (columns) and the frames, in frame
+    order. A full grid holds every (row, column); the atlas only the
+    triangle σ + δ ≤ π (where a diagonal δ may sit an ulp or two below its
+    column's value, see atlas_grid)."""
+
+    sigmas: tuple[float, ...]
+    deltas: tuple[float, ...]
+    points: tuple[FramePoint, ...]
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return len(self.sigmas), len(self.deltas)
+
+    @property
+    def is_grid(self) -> bool:
+        """More than one σ and more than one δ: an atlas image is worth making."""
+        return len(self.sigmas) > 1 and len(self.deltas) > 1
+
+    @property
+    def positions(self) -> list[tuple[int, int]]:
+        return [(p.sigma_index, p.delta_index) for p in self.points]
+
+    @classmethod
+    def from_points(cls, points: Sequence[FramePoint]) -> "FrameGrid":
+        """The grid of frames stored with their places: each axis value is
+        that of the first frame at its row or column (an atlas's diagonal
+        frames may sit an ulp below their column's value)."""
+        sigmas: dict[int, float] = {}
+        deltas: dict[int, float] = {}
+        for p in points:
+            sigmas.setdefault(p.sigma_index, p.sigma)
+            deltas.setdefault(p.delta_index, p.delta)
+        return cls(tuple(sigmas[k] for k in sorted(sigmas)), tuple(deltas[k] for k in sorted(deltas)), tuple(points))
+
+
+def band_rule_violations(pairs: Sequence[tuple[float, float]]) -> list[tuple[float, float]]:
+    """The pairs that break the band rule (decided exactly, in C++)."""
+    return [(s, d) for s, d in pairs if not _core.band_rule_holds(float(s), float(d))]
+
+
+def check_band_rule(pairs: Sequence[tuple[float, float]]) -> None:
+    """Raises BandRuleError quoting BAND_RULE and the first QUOTED_PAIRS
+    offending pairs (with how many more there are)."""
+    bad = band_rule_violations(pairs)
+    if not bad:
+        return
+    named = ", ".join(f"(sigma = {s!r}, delta = {d!r})" for s, d in bad[:QUOTED_PAIRS])
+    more = f" and {len(bad) - QUOTED_PAIRS} more" if len(bad) > QUOTED_PAIRS else ""
+    which = "the frame breaks" if len(pairs) == 1 else \
+        f"{len(bad)} of the {len(pairs)} frames {'breaks' if len(bad) == 1 else 'break'}"
+    raise BandRuleError(f"{which} the band rule ({BAND_RULE}): {named}{more}; "
+                        "an atlas covers the whole space within the rule")
+
+
+def frame_grid(sigmas: Sequence[float], deltas: Sequence[float]) -> FrameGrid:
+    """Every pair of ``sigmas`` x ``deltas``, row (σ) by row; BandRuleError
+    if any pair breaks the band rule, ValueError for an empty axis or a
+    value that is not finite."""
+    sigmas, deltas = [float(s) for s in sigmas], [float(d) for d in deltas]
+    if not sigmas or not deltas:
+        raise ValueError("a job needs at least one sigma and one delta")
+    if not all(math.isfinite(v) for v in sigmas + deltas):
+        raise ValueError("every sigma and delta must be a finite number")
+    points = tuple(FramePoint(i, j, s, d) for i, s in enumerate(sigmas) for j, d in enumerate(deltas))
+    check_band_rule([(p.sigma, p.delta) for p in points])
+    return FrameGrid(tuple(sigmas), tuple(deltas), points)
+
+
+def atlas_frames(steps: int) -> int:
+    """Frames in the atlas of ``steps`` (without building it)."""
+    return steps * (steps + 1) // 2
+
+
+def atlas_grid(steps: int) -> FrameGrid:
+    """The whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of ``steps``
+    rows and columns, h = π / steps: σ = 0, h, ..., π - h (rows) and
+    δ = h, 2h, ..., π (columns), every pair with σ + δ ≤ π, so row i holds
+    steps - i frames and the last column of each row lies on σ + δ = π.
+
+    δ = 0 is left out: a band of width 0 holds a root only if its argument is
+    exactly σ, so for σ > 0 that column would be empty, and σ = 0, δ = 0 (the
+    real surface) is what `--delta 0` renders. The values are
+    linspace(0, π, steps + 1); where a diagonal pair's rounded sum exceeds π
+    its δ is lowered by the fewest ulps that satisfy the band rule."""
+    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
+        raise ValueError(f"an atlas needs a whole number of steps >= 1, got {steps!r}")
+    line = [float(v) for v in np.linspace(0.0, math.pi, steps + 1)]
+    sigmas, deltas = tuple(line[:-1]), tuple(line[1:])
+    points = []
+    for i, s in enumerate(sigmas):
+        for j, d in enumerate(deltas[: steps - i]):
+            while not _core.band_rule_holds(s, d):  # the diagonal, rounded above pi: an ulp at a time
+                d = math.nextafter(d, 0.0)
+            points.append(FramePoint(i, j, s, d))
+    return FrameGrid(sigmas, deltas, tuple(points))
+
+
+def axis_values(spec: float | Sequence[float] | tuple[float, float, int]) -> list[float]:
+    """One axis from a number, a list, or (start, stop, count) swept as
+    delta_sweep sweeps it (the same values for σ and δ, CLI and farm)."""
+    if isinstance(spec, tuple) and len(spec) == 3 and isinstance(spec[2], int):
+        return delta_sweep(float(spec[0]), float(spec[1]), spec[2])
+    if isinstance(spec, (int, float)):
+        return [float(spec)]
+    return [float(v) for v in spec]
+
+
+def format_angle(value: float) -> str:
+    """An angle for a label: a multiple of π/36 or π/N (N ≤ 48) written as
+    such ("0", "π/4", "2π/3"), anything else to three decimals."""
+    if value == 0:
+        return "0"
+    for den in range(1, 49):
+        num = round(value * den / math.pi)
+        if num and abs(value - num * math.pi / den) <= 1e-9 * max(1.0, abs(value)):
+            g = math.gcd(num, den)
+            num, den = num // g, den // g
+            top = "π" if num == 1 else "-π" if num == -1 else f"{num}π"
+            return top if den == 1 else f"{top}/{den}"
+    return f"{value:.3f}"
