@@ -252,3 +252,21 @@ def test_the_farm_s_sampled_frame_equals_argand_render(tmp_path):
             assert png.status_code == 200 and png.content[:4] == b"\x89PNG", png.text
     finally:
         farm.stop()
+
+
+def test_a_message_carries_as_many_rays_at_any_samples():
+    """The farm's runs count traced rays: at N samples a run holds N times
+    fewer pixels, so a message takes as long (and meets the time limits)
+    as at one sample."""
+    from argand.farm.planning import batch_pixels, plan_runs, tile_rects
+    from argand.farm.settings import Settings
+
+    settings = Settings(batch_pixels=64 * 64)
+    rects = tile_rects(64, 64, 16)
+    for samples in (1, 4, 16):
+        limit = batch_pixels(settings.batch_pixels, {"samples": samples})
+        assert limit == 64 * 64 // samples
+        runs = plan_runs({0: list(range(len(rects)))}, 1, rects, limit, 1)
+        assert sorted(t for _, run in runs for t in run) == list(range(len(rects)))
+        assert all(sum((rects[t][2] - rects[t][0]) * (rects[t][3] - rects[t][1]) for t in run) * samples <= 64 * 64
+                   for _, run in runs)

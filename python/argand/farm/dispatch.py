@@ -11,7 +11,7 @@ from sqlalchemy import func, select
 from argand.farm.database import engine_for
 from argand.farm.models import Frame, Job, Tile, Worker
 from argand.farm.outbox import add_runs, try_drain
-from argand.farm.planning import plan_runs, tile_rects
+from argand.farm.planning import batch_pixels, plan_runs, tile_rects
 from argand.farm.settings import Settings
 
 
@@ -27,7 +27,7 @@ def queue_job_tiles(conn, settings: Settings, job_id: str, workers: int, only_st
     """In the caller's transaction (``conn``): outbox rows for every tile of
     the job in one of the given states (see plan_runs), at the job's priority
     unless ``priority`` is given. Returns the number of tiles."""
-    job = conn.execute(select(Job.priority, Job.width, Job.height, Job.tile).where(Job.id == job_id)).first()
+    job = conn.execute(select(Job.priority, Job.width, Job.height, Job.tile, Job.scene).where(Job.id == job_id)).first()
     if job is None:
         return 0
     positions = [tuple(p) for p in conn.execute(select(Frame.sigma_index, Frame.delta_index).where(
@@ -37,7 +37,8 @@ def queue_job_tiles(conn, settings: Settings, job_id: str, workers: int, only_st
     by_frame: dict[int, list[int]] = {}
     for f, t in rows:
         by_frame.setdefault(f, []).append(t)
-    runs = plan_runs(by_frame, len(positions), tile_rects(job.width, job.height, job.tile), settings.batch_pixels,
+    runs = plan_runs(by_frame, len(positions), tile_rects(job.width, job.height, job.tile),
+                     batch_pixels(settings.batch_pixels, job.scene),
                      max(1, workers), positions)
     add_runs(conn, job_id, runs, job.priority if priority is None else priority, not_before)
     return len(rows)

@@ -72,6 +72,13 @@ def plan_runs(by_frame: dict[int, list[int]], n_frames: int, rects: list[Rect], 
     return [(f, run) for f in preview_order(n_frames, positions=positions) for run in batch_runs(by_frame.get(f, []), rects, target)]
 
 
+def batch_pixels(rays: int, scene: dict) -> int:
+    """A message's most pixels for a job: ``rays`` (settings.batch_pixels) traced rays,
+    so a job of N samples per pixel gets runs N times fewer pixels (a
+    message's time, and so the time limits, stay what they are at 1)."""
+    return max(1, rays // samples_of(scene))
+
+
 def samples_of(scene: dict) -> int:
     """A job's samples per pixel: its stored scene's (argand.scene.Scene.samples;
     the HTTP field ``samples`` is stored there)."""

@@ -16,7 +16,7 @@ from argand.farm.database import engine_for
 from argand.farm.dispatch import alive_workers
 from argand.farm.models import Frame, Job, Tile
 from argand.farm.outbox import add_runs, try_drain
-from argand.farm.planning import plan_runs, samples_of, tile_rects
+from argand.farm.planning import batch_pixels, plan_runs, samples_of, tile_rects
 from argand.farm.rendering import core_scene_of, frame_plan
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
@@ -165,8 +165,8 @@ def create_job(settings: Settings, spec: JobSpec, send: bool = True) -> str:
     rects = tile_rects(spec.width, spec.height, spec.tile)
     n_frames, positions = len(spec.frames), spec.frames.positions
     workers = max(1, alive_workers(settings))
-    runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects, settings.batch_pixels,
-                     workers, positions)
+    runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects,
+                     batch_pixels(settings.batch_pixels, spec.scene), workers, positions)
     with engine_for(settings.sqlalchemy_url).begin() as c:
         c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=spec.scene,
                                      width=spec.width, height=spec.height, tile=spec.tile,
