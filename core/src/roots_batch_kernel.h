@@ -1,0 +1,436 @@
+// roots_batch_kernel.h: the lane-parallel root kernel (internal; included
+// once per instruction set by roots_batch_generic.cpp, roots_batch_avx2.cpp
+// and roots_batch_avx512.cpp, each inside its own namespace
+// ARGAND_BATCH_NS so that no inline function compiled for one instruction
+// set can be picked by the linker for another).
+//
+// A block holds kBatchLanes polynomials of one degree n <= kBatchMaxDegree in
+// structure-of-arrays form (coefficient k of lane l at c[k][l]), already
+// scaled by exact powers of two (roots of modulus ~1, largest coefficient in
+// [1, 2)). Every step is a loop over the lanes with the same operations in
+// every lane, written without branches (both sides computed, then a select),
+// so that the compiler turns it into vector code (checked with objdump, see
+// docs/roots.md). Rounding: the build pins -ffp-contract=off and no fast
+// math for these files, and the driver refuses to run them under
+// flush-to-zero / denormals-are-zero or a directed rounding mode, so every
+// lane performs exactly the IEEE-754 binary64 operations written here, in
+// this order: the same operations, in the same order, as the scalar
+// smith_radii_fast (solver.h), whose rounding argument therefore holds lane
+// by lane (the C++ test compares the two bit for bit).
+//
+// What a lane proves: ok[l] = 1 iff Smith's discs D(x_i, r_i) (Smith 1970,
+// Theorem 5, bound from smith_radii_fast) are pairwise proven disjoint, so
+// each holds exactly one root. Every other lane claims nothing here and goes
+// to the scalar path (find_roots) with its escalation ladder.
+#ifndef ARGAND_BATCH_NS
+#error "define ARGAND_BATCH_NS before including roots_batch_kernel.h"
+#endif
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "roots_batch_block.h"
+
+namespace argand::ARGAND_BATCH_NS {
+namespace {
+
+constexpr int L = kBatchLanes;
+constexpr double kU = 0x1p-53;             // unit roundoff (kUnitRoundoff)
+constexpr double kMulRel = 2.25 * kU;      // ErrorModel<double>::mul_rel
+constexpr double kAddRel = 1.0000001 * kU; // ErrorModel<double>::add_rel
+constexpr double kAbsErr = 8.0 * 0x1p-1074;// ErrorModel<double>::abs_err
+constexpr double kHuge = 1.7976931348623157e308;
+
+inline std::uint64_t bits_of(double v) {
+    std::uint64_t b;
+    std::memcpy(&b, &v, sizeof b);
+    return b;
+}
+inline double from_bits(std::uint64_t b) {
+    double v;
+    std::memcpy(&v, &b, sizeof v);
+    return v;
+}
+/// next_up for v >= 0 (also 0 -> smallest subnormal); +inf and NaN stay.
+inline double up(double v) { return v < __builtin_inf() ? from_bits(bits_of(v) + 1) : v; }
+inline bool finite(double v) { return std::fabs(v) <= kHuge; }
+
+/// Cube root for the starting points only (a few ulps): exponent split by
+/// bits, a cubic on [1, 8), two Halley steps. 0 gives 0; subnormal or huge
+/// arguments give garbage (finite or not); the caller replaces non-finite
+/// starts.
+inline double cbrt_approx(double a) {
+    const double x = std::fabs(a);
+    const double biased = from_bits((bits_of(x) >> 52) | 0x4330000000000000ULL) - 0x1p52;  // exponent field
+    const double t = (biased - 1023.0 + 1200.0) * (1.0 / 3.0);
+    double k = (t + 0x1p52) - 0x1p52;
+    k = k > t ? k - 1.0 : k;  // floor(t)
+    const double j = (biased - 1023.0 + 1200.0) - 3.0 * k;  // 0, 1 or 2
+    const double mant = from_bits((bits_of(x) & 0x000fffffffffffffULL) | 0x3ff0000000000000ULL);
+    const double m = mant * (j == 0.0 ? 1.0 : (j == 1.0 ? 2.0 : 4.0));  // in [1, 8)
+    double u = 0.7214687145987767 + m * (0.32889523423265293 + m * (-0.03472546820473445 + m * 0.0017137144084611797));
+    for (int s = 0; s < 2; ++s) {
+        const double u3 = u * u * u;
+        u = u * (u3 + 2.0 * m) / (2.0 * u3 + m);
+    }
+    const double scale = from_bits((bits_of((k - 400.0 + 1023.0) + 0x1p52) - bits_of(0x1p52)) << 52);
+    const double r = u * scale;
+    return x == 0.0 ? 0.0 : (a < 0.0 ? -r : r);
+}
+
+/// cos(acos(t) / 3) for t in [-1, 1], as h(sqrt((1 + t) / 2)) with
+/// h(s) = cos(2/3 acos s) analytic on [0, 1]: a degree-8 fit, |error| < 4e-9.
+inline double cos_third_acos(double t) {
+    const double s = std::sqrt(0.5 * (1.0 + t));
+    return 0.5000000032511468 +
+           s * (0.5773497201111664 +
+                s * (-0.11109568692096883 +
+                     s * (0.05328867622501659 +
+                          s * (-0.03196135433598694 +
+                               s * (0.019675813400088206 +
+                                    s * (-0.010325578211612447 +
+                                         s * (0.0037077251982862163 + s * -0.0006393211418758642)))))));
+}
+
+/// A real root of the depressed cubic y^3 + p y + q (the largest when all
+/// three are real), as closed_form_guesses finds it (approximation).
+inline double depressed_cubic_root(double p, double q) {
+    constexpr double third = 1.0 / 3.0, twenty_seventh = 1.0 / 27.0;
+    const double disc = 0.25 * q * q + twenty_seventh * p * p * p;
+    const double sq = std::sqrt(disc > 0.0 ? disc : 0.0);
+    const double u = cbrt_approx(q >= 0.0 ? -0.5 * q - sq : -0.5 * q + sq);
+    const double y_one = u != 0.0 ? u - p * third / u : 0.0;
+    const double mp = -p * third;
+    const double m = 2.0 * std::sqrt(mp > 0.0 ? mp : 0.0);
+    const double ratio = 3.0 * q / (p * m);
+    const double tc = ratio >= 1.0 ? 1.0 : (ratio >= -1.0 ? ratio : (ratio < -1.0 ? -1.0 : 1.0));
+    const double y_three = m * cos_third_acos(tc);
+    return disc >= 0.0 ? y_one : y_three;
+}
+
+/// Roots of t^2 + b t + c (real_quadratic_roots, without branches).
+inline void quadratic(double b, double c, double& r0, double& i0, double& r1, double& i1) {
+    const double disc = b * b - 4.0 * c;
+    const double sq = std::sqrt(std::fabs(disc));
+    const double q = -0.5 * (b + std::copysign(sq, b));
+    const bool real = disc >= 0.0;
+    const double other = c / q;
+    r0 = real ? q : -0.5 * b;
+    i0 = real ? 0.0 : 0.5 * sq;
+    r1 = real ? (q != 0.0 ? other : 0.0) : -0.5 * b;
+    i1 = real ? 0.0 : -0.5 * sq;
+}
+
+/// Principal square root of re + i im (complex_sqrt, without branches).
+inline void csqrt(double re, double im, double& sr, double& si) {
+    const double m = std::sqrt(re * re + im * im);
+    const double a = std::sqrt(0.5 * (m + std::fabs(re)));
+    const double other = im / (2.0 * a);
+    const bool zero = a == 0.0;
+    sr = zero ? 0.0 : (re >= 0.0 ? a : std::fabs(other));
+    si = zero ? 0.0 : (re >= 0.0 ? other : (im >= 0.0 ? a : -a));
+}
+
+/// Closed-form starting points for degree N <= 4, lane by lane (the
+/// formulas of closed_form_guesses with the transcendental functions
+/// replaced by the approximations above). Non-finite starts are replaced by
+/// the circle starts.
+template <int N>
+void closed_form_starts(BatchBlock& b) {
+#pragma GCC ivdep
+    for (int l = 0; l < L; ++l) {
+        double xr[4], xi[4];
+        if constexpr (N == 1) {
+            xr[0] = -b.c[0][l] / b.c[1][l];
+            xi[0] = 0.0;
+        } else if constexpr (N == 2) {
+            const double inv = 1.0 / b.c[2][l];
+            quadratic(b.c[1][l] * inv, b.c[0][l] * inv, xr[0], xi[0], xr[1], xi[1]);
+        } else {
+            constexpr double third = 1.0 / 3.0, twenty_seventh = 1.0 / 27.0;
+            const double inv_lead = 1.0 / b.c[N][l];
+            const double a3 = b.c[N - 1][l] * inv_lead, a2 = b.c[N - 2][l] * inv_lead, a1 = b.c[N - 3][l] * inv_lead;
+            if constexpr (N == 3) {
+                const double shift = a3 * third;
+                const double p = a2 - a3 * shift;
+                const double q = 2.0 * twenty_seventh * a3 * a3 * a3 - a3 * a2 * third + a1;
+                const double y0 = depressed_cubic_root(p, q);
+                xr[0] = y0 - shift;
+                xi[0] = 0.0;
+                quadratic(y0, p + y0 * y0, xr[1], xi[1], xr[2], xi[2]);
+                xr[1] -= shift;
+                xr[2] -= shift;
+            } else {
+                const double a0 = b.c[0][l] * inv_lead;
+                const double shift = 0.25 * a3;
+                const double s2 = shift * shift;
+                const double p = a2 - 6.0 * s2;
+                const double q = a1 - 2.0 * a2 * shift + 8.0 * s2 * shift;
+                const double r = a0 - a1 * shift + a2 * s2 - 3.0 * s2 * s2;
+                // Resolvent z^3 + 2p z^2 + (p^2 - 4r) z - q^2: its largest real root.
+                const double A = 2.0 * p, B = p * p - 4.0 * r, C = -q * q;
+                const double zs = A * third;
+                const double P = B - A * zs;
+                const double Q = 2.0 * twenty_seventh * A * A * A - A * B * third + C;
+                const double y0 = depressed_cubic_root(P, Q);
+                double q0r, q0i, q1r, q1i;
+                quadratic(y0, P + y0 * y0, q0r, q0i, q1r, q1i);
+                double z = y0 - zs;
+                const double z1 = q0r - zs, z2 = q1r - zs;
+                z = ((std::fabs(q0i) <= 1e-8 * (1.0 + std::fabs(z1))) & (z1 > z)) ? z1 : z;
+                z = ((std::fabs(q1i) <= 1e-8 * (1.0 + std::fabs(z2))) & (z2 > z)) ? z2 : z;
+                // Split into two quadratics (z > 0) ...
+                const double w = std::sqrt(z > 0.0 ? z : 0.0);
+                const double half = 0.5 * (p + z);
+                const double t = 0.5 * q / w;
+                double yr[4], yi[4];
+                quadratic(w, half - t, yr[0], yi[0], yr[1], yi[1]);
+                quadratic(-w, half + t, yr[2], yi[2], yr[3], yi[3]);
+                // ... or the biquadratic y^4 + p y^2 + r.
+                double w0r, w0i, w1r, w1i, s0r, s0i, s1r, s1i;
+                quadratic(p, r, w0r, w0i, w1r, w1i);
+                csqrt(w0r, w0i, s0r, s0i);
+                csqrt(w1r, w1i, s1r, s1i);
+                const bool split = z > 1e-14 * (1.0 + std::fabs(p));
+                xr[0] = (split ? yr[0] : s0r) - shift;
+                xi[0] = split ? yi[0] : s0i;
+                xr[1] = (split ? yr[1] : -s0r) - shift;
+                xi[1] = split ? yi[1] : -s0i;
+                xr[2] = (split ? yr[2] : s1r) - shift;
+                xi[2] = split ? yi[2] : s1i;
+                xr[3] = (split ? yr[3] : -s1r) - shift;
+                xi[3] = split ? yi[3] : -s1i;
+            }
+        }
+        bool good = true;
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) good = good & finite(xr[i]) & finite(xi[i]);
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            b.xr[i][l] = good ? xr[i] : b.circle_re[i];
+            b.xi[i][l] = good ? xi[i] : b.circle_im[i];
+        }
+    }
+}
+
+template <int N>
+void circle_starts(BatchBlock& b) {
+    for (int i = 0; i < N; ++i)
+        for (int l = 0; l < L; ++l) {
+            b.xr[i][l] = b.circle_re[i];
+            b.xi[i][l] = b.circle_im[i];
+        }
+}
+
+/// Aberth-Ehrlich sweeps (Gauss-Seidel over the roots, all lanes at once),
+/// with the scalar aberth's stopping rules per root and lane; a converged
+/// root is frozen. The Aberth sum uses one division per root: with
+/// d_j = x_i - x_j, m_j = |d_j|^2, M = prod m_j and S = sum conj(d_j) M / m_j,
+/// the correction p / (p' - p S / M) is p M / (p' M - p S). Approximations
+/// only: nothing here is proven. Returns the sweeps done.
+template <int N>
+int aberth_lanes(BatchBlock& b, int max_iter) {
+    constexpr double eps = kU;
+    constexpr double noise = 4.0 * (N + 1) * eps;
+    constexpr double stop_rel2 = 0x1p-20 * 0x1p-20;
+    double done[N][L];
+    for (int i = 0; i < N; ++i)
+        for (int l = 0; l < L; ++l) done[i][l] = b.active[l] ? 0.0 : 1.0;
+    int it = 0;
+    for (; it < max_iter; ++it) {
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+#pragma GCC ivdep
+            for (int l = 0; l < L; ++l) {
+                const double xr = b.xr[i][l], xi = b.xi[i][l];
+                double pr = b.c[N][l], pi = 0.0, dr = 0.0, di = 0.0, ap = std::fabs(b.c[N][l]);
+                const double ax2 = xr * xr + xi * xi;
+                const double ax = std::sqrt(ax2);
+#pragma GCC unroll 8
+                for (int k = N - 1; k >= 0; --k) {
+                    const double ndr = dr * xr - di * xi + pr;
+                    const double ndi = dr * xi + di * xr + pi;
+                    dr = ndr;
+                    di = ndi;
+                    const double npr = pr * xr - pi * xi + b.c[k][l];
+                    const double npi = pr * xi + pi * xr;
+                    pr = npr;
+                    pi = npi;
+                    ap = ap * ax + std::fabs(b.c[k][l]);
+                }
+                const double floor = noise * ap;
+                const bool small = pr * pr + pi * pi <= floor * floor;
+                // Aberth sum over j != i with a single division.
+                double mprod = 1.0, sr = 0.0, si = 0.0;
+#pragma GCC unroll 8
+                for (int j = 0; j < N; ++j) {
+                    if (j == i) continue;
+                    const double er = xr - b.xr[j][l], ei = xi - b.xi[j][l];
+                    const double m = er * er + ei * ei;
+                    // S <- S m + conj(d) M (keeps S = sum conj(d_j) M / m_j).
+                    sr = sr * m + er * mprod;
+                    si = si * m - ei * mprod;
+                    mprod *= m;
+                }
+                // den = p' M - p S; w = p M / den.
+                const double denr = dr * mprod - (pr * sr - pi * si);
+                const double deni = di * mprod - (pr * si + pi * sr);
+                const double numr = pr * mprod, numi = pi * mprod;
+                const double inv = 1.0 / (denr * denr + deni * deni);
+                const double wr = (numr * denr + numi * deni) * inv;
+                const double wi = (numi * denr - numr * deni) * inv;
+                const bool ok_w = finite(wr) & finite(wi);
+                const double nudge = (ax > 0.0 ? ax : 1.0) * 1e-7 * (1 + i);
+                const double nr = ok_w ? xr - wr : xr + nudge;
+                const double ni = ok_w ? xi - wi : xi + 0.7 * nudge;
+                const bool act = done[i][l] == 0.0;
+                const bool move = act & !small;
+                b.xr[i][l] = move ? nr : xr;
+                b.xi[i][l] = move ? ni : xi;
+                const bool conv = small | (ok_w & (wr * wr + wi * wi <= stop_rel2 * (nr * nr + ni * ni)));
+                done[i][l] = (!act | conv) ? 1.0 : 0.0;
+            }
+        }
+        int left = 0;
+        for (int i = 0; i < N; ++i)
+            for (int l = 0; l < L; ++l) left += done[i][l] == 0.0;
+        if (left == 0) {
+            ++it;
+            break;
+        }
+    }
+    for (int l = 0; l < L; ++l) {
+        int left = 0;
+        for (int i = 0; i < N; ++i) left += done[i][l] == 0.0;
+        b.converged[l] = left == 0 ? 1.0 : 0.0;
+    }
+    return it;
+}
+
+/// Smith's discs, lane by lane, exactly as smith_radii_fast (solver.h) with
+/// no coefficient radii, after the same snapping of real approximations;
+/// then the pairwise separation test of smith_discs<double>. Sets ok[l] and
+/// r[i][l]; real roots are those with xi == 0 (a disc centred on the real
+/// axis holding one root of a real polynomial holds a real root).
+template <int N>
+void smith_lanes(BatchBlock& b) {
+    constexpr double u = kU;
+    constexpr double relative_up = 1.0 + 2.0 * (4.0 * N + 10.0) * u;
+    constexpr double den_down = 1.0 - 2.0 * (5.0 * N + 2.0) * u;
+    constexpr double pair_down = 1.0 - 8.0 * u;
+    constexpr double snap_tol = 64.0 * u;
+    const double slack = b.slack;  // N pow2(max(8N - 1070, -1014)), from the driver
+#pragma GCC ivdep
+    for (int l = 0; l < L; ++l) {
+        double xr[N], xi[N];
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            xr[i] = b.xr[i][l];
+            const double v = b.xi[i][l];
+            xi[i] = ((v != 0.0) & (std::fabs(v) <= snap_tol * std::fabs(xr[i]))) ? 0.0 : v;
+            b.xi[i][l] = xi[i];
+        }
+        bool ok = b.active[l] != 0.0;
+        double dist[N][N];
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i)
+#pragma GCC unroll 8
+            for (int j = i + 1; j < N; ++j) {
+                const double dr = xr[i] - xr[j], di = xi[i] - xi[j];
+                const double d = std::sqrt(dr * dr + di * di);
+                ok = ok & (d >= 0x1p-450) & (d <= 0x1p450);
+                dist[i][j] = dist[j][i] = d;
+            }
+        const double lead = std::fabs(b.c[N][l]);
+        double r[N];
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            const double ax = std::fabs(xr[i]) + std::fabs(xi[i]);
+            ok = ok & (ax <= 0x1p8);
+            double yr = b.c[N][l], yi = 0.0, ay = lead, e = 0.0;
+#pragma GCC unroll 8
+            for (int k = N - 1; k >= 0; --k) {
+                const double pr = yr * xr[i] - yi * xi[i];
+                const double pi = yr * xi[i] + yi * xr[i];
+                yr = pr + b.c[k][l];
+                yi = pi;
+                const double a_next = std::fabs(yr) + std::fabs(yi);
+                e = ax * (e + kMulRel * ay) + (kAddRel * a_next + 2.0 * kAbsErr);
+                ay = a_next;
+            }
+            // add_up(add_up(next_up(ay), next_up(e relative_up)), add_up(slack, 0)).
+            const double numerator = up(up(up(ay) + up(e * relative_up)) + up(slack + 0.0));
+            double denominator = lead;
+#pragma GCC unroll 8
+            for (int j = 0; j < N; ++j)
+                if (j != i) denominator *= dist[i][j];
+            ok = ok & (denominator >= 0x1p-900) & finite(denominator) & finite(numerator);
+            denominator *= den_down;
+            r[i] = up(N * up(numerator / denominator));
+            ok = ok & finite(r[i]);
+        }
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i)
+#pragma GCC unroll 8
+            for (int j = i + 1; j < N; ++j) ok = ok & (dist[i][j] * pair_down > up(r[i] + r[j]));
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) b.r[i][l] = r[i];
+        b.ok[l] = ok ? 1.0 : 0.0;
+    }
+}
+
+/// The unverified method's radius estimate n |p| / |p'| (no claim).
+template <int N>
+void estimate_lanes(BatchBlock& b) {
+    for (int i = 0; i < N; ++i)
+#pragma GCC ivdep
+        for (int l = 0; l < L; ++l) {
+            const double xr = b.xr[i][l], xi = b.xi[i][l];
+            double pr = b.c[N][l], pi = 0.0, dr = 0.0, di = 0.0;
+#pragma GCC unroll 8
+            for (int k = N - 1; k >= 0; --k) {
+                const double ndr = dr * xr - di * xi + pr;
+                const double ndi = dr * xi + di * xr + pi;
+                dr = ndr;
+                di = ndi;
+                const double npr = pr * xr - pi * xi + b.c[k][l];
+                const double npi = pr * xi + pi * xr;
+                pr = npr;
+                pi = npi;
+            }
+            const double est = N * std::sqrt(pr * pr + pi * pi) / std::sqrt(dr * dr + di * di);
+            b.r[i][l] = finite(est) ? est : __builtin_inf();
+            b.ok[l] = b.active[l];
+        }
+}
+
+template <int N>
+int solve_block_n(BatchBlock& b, bool verify) {
+    if constexpr (N <= 4) closed_form_starts<N>(b);
+    else circle_starts<N>(b);
+    const int sweeps = aberth_lanes<N>(b, N <= 4 ? b.max_sweeps_closed : b.max_sweeps_circle);
+    if (verify) smith_lanes<N>(b);
+    else estimate_lanes<N>(b);
+    return sweeps;
+}
+
+}  // namespace
+
+/// The entry point of this instruction set's kernel: solves the block in
+/// place (see BatchBlock); returns the Aberth sweeps done.
+int solve_block(BatchBlock& b, bool verify) {
+    switch (b.n) {
+        case 1: return solve_block_n<1>(b, verify);
+        case 2: return solve_block_n<2>(b, verify);
+        case 3: return solve_block_n<3>(b, verify);
+        case 4: return solve_block_n<4>(b, verify);
+        case 5: return solve_block_n<5>(b, verify);
+        case 6: return solve_block_n<6>(b, verify);
+        case 7: return solve_block_n<7>(b, verify);
+        case 8: return solve_block_n<8>(b, verify);
+        default: return -1;
+    }
+}
+
+}  // namespace argand::ARGAND_BATCH_NS
