@@ -6,6 +6,7 @@ import numpy as np
 import numpy.typing as npt
 
 MAX_DEGREE: int
+BATCH_MAX_DEGREE: int
 
 def find_roots(
     coeffs: npt.NDArray[np.float64],
@@ -22,7 +23,8 @@ def find_roots(
     bool,
     int,
 ]: ...
-def find_roots_batch(matrix: npt.NDArray[np.float64], method: str = "auto") -> dict[str, Any]: ...
+def find_roots_batch(matrix: npt.NDArray[np.float64], method: str = "auto", kernel: str = "auto") -> dict[str, Any]: ...
+def batch_kernel() -> str: ...
 
 # Rendering (bind_render.cpp).
 MAX_OBJECTS: int

@@ -17,6 +17,7 @@
 #endif
 
 namespace argand {
+static_assert(kBatchKernelMaxDegree == kBatchMaxDegree, "roots_batch.h and roots_batch_block.h disagree");
 namespace {
 
 inline std::uint64_t bits_of(double v) {
@@ -88,7 +89,9 @@ bool admit(const double* c, int n, BatchBlock& b, int l, int& e_out) {
     }
     const int lo_exp = biased_exponent(c[0]) - 1023;
     const int hi_exp = biased_exponent(c[n]) - 1023;
-    const int e = static_cast<int>(std::lround(static_cast<double>(lo_exp - hi_exp) / n));
+    // round((lo_exp - hi_exp) / n), halves away from zero (as lround), in integers.
+    const int diff = lo_exp - hi_exp;
+    const int e = diff >= 0 ? (2 * diff + n) / (2 * n) : -((-2 * diff + n) / (2 * n));
     int top = -100000;
     for (int k = 0; k <= n; ++k)
         if (c[k] != 0.0) top = std::max(top, biased_exponent(c[k]) - 1023 + e * k);
@@ -113,9 +116,10 @@ bool write_lane(const BatchBlock& b, int l, int e, bool verify, RootsResult& res
             d.verified = true;
             d.real = b.xi[i][l] == 0.0;
         } else {
-            d.re = std::ldexp(b.xr[i][l], e);
-            d.im = std::ldexp(b.xi[i][l], e);
-            d.radius = std::ldexp(b.r[i][l], e);
+            // (Nothing is claimed: any rounding will do; exact where possible.)
+            if (!scale_normal(b.xr[i][l], e, d.re)) d.re = std::ldexp(b.xr[i][l], e);
+            if (!scale_normal(b.xi[i][l], e, d.im)) d.im = std::ldexp(b.xi[i][l], e);
+            if (!scale_normal(b.r[i][l], e, d.radius)) d.radius = std::ldexp(b.r[i][l], e);
             if (!std::isfinite(d.radius)) d.radius = std::numeric_limits<double>::infinity();
             d.verified = false;
             d.real = false;

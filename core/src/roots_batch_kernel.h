@@ -93,20 +93,39 @@ inline double cos_third_acos(double t) {
                                          s * (0.0037077251982862163 + s * -0.0006393211418758642)))))));
 }
 
-/// A real root of the depressed cubic y^3 + p y + q (the largest when all
-/// three are real), as closed_form_guesses finds it (approximation).
-inline double depressed_cubic_root(double p, double q) {
+/// A real root of the depressed cubic y^3 + p y + q in every lane (the
+/// largest when all three are real), as closed_form_guesses finds it
+/// (approximation): Cardano where the discriminant is >= 0, the
+/// trigonometric form elsewhere. Each form is computed only if some lane
+/// needs it (both cost divisions and square roots).
+inline void depressed_cubic_roots(const double* p, const double* q, double* y) {
     constexpr double third = 1.0 / 3.0, twenty_seventh = 1.0 / 27.0;
-    const double disc = 0.25 * q * q + twenty_seventh * p * p * p;
-    const double sq = std::sqrt(disc > 0.0 ? disc : 0.0);
-    const double u = cbrt_approx(q >= 0.0 ? -0.5 * q - sq : -0.5 * q + sq);
-    const double y_one = u != 0.0 ? u - p * third / u : 0.0;
-    const double mp = -p * third;
-    const double m = 2.0 * std::sqrt(mp > 0.0 ? mp : 0.0);
-    const double ratio = 3.0 * q / (p * m);
-    const double tc = ratio >= 1.0 ? 1.0 : (ratio >= -1.0 ? ratio : (ratio < -1.0 ? -1.0 : 1.0));
-    const double y_three = m * cos_third_acos(tc);
-    return disc >= 0.0 ? y_one : y_three;
+    double disc[L];
+    int n_one = 0;
+    for (int l = 0; l < L; ++l) {
+        disc[l] = 0.25 * q[l] * q[l] + twenty_seventh * p[l] * p[l] * p[l];
+        n_one += disc[l] >= 0.0;
+    }
+    if (n_one > 0) {
+#pragma GCC ivdep
+        for (int l = 0; l < L; ++l) {
+            const double sq = std::sqrt(disc[l] > 0.0 ? disc[l] : 0.0);
+            const double u = cbrt_approx(q[l] >= 0.0 ? -0.5 * q[l] - sq : -0.5 * q[l] + sq);
+            const double p3u = p[l] * third / u;
+            y[l] = u != 0.0 ? u - p3u : 0.0;
+        }
+    }
+    if (n_one < L) {
+#pragma GCC ivdep
+        for (int l = 0; l < L; ++l) {
+            const double mp = -p[l] * third;
+            const double m = 2.0 * std::sqrt(mp > 0.0 ? mp : 0.0);
+            const double ratio = 3.0 * q[l] / (p[l] * m);
+            const double tc = ratio >= 1.0 ? 1.0 : (ratio >= -1.0 ? ratio : (ratio < -1.0 ? -1.0 : 1.0));
+            const double y_three = m * cos_third_acos(tc);
+            y[l] = disc[l] >= 0.0 ? y[l] : y_three;
+        }
+    }
 }
 
 /// Roots of t^2 + b t + c (real_quadratic_roots, without branches).
@@ -134,82 +153,128 @@ inline void csqrt(double re, double im, double& sr, double& si) {
 
 /// Closed-form starting points for degree N <= 4, lane by lane (the
 /// formulas of closed_form_guesses with the transcendental functions
-/// replaced by the approximations above). Non-finite starts are replaced by
-/// the circle starts.
+/// replaced by the approximations above), in phases so that a branch no
+/// lane takes is skipped. Non-finite starts are replaced by the circle
+/// starts.
 template <int N>
 void closed_form_starts(BatchBlock& b) {
+    constexpr double third = 1.0 / 3.0, twenty_seventh = 1.0 / 27.0;
+    if constexpr (N == 1) {
+        for (int l = 0; l < L; ++l) {
+            b.xr[0][l] = -b.c[0][l] / b.c[1][l];
+            b.xi[0][l] = 0.0;
+        }
+    } else if constexpr (N == 2) {
 #pragma GCC ivdep
-    for (int l = 0; l < L; ++l) {
-        double xr[4], xi[4];
-        if constexpr (N == 1) {
-            xr[0] = -b.c[0][l] / b.c[1][l];
-            xi[0] = 0.0;
-        } else if constexpr (N == 2) {
+        for (int l = 0; l < L; ++l) {
             const double inv = 1.0 / b.c[2][l];
-            quadratic(b.c[1][l] * inv, b.c[0][l] * inv, xr[0], xi[0], xr[1], xi[1]);
-        } else {
-            constexpr double third = 1.0 / 3.0, twenty_seventh = 1.0 / 27.0;
-            const double inv_lead = 1.0 / b.c[N][l];
-            const double a3 = b.c[N - 1][l] * inv_lead, a2 = b.c[N - 2][l] * inv_lead, a1 = b.c[N - 3][l] * inv_lead;
-            if constexpr (N == 3) {
-                const double shift = a3 * third;
-                const double p = a2 - a3 * shift;
-                const double q = 2.0 * twenty_seventh * a3 * a3 * a3 - a3 * a2 * third + a1;
-                const double y0 = depressed_cubic_root(p, q);
-                xr[0] = y0 - shift;
-                xi[0] = 0.0;
-                quadratic(y0, p + y0 * y0, xr[1], xi[1], xr[2], xi[2]);
-                xr[1] -= shift;
-                xr[2] -= shift;
-            } else {
-                const double a0 = b.c[0][l] * inv_lead;
-                const double shift = 0.25 * a3;
-                const double s2 = shift * shift;
-                const double p = a2 - 6.0 * s2;
-                const double q = a1 - 2.0 * a2 * shift + 8.0 * s2 * shift;
-                const double r = a0 - a1 * shift + a2 * s2 - 3.0 * s2 * s2;
-                // Resolvent z^3 + 2p z^2 + (p^2 - 4r) z - q^2: its largest real root.
-                const double A = 2.0 * p, B = p * p - 4.0 * r, C = -q * q;
-                const double zs = A * third;
-                const double P = B - A * zs;
-                const double Q = 2.0 * twenty_seventh * A * A * A - A * B * third + C;
-                const double y0 = depressed_cubic_root(P, Q);
-                double q0r, q0i, q1r, q1i;
-                quadratic(y0, P + y0 * y0, q0r, q0i, q1r, q1i);
-                double z = y0 - zs;
-                const double z1 = q0r - zs, z2 = q1r - zs;
-                z = ((std::fabs(q0i) <= 1e-8 * (1.0 + std::fabs(z1))) & (z1 > z)) ? z1 : z;
-                z = ((std::fabs(q1i) <= 1e-8 * (1.0 + std::fabs(z2))) & (z2 > z)) ? z2 : z;
-                // Split into two quadratics (z > 0) ...
-                const double w = std::sqrt(z > 0.0 ? z : 0.0);
-                const double half = 0.5 * (p + z);
-                const double t = 0.5 * q / w;
-                double yr[4], yi[4];
-                quadratic(w, half - t, yr[0], yi[0], yr[1], yi[1]);
-                quadratic(-w, half + t, yr[2], yi[2], yr[3], yi[3]);
-                // ... or the biquadratic y^4 + p y^2 + r.
+            quadratic(b.c[1][l] * inv, b.c[0][l] * inv, b.xr[0][l], b.xi[0][l], b.xr[1][l], b.xi[1][l]);
+        }
+    } else if constexpr (N == 3) {
+        double p[L], q[L], shift[L], y0[L];
+#pragma GCC ivdep
+        for (int l = 0; l < L; ++l) {
+            const double inv_lead = 1.0 / b.c[3][l];
+            const double a3 = b.c[2][l] * inv_lead, a2 = b.c[1][l] * inv_lead, a1 = b.c[0][l] * inv_lead;
+            shift[l] = a3 * third;
+            p[l] = a2 - a3 * shift[l];
+            q[l] = 2.0 * twenty_seventh * a3 * a3 * a3 - a3 * a2 * third + a1;
+        }
+        depressed_cubic_roots(p, q, y0);
+#pragma GCC ivdep
+        for (int l = 0; l < L; ++l) {
+            double r1, i1, r2, i2;
+            quadratic(y0[l], p[l] + y0[l] * y0[l], r1, i1, r2, i2);
+            b.xr[0][l] = y0[l] - shift[l];
+            b.xi[0][l] = 0.0;
+            b.xr[1][l] = r1 - shift[l];
+            b.xi[1][l] = i1;
+            b.xr[2][l] = r2 - shift[l];
+            b.xi[2][l] = i2;
+        }
+    } else {
+        double p[L], q[L], r[L], shift[L], P[L], Q[L], zs[L], y0[L];
+#pragma GCC ivdep
+        for (int l = 0; l < L; ++l) {
+            const double inv_lead = 1.0 / b.c[4][l];
+            const double a3 = b.c[3][l] * inv_lead, a2 = b.c[2][l] * inv_lead, a1 = b.c[1][l] * inv_lead;
+            const double a0 = b.c[0][l] * inv_lead;
+            const double sh = 0.25 * a3;
+            const double s2 = sh * sh;
+            shift[l] = sh;
+            p[l] = a2 - 6.0 * s2;
+            q[l] = a1 - 2.0 * a2 * sh + 8.0 * s2 * sh;
+            r[l] = a0 - a1 * sh + a2 * s2 - 3.0 * s2 * s2;
+            // Resolvent z^3 + 2p z^2 + (p^2 - 4r) z - q^2 (depressed by z = y - A/3).
+            const double A = 2.0 * p[l], B = p[l] * p[l] - 4.0 * r[l], C = -q[l] * q[l];
+            zs[l] = A * third;
+            P[l] = B - A * zs[l];
+            Q[l] = 2.0 * twenty_seventh * A * A * A - A * B * third + C;
+        }
+        depressed_cubic_roots(P, Q, y0);
+        double split[L];
+        int n_split = 0;
+#pragma GCC ivdep
+        for (int l = 0; l < L; ++l) {
+            // The resolvent's largest real root z.
+            double q0r, q0i, q1r, q1i;
+            quadratic(y0[l], P[l] + y0[l] * y0[l], q0r, q0i, q1r, q1i);
+            double z = y0[l] - zs[l];
+            const double z1 = q0r - zs[l], z2 = q1r - zs[l];
+            z = ((std::fabs(q0i) <= 1e-8 * (1.0 + std::fabs(z1))) & (z1 > z)) ? z1 : z;
+            z = ((std::fabs(q1i) <= 1e-8 * (1.0 + std::fabs(z2))) & (z2 > z)) ? z2 : z;
+            // Split into two quadratics.
+            const double w = std::sqrt(z > 0.0 ? z : 0.0);
+            const double half = 0.5 * (p[l] + z);
+            const double t = 0.5 * q[l] / w;
+            double yr[4], yi[4];
+            quadratic(w, half - t, yr[0], yi[0], yr[1], yi[1]);
+            quadratic(-w, half + t, yr[2], yi[2], yr[3], yi[3]);
+#pragma GCC unroll 4
+            for (int i = 0; i < 4; ++i) {
+                b.xr[i][l] = yr[i] - shift[l];
+                b.xi[i][l] = yi[i];
+            }
+            const bool s = z > 1e-14 * (1.0 + std::fabs(p[l]));
+            split[l] = s ? 1.0 : 0.0;
+            n_split += s;
+        }
+        if (n_split < L) {
+            // The biquadratic y^4 + p y^2 + r where the split degenerates.
+#pragma GCC ivdep
+            for (int l = 0; l < L; ++l) {
                 double w0r, w0i, w1r, w1i, s0r, s0i, s1r, s1i;
-                quadratic(p, r, w0r, w0i, w1r, w1i);
+                quadratic(p[l], r[l], w0r, w0i, w1r, w1i);
                 csqrt(w0r, w0i, s0r, s0i);
                 csqrt(w1r, w1i, s1r, s1i);
-                const bool split = z > 1e-14 * (1.0 + std::fabs(p));
-                xr[0] = (split ? yr[0] : s0r) - shift;
-                xi[0] = split ? yi[0] : s0i;
-                xr[1] = (split ? yr[1] : -s0r) - shift;
-                xi[1] = split ? yi[1] : -s0i;
-                xr[2] = (split ? yr[2] : s1r) - shift;
-                xi[2] = split ? yi[2] : s1i;
-                xr[3] = (split ? yr[3] : -s1r) - shift;
-                xi[3] = split ? yi[3] : -s1i;
+                const bool s = split[l] != 0.0;
+                b.xr[0][l] = s ? b.xr[0][l] : s0r - shift[l];
+                b.xi[0][l] = s ? b.xi[0][l] : s0i;
+                b.xr[1][l] = s ? b.xr[1][l] : -s0r - shift[l];
+                b.xi[1][l] = s ? b.xi[1][l] : -s0i;
+                b.xr[2][l] = s ? b.xr[2][l] : s1r - shift[l];
+                b.xi[2][l] = s ? b.xi[2][l] : s1i;
+                b.xr[3][l] = s ? b.xr[3][l] : -s1r - shift[l];
+                b.xi[3][l] = s ? b.xi[3][l] : -s1i;
             }
         }
-        bool good = true;
+    }
+    double circle_re[N], circle_im[N];
+    for (int i = 0; i < N; ++i) {
+        circle_re[i] = b.circle_re[i];
+        circle_im[i] = b.circle_im[i];
+    }
+#pragma GCC ivdep
+    for (int l = 0; l < L; ++l) {
+        // x - x is 0 for finite x and NaN otherwise (no fast math: not folded).
+        double probe = 0.0;
 #pragma GCC unroll 8
-        for (int i = 0; i < N; ++i) good = good & finite(xr[i]) & finite(xi[i]);
+        for (int i = 0; i < N; ++i) probe += (b.xr[i][l] - b.xr[i][l]) + (b.xi[i][l] - b.xi[i][l]);
+        const bool good = probe == 0.0;
 #pragma GCC unroll 8
         for (int i = 0; i < N; ++i) {
-            b.xr[i][l] = good ? xr[i] : b.circle_re[i];
-            b.xi[i][l] = good ? xi[i] : b.circle_im[i];
+            b.xr[i][l] = good ? b.xr[i][l] : circle_re[i];
+            b.xi[i][l] = good ? b.xi[i][l] : circle_im[i];
         }
     }
 }

@@ -21,6 +21,9 @@
 
 namespace argand {
 
+/// Largest degree with a batched kernel (rows of higher degree use find_roots).
+constexpr int kBatchKernelMaxDegree = 8;
+
 /// Instruction set of the batched kernel. Auto: the widest this CPU runs.
 /// Scalar: no batched kernel, find_roots row by row (the reference).
 enum class BatchIsa : int { Auto = -1, Scalar = 0, Generic = 1, Avx2 = 2, Avx512 = 3 };
