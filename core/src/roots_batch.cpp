@@ -20,31 +20,6 @@ namespace argand {
 static_assert(kBatchKernelMaxDegree == kBatchMaxDegree, "roots_batch.h and roots_batch_block.h disagree");
 namespace {
 
-inline std::uint64_t bits_of(double v) {
-    std::uint64_t b;
-    std::memcpy(&b, &v, sizeof b);
-    return b;
-}
-inline double from_bits(std::uint64_t b) {
-    double v;
-    std::memcpy(&v, &b, sizeof v);
-    return v;
-}
-inline int biased_exponent(double v) { return static_cast<int>((bits_of(v) >> 52) & 0x7ff); }
-
-/// v 2^k when that is exact because v and the result are both normal (or v
-/// is zero); false otherwise (out untouched).
-inline bool scale_normal(double v, int k, double& out) {
-    if (v == 0.0) {
-        out = v;
-        return true;
-    }
-    const int b = biased_exponent(v);
-    if (b == 0 || b == 0x7ff || b + k < 1 || b + k > 0x7fe) return false;
-    out = from_bits(bits_of(v) + (static_cast<std::uint64_t>(static_cast<std::int64_t>(k)) << 52));
-    return true;
-}
-
 /// The kernels' rounding argument needs IEEE-754 round-to-nearest with
 /// gradual underflow: no flush-to-zero, no denormals-are-zero. (On x86 the
 /// vector units obey MXCSR; anything else set there sends every row to the
@@ -71,66 +46,36 @@ Kernel kernel_for(BatchIsa isa) {
     }
 }
 
-/// A row admitted to a lane: its index, and the root scaling t = 2^e u.
-struct Lane {
-    std::int64_t row;
-    int e;
-};
-
-/// Admits row c (degree n): finite coefficients that are normal or zero,
-/// c_0 and c_n nonzero, and the scaling of scale_polynomial (roots to modulus
-/// ~1 by 2^e, largest coefficient to [1, 2)) exact with every scaled
-/// coefficient normal. Writes the scaled coefficients into lane l.
-bool admit(const double* c, int n, BatchBlock& b, int l, int& e_out) {
+/// Admits row c (degree n) to lane l: finite coefficients with c_0 and c_n
+/// nonzero (no exact zero roots, no roots at infinity). The kernel scales
+/// the lane and sends it back when that is not exact.
+inline bool admit(const double* c, int n, BatchBlock& b, int l) {
     if (c[0] == 0.0 || c[n] == 0.0) return false;
+    bool finite = true;
     for (int k = 0; k <= n; ++k) {
-        const int be = biased_exponent(c[k]);
-        if (be == 0x7ff || (be == 0 && c[k] != 0.0)) return false;
+        finite = finite && std::fabs(c[k]) <= std::numeric_limits<double>::max();
+        b.c[k][l] = c[k];
     }
-    const int lo_exp = biased_exponent(c[0]) - 1023;
-    const int hi_exp = biased_exponent(c[n]) - 1023;
-    // round((lo_exp - hi_exp) / n), halves away from zero (as lround), in integers.
-    const int diff = lo_exp - hi_exp;
-    const int e = diff >= 0 ? (2 * diff + n) / (2 * n) : -((-2 * diff + n) / (2 * n));
-    int top = -100000;
-    for (int k = 0; k <= n; ++k)
-        if (c[k] != 0.0) top = std::max(top, biased_exponent(c[k]) - 1023 + e * k);
-    const int f = -top;
-    for (int k = 0; k <= n; ++k)
-        if (!scale_normal(c[k], e * k + f, b.c[k][l])) return false;
-    e_out = e;
-    return true;
+    return finite;
 }
 
-/// Writes lane l of a solved block as row result `res` (coordinates t = 2^e
-/// u). Verified lanes: true iff every centre and radius maps back exactly
-/// (then every claim carries over unchanged). Unverified lanes: always.
-bool write_lane(const BatchBlock& b, int l, int e, bool verify, RootsResult& res) {
+/// Writes lane l of a solved block (ok: proven or estimated, mapped back
+/// exactly by the kernel) as a row result.
+void write_lane(const BatchBlock& b, int l, bool verify, RootsResult& res) {
     const int n = b.n;
     for (int i = 0; i < n; ++i) {
         RootDisc& d = res.discs[i];
-        if (verify) {
-            if (!scale_normal(b.xr[i][l], e, d.re) || !scale_normal(b.xi[i][l], e, d.im) ||
-                !scale_normal(b.r[i][l], e, d.radius))
-                return false;
-            d.verified = true;
-            d.real = b.xi[i][l] == 0.0;
-        } else {
-            // (Nothing is claimed: any rounding will do; exact where possible.)
-            if (!scale_normal(b.xr[i][l], e, d.re)) d.re = std::ldexp(b.xr[i][l], e);
-            if (!scale_normal(b.xi[i][l], e, d.im)) d.im = std::ldexp(b.xi[i][l], e);
-            if (!scale_normal(b.r[i][l], e, d.radius)) d.radius = std::ldexp(b.r[i][l], e);
-            if (!std::isfinite(d.radius)) d.radius = std::numeric_limits<double>::infinity();
-            d.verified = false;
-            d.real = false;
-        }
+        d.re = b.xr[i][l];
+        d.im = b.xi[i][l];
+        d.radius = b.r[i][l];
         d.count = 1;
+        d.verified = verify;
+        d.real = verify && b.xi[i][l] == 0.0;
     }
     res.n_discs = n;
     res.n_infinite = 0;
     res.wants_exact = false;
     res.escalation = 0;
-    return true;
 }
 
 }  // namespace
@@ -193,7 +138,7 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
     const bool verify = method != Method::Unverified;
 
     BatchBlock block;
-    Lane lanes[kBatchLanes];
+    std::int64_t lanes[kBatchLanes];
     int used = 0;
     if (kernel != nullptr) {
         block.n = n;
@@ -217,13 +162,12 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
         ++cnt.blocks;
         cnt.lanes += used;
         for (int l = 0; l < used; ++l) {
-            RootsResult& res = out[lanes[l].row];
-            const bool good = block.ok[l] != 0.0 && (verify || block.converged[l] != 0.0) &&
-                              write_lane(block, l, lanes[l].e, verify, res);
-            if (good) {
+            RootsResult& res = out[lanes[l]];
+            if (block.ok[l] != 0.0 && (verify || block.converged[l] != 0.0)) {
+                write_lane(block, l, verify, res);
                 ++cnt.kept;
             } else {
-                find_roots(coeffs + lanes[l].row * n_coeffs, n_coeffs, method, res);  // finite, c_n != 0: Ok
+                find_roots(coeffs + lanes[l] * n_coeffs, n_coeffs, method, res);  // finite, c_n != 0: Ok
                 ++cnt.scalar;
             }
         }
@@ -232,9 +176,8 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
 
     for (std::int64_t r = 0; r < rows; ++r) {
         const double* c = coeffs + r * n_coeffs;
-        int e = 0;
-        if (kernel != nullptr && admit(c, n, block, used, e)) {
-            lanes[used++] = Lane{r, e};
+        if (kernel != nullptr && admit(c, n, block, used)) {
+            lanes[used++] = r;
             ++cnt.rows;
             if (used == kBatchLanes) flush();
             continue;

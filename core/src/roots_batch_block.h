@@ -19,14 +19,19 @@ struct alignas(64) BatchBlock {
     double slack = 0.0;        // smith_radii_fast's underflow slack for degree n
     double circle_re[kBatchMaxDegree];  // starts on the unit circle, twisted
     double circle_im[kBatchMaxDegree];
-    // In: scaled coefficients, c[k][l] = coefficient k of lane l (exact powers
-    // of two applied, c[0] and c[n] nonzero, all finite and normal or zero).
+    // In: coefficients, c[k][l] = coefficient k of lane l (finite, c[0] and
+    // c[n] nonzero). The kernel scales them in place by exact powers of two
+    // (t = 2^e u: roots of modulus ~1, largest coefficient in [1, 2)).
     alignas(64) double c[kBatchMaxDegree + 1][kBatchLanes];
+    // Out: the root scaling exponent e of each lane (a small integer).
+    alignas(64) double e[kBatchLanes];
     // In: 1.0 for lanes that hold a polynomial, 0.0 for padding.
     alignas(64) double active[kBatchLanes];
-    // Out: approximations (scaled coordinates), radii, and per lane
-    // ok = 1.0 iff every disc D(x_i, r_i) is proven to hold exactly one root
-    // (verify) or the estimates were written (no verify).
+    // Out: centres and radii in the coordinates of the input (mapped back
+    // from the scaled ones exactly), and per lane ok = 1.0 iff the scaling
+    // and the mapping back were exact and every disc D(x_i, r_i) is proven
+    // to hold exactly one root (verify) or the estimates were written (no
+    // verify).
     alignas(64) double xr[kBatchMaxDegree][kBatchLanes];
     alignas(64) double xi[kBatchMaxDegree][kBatchLanes];
     alignas(64) double r[kBatchMaxDegree][kBatchLanes];

@@ -470,13 +470,83 @@ void estimate_lanes(BatchBlock& b) {
         }
 }
 
+/// 2^m for an integer-valued double m, built from bits; valid (and then
+/// exact) for m in [-1022, 1023], which the caller checks.
+inline double pow2_of(double m) {
+    return from_bits((bits_of((m + 1023.0) + 0x1p52) - bits_of(0x1p52)) << 52);
+}
+inline bool exponent_ok(double m) { return (m >= -1022.0) & (m <= 1023.0); }
+
+/// Scales every lane exactly, as scale_polynomial does: t = 2^e u with
+/// e = round((E_0 - E_n) / n) from the coefficients' exponents, and the
+/// factor 2^f that puts the largest coefficient in [1, 2). A product by a
+/// power of two is exact when the result is normal (or the input zero):
+/// lanes where some scaled coefficient is not are marked inactive (the
+/// driver sends them to find_roots). Exponents are small integers held in
+/// doubles (exact).
+template <int N>
+void scale_lanes(BatchBlock& b) {
+#pragma GCC ivdep
+    for (int l = 0; l < L; ++l) {
+        double ex[N + 1];
+#pragma GCC unroll 9
+        for (int k = 0; k <= N; ++k)
+            ex[k] = from_bits((bits_of(b.c[k][l]) >> 52 & 0x7ff) | 0x4330000000000000ULL) - 0x1p52 - 1023.0;
+        const double t = (ex[0] - ex[N]) * (1.0 / N);
+        const double e = (t + 0x1.8p52) - 0x1.8p52;  // nearest integer
+        double top = -1e9;
+#pragma GCC unroll 9
+        for (int k = 0; k <= N; ++k) {
+            const double v = ex[k] + e * k;
+            top = (b.c[k][l] != 0.0) & (v > top) ? v : top;
+        }
+        bool ok = b.active[l] != 0.0;
+#pragma GCC unroll 9
+        for (int k = 0; k <= N; ++k) {
+            const double m = e * k - top;
+            const double v = b.c[k][l];
+            const double s = v * pow2_of(exponent_ok(m) ? m : 0.0);
+            ok = ok & exponent_ok(m) & ((v == 0.0) | ((std::fabs(s) >= 0x1p-1022) & (std::fabs(s) <= kHuge)));
+            b.c[k][l] = s;
+        }
+        ok = ok & exponent_ok(e);
+        b.e[l] = e;
+        b.active[l] = ok ? 1.0 : 0.0;
+    }
+}
+
+/// Maps centres and radii back by 2^e; a lane stays ok only if every value
+/// maps exactly (zero from zero, or a normal result).
+template <int N>
+void unscale_lanes(BatchBlock& b) {
+#pragma GCC ivdep
+    for (int l = 0; l < L; ++l) {
+        const double e = b.e[l];
+        const double f = pow2_of(exponent_ok(e) ? e : 0.0);
+        bool ok = b.ok[l] != 0.0;
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            const double vr = b.xr[i][l] * f, vi = b.xi[i][l] * f, vd = b.r[i][l] * f;
+            ok = ok & ((b.xr[i][l] == 0.0) | ((std::fabs(vr) >= 0x1p-1022) & (std::fabs(vr) <= kHuge)));
+            ok = ok & ((b.xi[i][l] == 0.0) | ((std::fabs(vi) >= 0x1p-1022) & (std::fabs(vi) <= kHuge)));
+            ok = ok & ((b.r[i][l] == 0.0) | ((std::fabs(vd) >= 0x1p-1022) & (std::fabs(vd) <= kHuge)));
+            b.xr[i][l] = vr;
+            b.xi[i][l] = vi;
+            b.r[i][l] = vd;
+        }
+        b.ok[l] = ok ? 1.0 : 0.0;
+    }
+}
+
 template <int N>
 int solve_block_n(BatchBlock& b, bool verify) {
+    scale_lanes<N>(b);
     if constexpr (N <= 4) closed_form_starts<N>(b);
     else circle_starts<N>(b);
     const int sweeps = aberth_lanes<N>(b, N <= 4 ? b.max_sweeps_closed : b.max_sweeps_circle);
     if (verify) smith_lanes<N>(b);
     else estimate_lanes<N>(b);
+    unscale_lanes<N>(b);
     return sweeps;
 }
 

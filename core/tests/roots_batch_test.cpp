@@ -68,6 +68,9 @@ static void fill_block(BatchBlock& b, int n, std::mt19937_64& rng, int kind) {
         }
         if (b.c[0][l] == 0.0) b.c[0][l] = 0.5;
         if (b.c[n][l] == 0.0) b.c[n][l] = 1.0;
+        // Roots and coefficients at other scales (exact): t -> 2^s t, times 2^g.
+        const int sh = (int)(rng() % 41) - 20, g = (int)(rng() % 201) - 100;
+        for (int k = 0; k <= n; ++k) b.c[k][l] = std::ldexp(b.c[k][l], g - sh * k);
     }
 }
 
@@ -108,17 +111,21 @@ static void kernel_matches_scalar_bound() {
                 }
                 if (first.ok[l] == 0.0) continue;
                 ++proven;
+                // The kernel scaled the lane in place (t = 2^e u) and mapped
+                // its discs back exactly: compare in the scaled coordinates.
+                const int e = (int)first.e[l];
                 double c[kBatchMaxDegree + 1];
-                for (int k = 0; k <= n; ++k) c[k] = input.c[k][l];
+                for (int k = 0; k <= n; ++k) c[k] = first.c[k][l];
                 Complex<double> x[kBatchMaxDegree];
-                for (int i = 0; i < n; ++i) x[i] = Complex<double>(first.xr[i][l], first.xi[i][l]);
+                for (int i = 0; i < n; ++i)
+                    x[i] = Complex<double>(std::ldexp(first.xr[i][l], -e), std::ldexp(first.xi[i][l], -e));
                 double r[kBatchMaxDegree], low[kBatchMaxDegree * kBatchMaxDegree];
                 const bool ok = detail::smith_radii_fast(c, n, x, r, low);
                 CHECK(ok, "degree %d lane %d: the kernel proved what smith_radii_fast refuses", n, l);
                 if (!ok) continue;
                 for (int i = 0; i < n; ++i) {
-                    CHECK(same_bits(r[i], first.r[i][l]), "degree %d lane %d root %d: radius %.17g, scalar %.17g", n, l, i,
-                          first.r[i][l], r[i]);
+                    CHECK(same_bits(std::ldexp(r[i], e), first.r[i][l]), "degree %d lane %d root %d: radius %.17g, scalar %.17g",
+                          n, l, i, first.r[i][l], std::ldexp(r[i], e));
                     for (int j = i + 1; j < n; ++j)
                         CHECK(low[i * n + j] > add_up(r[i], r[j]), "degree %d lane %d: discs %d, %d not separated", n, l,
                               i, j);
@@ -130,7 +137,7 @@ static void kernel_matches_scalar_bound() {
                 double slow[kBatchMaxDegree];
                 if (detail::smith_radii(c, n, x, slow))
                     for (int i = 0; i < n; ++i)
-                        CHECK(first.r[i][l] >= slow[i] * (1.0 - 1e-12), "degree %d lane %d root %d: %.17g < slow %.17g", n,
+                        CHECK(std::ldexp(first.r[i][l], -e) >= slow[i] * (1.0 - 1e-12), "degree %d lane %d root %d: %.17g < slow %.17g", n,
                               l, i, first.r[i][l], slow[i]);
             }
         }
