@@ -32,6 +32,20 @@
 
 #include "roots_batch_block.h"
 
+// Masks are combined with & and | on bools on purpose: both sides are
+// always evaluated, which keeps the lane loops free of branches.
+#if defined(__clang__)
+#pragma clang diagnostic ignored "-Wunknown-warning-option"
+#pragma clang diagnostic ignored "-Wbitwise-instead-of-logical"
+#endif
+
+// A loop over the lanes: its iterations are independent (no aliasing).
+#if defined(__clang__)
+#define ARGAND_LANES _Pragma("clang loop vectorize(enable)")
+#else
+#define ARGAND_LANES _Pragma("GCC ivdep")
+#endif
+
 namespace argand::ARGAND_BATCH_NS {
 namespace {
 
@@ -107,7 +121,7 @@ inline void depressed_cubic_roots(const double* p, const double* q, double* y) {
         n_one += disc[l] >= 0.0;
     }
     if (n_one > 0) {
-#pragma GCC ivdep
+ARGAND_LANES
         for (int l = 0; l < L; ++l) {
             const double sq = std::sqrt(disc[l] > 0.0 ? disc[l] : 0.0);
             const double u = cbrt_approx(q[l] >= 0.0 ? -0.5 * q[l] - sq : -0.5 * q[l] + sq);
@@ -116,7 +130,7 @@ inline void depressed_cubic_roots(const double* p, const double* q, double* y) {
         }
     }
     if (n_one < L) {
-#pragma GCC ivdep
+ARGAND_LANES
         for (int l = 0; l < L; ++l) {
             const double mp = -p[l] * third;
             const double m = 2.0 * std::sqrt(mp > 0.0 ? mp : 0.0);
@@ -165,14 +179,14 @@ void closed_form_starts(BatchBlock& b) {
             b.xi[0][l] = 0.0;
         }
     } else if constexpr (N == 2) {
-#pragma GCC ivdep
+ARGAND_LANES
         for (int l = 0; l < L; ++l) {
             const double inv = 1.0 / b.c[2][l];
             quadratic(b.c[1][l] * inv, b.c[0][l] * inv, b.xr[0][l], b.xi[0][l], b.xr[1][l], b.xi[1][l]);
         }
     } else if constexpr (N == 3) {
         double p[L], q[L], shift[L], y0[L];
-#pragma GCC ivdep
+ARGAND_LANES
         for (int l = 0; l < L; ++l) {
             const double inv_lead = 1.0 / b.c[3][l];
             const double a3 = b.c[2][l] * inv_lead, a2 = b.c[1][l] * inv_lead, a1 = b.c[0][l] * inv_lead;
@@ -181,7 +195,7 @@ void closed_form_starts(BatchBlock& b) {
             q[l] = 2.0 * twenty_seventh * a3 * a3 * a3 - a3 * a2 * third + a1;
         }
         depressed_cubic_roots(p, q, y0);
-#pragma GCC ivdep
+ARGAND_LANES
         for (int l = 0; l < L; ++l) {
             double r1, i1, r2, i2;
             quadratic(y0[l], p[l] + y0[l] * y0[l], r1, i1, r2, i2);
@@ -194,7 +208,7 @@ void closed_form_starts(BatchBlock& b) {
         }
     } else {
         double p[L], q[L], r[L], shift[L], P[L], Q[L], zs[L], y0[L];
-#pragma GCC ivdep
+ARGAND_LANES
         for (int l = 0; l < L; ++l) {
             const double inv_lead = 1.0 / b.c[4][l];
             const double a3 = b.c[3][l] * inv_lead, a2 = b.c[2][l] * inv_lead, a1 = b.c[1][l] * inv_lead;
@@ -214,7 +228,7 @@ void closed_form_starts(BatchBlock& b) {
         depressed_cubic_roots(P, Q, y0);
         double split[L];
         int n_split = 0;
-#pragma GCC ivdep
+ARGAND_LANES
         for (int l = 0; l < L; ++l) {
             // The resolvent's largest real root z.
             double q0r, q0i, q1r, q1i;
@@ -241,7 +255,7 @@ void closed_form_starts(BatchBlock& b) {
         }
         if (n_split < L) {
             // The biquadratic y^4 + p y^2 + r where the split degenerates.
-#pragma GCC ivdep
+ARGAND_LANES
             for (int l = 0; l < L; ++l) {
                 double w0r, w0i, w1r, w1i, s0r, s0i, s1r, s1i;
                 quadratic(p[l], r[l], w0r, w0i, w1r, w1i);
@@ -264,7 +278,7 @@ void closed_form_starts(BatchBlock& b) {
         circle_re[i] = b.circle_re[i];
         circle_im[i] = b.circle_im[i];
     }
-#pragma GCC ivdep
+ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         // x - x is 0 for finite x and NaN otherwise (no fast math: not folded).
         double probe = 0.0;
@@ -306,7 +320,7 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
     for (; it < max_iter; ++it) {
 #pragma GCC unroll 8
         for (int i = 0; i < N; ++i) {
-#pragma GCC ivdep
+ARGAND_LANES
             for (int l = 0; l < L; ++l) {
                 const double xr = b.xr[i][l], xi = b.xi[i][l];
                 double pr = b.c[N][l], pi = 0.0, dr = 0.0, di = 0.0, ap = std::fabs(b.c[N][l]);
@@ -386,7 +400,7 @@ void smith_lanes(BatchBlock& b) {
     constexpr double pair_down = 1.0 - 8.0 * u;
     constexpr double snap_tol = 64.0 * u;
     const double slack = b.slack;  // N pow2(max(8N - 1070, -1014)), from the driver
-#pragma GCC ivdep
+ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         double xr[N], xi[N];
 #pragma GCC unroll 8
@@ -449,7 +463,7 @@ void smith_lanes(BatchBlock& b) {
 template <int N>
 void estimate_lanes(BatchBlock& b) {
     for (int i = 0; i < N; ++i)
-#pragma GCC ivdep
+ARGAND_LANES
         for (int l = 0; l < L; ++l) {
             const double xr = b.xr[i][l], xi = b.xi[i][l];
             double pr = b.c[N][l], pi = 0.0, dr = 0.0, di = 0.0;
@@ -486,7 +500,7 @@ inline bool exponent_ok(double m) { return (m >= -1022.0) & (m <= 1023.0); }
 /// doubles (exact).
 template <int N>
 void scale_lanes(BatchBlock& b) {
-#pragma GCC ivdep
+ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         double ex[N + 1];
 #pragma GCC unroll 9
@@ -498,7 +512,7 @@ void scale_lanes(BatchBlock& b) {
 #pragma GCC unroll 9
         for (int k = 0; k <= N; ++k) {
             const double v = ex[k] + e * k;
-            top = (b.c[k][l] != 0.0) & (v > top) ? v : top;
+            top = ((b.c[k][l] != 0.0) & (v > top)) ? v : top;
         }
         bool ok = b.active[l] != 0.0;
 #pragma GCC unroll 9
@@ -519,7 +533,7 @@ void scale_lanes(BatchBlock& b) {
 /// maps exactly (zero from zero, or a normal result).
 template <int N>
 void unscale_lanes(BatchBlock& b) {
-#pragma GCC ivdep
+ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         const double e = b.e[l];
         const double f = pow2_of(exponent_ok(e) ? e : 0.0);
