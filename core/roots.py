@@ -201,7 +201,9 @@ def batch_kernel() -> str:
     return _core.batch_kernel()
 
 
-def find_roots_batch(matrix: np.ndarray, method: str = "auto", kernel: str = "auto") -> BatchRoots:
+def find_roots_batch(
+    matrix: np.ndarray, method: str = "auto", kernel: str = "auto", radius: np.ndarray | None = None
+) -> BatchRoots:
     """:func:`find_roots` for every row of an (N, n+1) array, in C++ with the
     GIL released. Returns :class:`BatchRoots` of shape (N, n). Raises
     ``ValueError`` naming the first bad row.
@@ -216,20 +218,29 @@ def find_roots_batch(matrix: np.ndarray, method: str = "auto", kernel: str = "au
     hold one root each; every other row (clusters, multiple roots, exact
     zeros, subnormal or extreme coefficients, ...) is solved by
     :func:`find_roots`'s path with its escalation. ``kernel="scalar"`` skips
-    the batched kernel (the reference)."""
+    the batched kernel (the reference). ``radius`` (optional, the matrix's
+    shape): coefficient radii, row by row as :func:`find_roots`'s ``radius``
+    (each row's discs hold for its whole family; no exact fallback for a row
+    with a nonzero radius)."""
     _check_method(method)
     if kernel not in KERNELS:
         raise ValueError(f"unknown kernel {kernel!r}: expected one of {', '.join(KERNELS)}")
     mat = np.ascontiguousarray(np.asarray(matrix, dtype=np.float64))
     if mat.ndim != 2:
         raise ValueError(f"matrix must be 2-D (one polynomial per row), got shape {mat.shape}")
-    out = _core.find_roots_batch(mat, method, kernel)
+    rad = None
+    if radius is not None:
+        rad = np.ascontiguousarray(np.asarray(radius, dtype=np.float64))
+        if rad.shape != mat.shape:
+            raise ValueError(f"radius must have the matrix's shape {mat.shape}, got {rad.shape}")
+    out = _core.find_roots_batch(mat, method, kernel, rad)
     batch = BatchRoots(
         out["center"], out["radius"], out["count"], out["verified"], out["real"],
         out["n_infinite"], out["escalation"], method, out["kernel"], int(out["lanes_kept"]),
     )
     if method == "auto":
-        for r in np.flatnonzero(out["wants_exact"]):
+        wants = out["wants_exact"] if rad is None else out["wants_exact"] & ~np.any(rad > 0, axis=1)
+        for r in np.flatnonzero(wants):
             exact = exact_roots(mat[r])
             if exact is None:
                 continue

@@ -174,3 +174,44 @@ def test_bad_rows_are_still_named():
     m[23, 1] = math.nan
     with pytest.raises(ValueError, match=r"row 23"):
         find_roots_batch(m, "auto")
+
+
+@pytest.mark.parametrize("method", ["auto", "smith"])
+def test_family_radii_in_the_lanes(method):
+    """find_roots_batch(radius=...): each row's discs hold for every member
+    of its family (corners and random points of the coefficient box, exact
+    truth per member), in the lanes as in the scalar path."""
+    import random
+
+    from test_roots_family import members, random_family
+
+    rng = random.Random(15_16)
+    problems: list[str] = []
+    kept = 0
+    for n in (2, 4, 6):
+        rows, radii = [], []
+        while len(rows) < 48:
+            coeffs, radius = random_family(rng)
+            if len(coeffs) == n + 1:
+                rows.append(coeffs)
+                radii.append(radius)
+        matrix, rad = np.array(rows), np.array(radii)
+        result = find_roots_batch(matrix, method, radius=rad)
+        scalar = find_roots_batch(matrix, method, "scalar", radius=rad)
+        kept += result.lanes_kept
+        for r in range(len(rows)):
+            roots = result.row(r)
+            assert int(roots.count.sum()) + roots.n_infinite == n
+            assert int(scalar.row(r).count.sum()) + scalar.row(r).n_infinite == n
+            for q in members(rows[r], radii[r], rng, 2):
+                truth = Truth(q)
+                if truth.n_infinite != roots.n_infinite:
+                    if roots.verified.any():
+                        problems.append(f"row {r}: member {q} of another degree, yet verified")
+                    continue
+                problems += [f"{reproducer(rows[r], method)} radius {radii[r]} member {q}: {p}"
+                             for p in check_roots(q, roots, truth)]
+    assert not problems, "\n".join(problems[:10])
+    assert kept > 0
+    with pytest.raises(ValueError, match="radius"):
+        find_roots_batch(np.ones((2, 3)), "auto", radius=-np.ones((2, 3)))

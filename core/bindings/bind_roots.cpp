@@ -94,8 +94,20 @@ py::tuple find_roots_py(F64 coeffs, const std::string& method, py::object initia
 // A batch: matrix (N, n+1) -> arrays (N, n), unused entries with count 0.
 // kernel: "auto" (the widest batched kernel this CPU runs), "scalar"
 // (find_roots row by row, the reference), or an instruction set by name.
-py::dict find_roots_batch_py(F64 matrix, const std::string& method, const std::string& kernel) {
+py::dict find_roots_batch_py(F64 matrix, const std::string& method, const std::string& kernel, py::object coeff_radius) {
     if (matrix.ndim() != 2) throw py::value_error("matrix must be 2-D: one polynomial per row, lowest degree first");
+    F64 rad_arr;
+    if (!coeff_radius.is_none()) {
+        rad_arr = F64::ensure(coeff_radius);
+        if (!rad_arr || rad_arr.ndim() != 2 || rad_arr.shape(0) != matrix.shape(0) || rad_arr.shape(1) != matrix.shape(1))
+            throw py::value_error("radius must have the matrix's shape: one radius per coefficient");
+        const double* rp = rad_arr.data();
+        for (py::ssize_t i = 0; i < rad_arr.size(); ++i)
+            if (!(rp[i] >= 0.0) || !std::isfinite(rp[i]))
+                throw py::value_error("every coefficient radius must be a finite number >= 0 (row " +
+                                      std::to_string(i / std::max<py::ssize_t>(1, rad_arr.shape(1))) + ")");
+    }
+    const double* rad_data = coeff_radius.is_none() ? nullptr : rad_arr.data();
     const Method m = parse_method(method);
     argand::BatchIsa isa;
     if (!argand::batch_isa_from_name(kernel.c_str(), isa))
@@ -138,7 +150,8 @@ py::dict find_roots_batch_py(F64 matrix, const std::string& method, const std::s
             const py::ssize_t stop = std::min(rows, start + kChunk);
             std::int64_t bad_local = -1;
             const Status s = argand::find_roots_rows(data + start * cols, stop - start, static_cast<int>(cols), m,
-                                                     res.data(), &bad_local, isa, &counters);
+                                                     res.data(), &bad_local, isa, &counters,
+                                                     rad_data != nullptr ? rad_data + start * cols : nullptr);
             const py::ssize_t done = s == Status::Ok ? stop : start + bad_local;
             if (s != Status::Ok) {
                 bad = s;
@@ -193,7 +206,8 @@ void init_roots(py::module_& m) {
           py::arg("initial") = py::none(), py::arg("radius") = py::none(),
           "Raw root finder for one polynomial (see argand.core.find_roots).");
     m.def("find_roots_batch", &find_roots_batch_py, py::arg("matrix"), py::arg("method") = "auto",
-          py::arg("kernel") = "auto", "Raw batch root finder, GIL released (see argand.core.find_roots_batch).");
+          py::arg("kernel") = "auto", py::arg("radius") = py::none(),
+          "Raw batch root finder, GIL released (see argand.core.find_roots_batch).");
     m.def("batch_kernel", [] { return std::string(argand::batch_isa_name(argand::BatchIsa::Auto)); },
           "Instruction set of the batched root kernel this CPU runs: avx512, avx2 or sse2.");
     m.attr("BATCH_MAX_DEGREE") = argand::kBatchKernelMaxDegree;

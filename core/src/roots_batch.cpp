@@ -49,13 +49,19 @@ Kernel kernel_for(BatchIsa isa) {
 /// Admits row c (degree n) to lane l: finite coefficients with c_0 and c_n
 /// nonzero (no exact zero roots, no roots at infinity). The kernel scales
 /// the lane and sends it back when that is not exact.
-inline bool admit(const double* c, int n, BatchBlock& b, int l) {
+inline bool admit(const double* c, const double* rad, int n, BatchBlock& b, int l) {
     if (c[0] == 0.0 || c[n] == 0.0) return false;
     bool finite = true;
     for (int k = 0; k <= n; ++k) {
         finite = finite && std::fabs(c[k]) <= std::numeric_limits<double>::max();
         b.c[k][l] = c[k];
     }
+    if (rad != nullptr)
+        for (int k = 0; k <= n; ++k) {
+            // (find_roots refuses NaN, negative or infinite radii: NonFinite.)
+            finite = finite && rad[k] >= 0.0 && rad[k] <= std::numeric_limits<double>::max();
+            b.rad[k][l] = rad[k];
+        }
     return finite;
 }
 
@@ -128,7 +134,7 @@ BatchIsa batch_isa_best() {
 }
 
 Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Method method, RootsResult* out,
-                       std::int64_t* bad_row, BatchIsa isa, BatchCounters* counters) {
+                       std::int64_t* bad_row, BatchIsa isa, BatchCounters* counters, const double* radius) {
     BatchCounters local;
     BatchCounters& cnt = counters ? *counters : local;
     if (isa == BatchIsa::Auto) isa = batch_isa_best();
@@ -142,6 +148,9 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
     int used = 0;
     if (kernel != nullptr) {
         block.n = n;
+        block.has_radius = radius != nullptr ? 1 : 0;
+        for (int k = 0; k <= n; ++k)
+            for (int l = 0; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
         // smith_radii_fast's slack: n 2^max(8n - 1070, -1014).
         block.slack = n * std::ldexp(1.0, std::max(8 * n - 1070, -1014));
         for (int i = 0; i < n; ++i) {
@@ -156,7 +165,10 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
         for (int l = 0; l < kBatchLanes; ++l) {
             block.active[l] = l < used ? 1.0 : 0.0;
             if (l >= used)  // padding: a copy of lane 0 (finite, inactive)
-                for (int k = 0; k <= n; ++k) block.c[k][l] = block.c[k][0];
+                for (int k = 0; k <= n; ++k) {
+                    block.c[k][l] = block.c[k][0];
+                    block.rad[k][l] = block.rad[k][0];
+                }
         }
         cnt.sweeps += kernel(block, verify);
         ++cnt.blocks;
@@ -167,7 +179,8 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
                 write_lane(block, l, verify, res);
                 ++cnt.kept;
             } else {
-                find_roots(coeffs + lanes[l] * n_coeffs, n_coeffs, method, res);  // finite, c_n != 0: Ok
+                find_roots(coeffs + lanes[l] * n_coeffs, n_coeffs, method, res, nullptr, nullptr,
+                           radius != nullptr ? radius + lanes[l] * n_coeffs : nullptr);  // all finite: Ok
                 ++cnt.scalar;
             }
         }
@@ -176,13 +189,14 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
 
     for (std::int64_t r = 0; r < rows; ++r) {
         const double* c = coeffs + r * n_coeffs;
-        if (kernel != nullptr && admit(c, n, block, used)) {
+        const double* rad = radius != nullptr ? radius + r * n_coeffs : nullptr;
+        if (kernel != nullptr && admit(c, rad, n, block, used)) {
             lanes[used++] = r;
             ++cnt.rows;
             if (used == kBatchLanes) flush();
             continue;
         }
-        const Status s = find_roots(c, n_coeffs, method, out[r]);
+        const Status s = find_roots(c, n_coeffs, method, out[r], nullptr, nullptr, rad);
         if (s != Status::Ok) {
             if (kernel != nullptr) flush();
             if (bad_row) *bad_row = r;

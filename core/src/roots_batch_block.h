@@ -25,6 +25,12 @@ struct alignas(64) BatchBlock {
     alignas(64) double c[kBatchMaxDegree + 1][kBatchLanes];
     // Out: the root scaling exponent e of each lane (a small integer).
     alignas(64) double e[kBatchLanes];
+    // In (when has_radius): coefficient radii rad[k][l] >= 0, finite; the
+    // discs are then proven for every real polynomial q of the family
+    // |q_k - c_k| <= rad_k (smith_radii_fast's family term). Scaled in place
+    // with the coefficients (rounded up where inexact).
+    int has_radius = 0;
+    alignas(64) double rad[kBatchMaxDegree + 1][kBatchLanes];
     // In: 1.0 for lanes that hold a polynomial, 0.0 for padding.
     alignas(64) double active[kBatchLanes];
     // Out: centres and radii in the coordinates of the input (mapped back

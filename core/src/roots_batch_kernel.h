@@ -400,6 +400,7 @@ void smith_lanes(BatchBlock& b) {
     constexpr double pair_down = 1.0 - 8.0 * u;
     constexpr double snap_tol = 64.0 * u;
     const double slack = b.slack;  // N pow2(max(8N - 1070, -1014)), from the driver
+    const bool has_radius = b.has_radius != 0;
 ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         double xr[N], xi[N];
@@ -422,6 +423,10 @@ ARGAND_LANES
                 dist[i][j] = dist[j][i] = d;
             }
         const double lead = std::fabs(b.c[N][l]);
+        // lead_down(c, rad, n): |c_n| - rad_n rounded down (must be > 0).
+        const double lead_diff = lead - b.rad[N][l];
+        const double lead_low = lead_diff > 0.0 ? from_bits(bits_of(lead_diff) - 1) : 0.0;
+        ok = ok & (!has_radius | (lead_low > 0.0));
         double r[N];
 #pragma GCC unroll 8
         for (int i = 0; i < N; ++i) {
@@ -438,9 +443,14 @@ ARGAND_LANES
                 e = ax * (e + kMulRel * ay) + (kAddRel * a_next + 2.0 * kAbsErr);
                 ay = a_next;
             }
-            // add_up(add_up(next_up(ay), next_up(e relative_up)), add_up(slack, 0)).
-            const double numerator = up(up(up(ay) + up(e * relative_up)) + up(slack + 0.0));
-            double denominator = lead;
+            // The family's term sum_k rad_k |x|^k on ax (0 without radii).
+            double fs = b.rad[N][l];
+#pragma GCC unroll 8
+            for (int k = N - 1; k >= 0; --k) fs = fs * ax + b.rad[k][l];
+            const double fam = has_radius ? up(up(fs * relative_up) + slack) : 0.0;
+            // add_up(add_up(next_up(ay), next_up(e relative_up)), add_up(slack, fam)).
+            const double numerator = up(up(up(ay) + up(e * relative_up)) + up(slack + fam));
+            double denominator = has_radius ? lead_low : lead;
 #pragma GCC unroll 8
             for (int j = 0; j < N; ++j)
                 if (j != i) denominator *= dist[i][j];
@@ -522,6 +532,13 @@ ARGAND_LANES
             const double s = v * pow2_of(exponent_ok(m) ? m : 0.0);
             ok = ok & exponent_ok(m) & ((v == 0.0) | ((std::fabs(s) >= 0x1p-1022) & (std::fabs(s) <= kHuge)));
             b.c[k][l] = s;
+            // The radius by the same factor, rounded up where the product is
+            // not exact (a subnormal or zero result): still an upper bound.
+            const double rv = b.rad[k][l];
+            const double rs = rv * pow2_of(exponent_ok(m) ? m : 0.0);
+            const bool exact_r = (rv == 0.0) | (rs >= 0x1p-1022);
+            b.rad[k][l] = exact_r ? rs : up(rs);
+            ok = ok & (b.rad[k][l] <= kHuge);
         }
         ok = ok & exponent_ok(e);
         b.e[l] = e;

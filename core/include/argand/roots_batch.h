@@ -52,7 +52,13 @@ struct BatchCounters {
 /// degree first) with `method`; out[r] receives row r's result. Stops at the
 /// first row whose status is not Ok: returns that status and sets *bad_row
 /// (rows after it are not answered). isa must be supported (Auto always is).
+///
+/// radius (optional, the same shape as coeffs): coefficient radii, as
+/// find_roots' coeff_radius row by row: each row's discs then hold for every
+/// real polynomial within those radii of it (Smith's family term in the
+/// lanes too). A row with an invalid radius gets Status::NonFinite.
 Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Method method, RootsResult* out,
-                       std::int64_t* bad_row, BatchIsa isa = BatchIsa::Auto, BatchCounters* counters = nullptr);
+                       std::int64_t* bad_row, BatchIsa isa = BatchIsa::Auto, BatchCounters* counters = nullptr,
+                       const double* radius = nullptr);
 
 }  // namespace argand
