@@ -25,6 +25,7 @@ struct alignas(64) BatchBlock {
     alignas(64) double c[kBatchMaxDegree + 1][kBatchLanes];
     // Out: the root scaling exponent e of each lane (a small integer).
     alignas(64) double e[kBatchLanes];
+    alignas(64) double scale_top[kBatchLanes];  // (the factor 2^-top of the scaling)
     // In (when has_radius): coefficient radii rad[k][l] >= 0, finite; the
     // discs are then proven for every real polynomial q of the family
     // |q_k - c_k| <= rad_k (smith_radii_fast's family term). Scaled in place

@@ -392,15 +392,14 @@ ARGAND_LANES
 /// then the pairwise separation test of smith_discs<double>. Sets ok[l] and
 /// r[i][l]; real roots are those with xi == 0 (a disc centred on the real
 /// axis holding one root of a real polynomial holds a real root).
-template <int N>
-void smith_lanes(BatchBlock& b) {
+template <int N, bool has_radius>
+void smith_lanes_impl(BatchBlock& b) {
     constexpr double u = kU;
     constexpr double relative_up = 1.0 + 2.0 * (4.0 * N + 10.0) * u;
     constexpr double den_down = 1.0 - 2.0 * (5.0 * N + 2.0) * u;
     constexpr double pair_down = 1.0 - 8.0 * u;
     constexpr double snap_tol = 64.0 * u;
     const double slack = b.slack;  // N pow2(max(8N - 1070, -1014)), from the driver
-    const bool has_radius = b.has_radius != 0;
 ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         double xr[N], xi[N];
@@ -426,7 +425,7 @@ ARGAND_LANES
         // lead_down(c, rad, n): |c_n| - rad_n rounded down (must be > 0).
         const double lead_diff = lead - b.rad[N][l];
         const double lead_low = lead_diff > 0.0 ? from_bits(bits_of(lead_diff) - 1) : 0.0;
-        ok = ok & (!has_radius | (lead_low > 0.0));
+        if constexpr (has_radius) ok = ok & (lead_low > 0.0);
         double r[N];
 #pragma GCC unroll 8
         for (int i = 0; i < N; ++i) {
@@ -444,10 +443,13 @@ ARGAND_LANES
                 ay = a_next;
             }
             // The family's term sum_k rad_k |x|^k on ax (0 without radii).
-            double fs = b.rad[N][l];
+            double fam = 0.0;
+            if constexpr (has_radius) {
+                double fs = b.rad[N][l];
 #pragma GCC unroll 8
-            for (int k = N - 1; k >= 0; --k) fs = fs * ax + b.rad[k][l];
-            const double fam = has_radius ? up(up(fs * relative_up) + slack) : 0.0;
+                for (int k = N - 1; k >= 0; --k) fs = fs * ax + b.rad[k][l];
+                fam = up(up(fs * relative_up) + slack);
+            }
             // add_up(add_up(next_up(ay), next_up(e relative_up)), add_up(slack, fam)).
             const double numerator = up(up(up(ay) + up(e * relative_up)) + up(slack + fam));
             double denominator = has_radius ? lead_low : lead;
@@ -467,6 +469,12 @@ ARGAND_LANES
         for (int i = 0; i < N; ++i) b.r[i][l] = r[i];
         b.ok[l] = ok ? 1.0 : 0.0;
     }
+}
+
+template <int N>
+void smith_lanes(BatchBlock& b) {
+    if (b.has_radius != 0) smith_lanes_impl<N, true>(b);
+    else smith_lanes_impl<N, false>(b);
 }
 
 /// The unverified method's radius estimate n |p| / |p'| (no claim).
@@ -532,16 +540,29 @@ ARGAND_LANES
             const double s = v * pow2_of(exponent_ok(m) ? m : 0.0);
             ok = ok & exponent_ok(m) & ((v == 0.0) | ((std::fabs(s) >= 0x1p-1022) & (std::fabs(s) <= kHuge)));
             b.c[k][l] = s;
-            // The radius by the same factor, rounded up where the product is
-            // not exact (a subnormal or zero result): still an upper bound.
-            const double rv = b.rad[k][l];
-            const double rs = rv * pow2_of(exponent_ok(m) ? m : 0.0);
-            const bool exact_r = (rv == 0.0) | (rs >= 0x1p-1022);
-            b.rad[k][l] = exact_r ? rs : up(rs);
-            ok = ok & (b.rad[k][l] <= kHuge);
         }
         ok = ok & exponent_ok(e);
         b.e[l] = e;
+        b.scale_top[l] = top;
+        b.active[l] = ok ? 1.0 : 0.0;
+    }
+    if (b.has_radius == 0) return;
+    // The radii by the same factors, rounded up where the product is not
+    // exact (a subnormal or zero result): still upper bounds.
+ARGAND_LANES
+    for (int l = 0; l < L; ++l) {
+        const double e = b.e[l], top = b.scale_top[l];
+        bool ok = b.active[l] != 0.0;
+#pragma GCC unroll 9
+        for (int k = 0; k <= N; ++k) {
+            const double m = e * k - top;
+            const double rv = b.rad[k][l];
+            const double rs = rv * pow2_of(exponent_ok(m) ? m : 0.0);
+            const bool exact_r = (rv == 0.0) | (rs >= 0x1p-1022);
+            const double rr = exact_r ? rs : up(rs);
+            b.rad[k][l] = rr;
+            ok = ok & (rr <= kHuge);
+        }
         b.active[l] = ok ? 1.0 : 0.0;
     }
 }

@@ -220,6 +220,49 @@ def run_mpsolve(polys: list[np.ndarray], repeats: int):
     return out["seconds"], approx, radii
 
 
+def kernel_table(polys: list[np.ndarray], rounds: int) -> dict:
+    """The batched kernels against the scalar path on the same batches, timed
+    in process CPU time (time.process_time: the time this process ran, so a
+    busy shared machine that preempts it does not count), best of `rounds`,
+    the configurations interleaved round by round so that drifts in the
+    machine's speed hit them alike. Methods auto and unverified; kernels
+    "scalar" and every instruction set this CPU runs."""
+    import time
+
+    from argand.core import KERNELS
+
+    best = batch_kernel()
+    isas = [k for k in ("avx512", "avx2", "sse2") if k in KERNELS and _runs(k)]
+    configs = [(m, k) for m in ("auto", "unverified") for k in ["scalar", *isas]]
+    groups = by_degree(polys)
+    times = {c: float("inf") for c in configs}
+    for mat in groups.values():  # warm-up
+        for m, k in configs:
+            find_roots_batch(mat, m, k)
+    for _ in range(rounds):
+        for c in configs:
+            t = time.process_time()
+            for mat in groups.values():
+                find_roots_batch(mat, *c)
+            times[c] = min(times[c], time.process_time() - t)
+    ns = {f"{m}/{k}": times[(m, k)] / len(polys) * 1e9 for m, k in configs}
+    return {
+        "ns_per_poly_cpu": ns,
+        "best_kernel": best,
+        "auto_speedup_vs_scalar_auto": ns["auto/scalar"] / ns[f"auto/{best}"],
+        "auto_speedup_vs_scalar_unverified": ns["unverified/scalar"] / ns[f"auto/{best}"],
+        "rounds": rounds,
+    }
+
+
+def _runs(kernel: str) -> bool:
+    try:
+        find_roots_batch(np.array([[1.0, 0.0, 1.0]]), "auto", kernel)
+    except ValueError:
+        return False
+    return True
+
+
 # ---------------------------------------------------------------------------
 # The benchmark
 # ---------------------------------------------------------------------------
@@ -346,7 +389,8 @@ def bench_roots(
             step(f"{suite}: MPSolve (skipped: failed before)")
         auto = rows["argand-auto"]["ns_per_poly"]
         ratios = {name: row["ns_per_poly"] / auto for name, row in rows.items() if name != "argand-auto"}
-        report["suites"][suite] = {"results": rows, "slowdown_vs_auto": ratios}
+        report["suites"][suite] = {"results": rows, "slowdown_vs_auto": ratios,
+                                   "kernels": kernel_table(polys[: sizes["ours"]], 3 if smoke else 7)}
     report["headline"] = headline(report)
     step("writing JSON, Markdown and the chart")
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -377,14 +421,13 @@ def headline(report: dict) -> list[str]:
                 lines.append(f"auto is {ratios[key]:.1f} times faster than {text} on {label}")
         if "argand-unverified" in ratios:
             lines.append(f"the proof costs {1 / ratios['argand-unverified']:.2f}x the unverified time on {label}")
-        rows = data["results"]
-        if "argand-auto (scalar)" in rows:
-            auto = rows["argand-auto"]["ns_per_poly"]
-            kernel = report.get("batch_kernel", "batched")
+        if "kernels" in data:
+            k = data["kernels"]
+            ns = k["ns_per_poly_cpu"][f"auto/{k['best_kernel']}"]
             lines.append(
-                f"the batched kernel ({kernel}) makes auto {rows['argand-auto (scalar)']['ns_per_poly'] / auto:.1f} "
-                f"times faster than the scalar auto, and {rows['argand-unverified (scalar)']['ns_per_poly'] / auto:.1f} "
-                f"times faster than the scalar unverified Aberth, on {label} ({auto:.0f} ns per verified polynomial)"
+                f"the batched kernel ({k['best_kernel']}) makes auto {k['auto_speedup_vs_scalar_auto']:.1f} times "
+                f"faster than the scalar auto, and {k['auto_speedup_vs_scalar_unverified']:.1f} times faster than the "
+                f"scalar unverified Aberth, on {label} ({ns:.0f} ns of CPU time per verified polynomial)"
             )
     return lines
 
@@ -398,6 +441,21 @@ def markdown(report: dict) -> str:
             "run time); rows marked (scalar) are the same calls with kernel='scalar', find_roots row by row.",
             "",
         ]
+    kernel_rows = [(suite, data["kernels"]) for suite, data in report["suites"].items() if "kernels" in data]
+    if kernel_rows:
+        configs = list(kernel_rows[0][1]["ns_per_poly_cpu"])
+        lines += [
+            "**Batched kernels vs the scalar path** (ns of process CPU time per polynomial, best of "
+            f"{kernel_rows[0][1]['rounds']} interleaved rounds: a busy machine's preemptions do not count)",
+            "",
+            "| suite | " + " | ".join(configs) + " | auto: batched ÷ scalar auto | batched auto ÷ scalar unverified |",
+            "|---|" + "---:|" * (len(configs) + 2),
+        ]
+        for suite, k in kernel_rows:
+            cells = " | ".join(f"{k['ns_per_poly_cpu'][c]:.0f}" for c in configs)
+            lines.append(f"| {suite} | {cells} | {1 / k['auto_speedup_vs_scalar_auto']:.2f} "
+                         f"| {1 / k['auto_speedup_vs_scalar_unverified']:.2f} |")
+        lines.append("")
     for suite, data in report["suites"].items():
         rows = data["results"]
         auto = rows["argand-auto"]["ns_per_poly"]
