@@ -93,7 +93,7 @@ def test_every_lane_against_the_exact_truth(batches, method):
     kept = 0
     for n, matrix in batches.items():
         result = find_roots_batch(matrix, method)
-        assert result.kernel == batch_kernel()
+        assert result.kernel == (batch_kernel() if n <= BATCH_MAX_DEGREE else "scalar")
         kept += result.lanes_kept
         if n > BATCH_MAX_DEGREE:
             assert result.lanes_kept == 0, n

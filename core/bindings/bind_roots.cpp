@@ -191,7 +191,11 @@ py::dict find_roots_batch_py(F64 matrix, const std::string& method, const std::s
     out["wants_exact"] = wants_exact;
     out["n_infinite"] = n_infinite;
     out["escalation"] = escalation;
-    out["kernel"] = std::string(argand::batch_isa_name(isa));
+    // The batched kernel runs for methods other than paper, degrees 1 to
+    // kBatchKernelMaxDegree; otherwise every row took the scalar path.
+    const bool batched = isa != argand::BatchIsa::Scalar && m != Method::Paper && n >= 1 &&
+                         n <= argand::kBatchKernelMaxDegree;
+    out["kernel"] = std::string(batched ? argand::batch_isa_name(isa) : "scalar");
     out["lanes"] = counters.lanes;
     out["lanes_kept"] = counters.kept;
     out["scalar_rows"] = counters.scalar;
