@@ -5,11 +5,14 @@ a typed, documented interface. See :func:`find_roots` for the contract.
 """
 
 from argand.core.roots import (
+    BATCH_MAX_DEGREE,
+    KERNELS,
     METHODS,
     BatchRoots,
     Roots,
     find_roots,
+    batch_kernel,
     find_roots_batch,
 )
 
-__all__ = ["METHODS", "BatchRoots", "Roots", "find_roots", "find_roots_batch"]
+__all__ = ["BATCH_MAX_DEGREE", "KERNELS", "METHODS", "batch_kernel", "BatchRoots", "Roots", "find_roots", "find_roots_batch"]

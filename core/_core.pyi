@@ -7,6 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 MAX_DEGREE: int
+BATCH_MAX_DEGREE: int
 
 def find_roots(
     coeffs: npt.NDArray[np.float64],
@@ -23,7 +24,11 @@ def find_roots(
     bool,
     int,
 ]: ...
-def find_roots_batch(matrix: npt.NDArray[np.float64], method: str = "auto") -> dict[str, Any]: ...
+def find_roots_batch(
+    matrix: npt.NDArray[np.float64], method: str = "auto", kernel: str = "auto",
+    radius: npt.NDArray[np.float64] | None = None,
+) -> dict[str, Any]: ...
+def batch_kernel() -> str: ...
 
 # Rendering (bind_render.cpp).
 MAX_OBJECTS: int

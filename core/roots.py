@@ -111,6 +111,10 @@ class BatchRoots:
     n_infinite: np.ndarray  # (N,)
     escalation: np.ndarray  # (N,)
     method: str = "auto"
+    #: The kernel that ran: "scalar" or the batched kernel's instruction set.
+    kernel: str = "scalar"
+    #: Rows answered by the batched kernel (the others by find_roots's path).
+    lanes_kept: int = 0
 
     def row(self, r: int) -> Roots:
         """The roots of polynomial r, padding removed."""
@@ -182,21 +186,61 @@ def find_roots(
     return result
 
 
-def find_roots_batch(matrix: np.ndarray, method: str = "auto") -> BatchRoots:
+#: Kernels of find_roots_batch: "auto" (the widest batched kernel this CPU
+#: runs), "scalar" (find_roots row by row: the reference), or an instruction
+#: set by name.
+KERNELS: tuple[str, ...] = ("auto", "scalar", "sse2", "avx2", "avx512")
+#: Largest degree with a batched kernel; rows of higher degree are solved row
+#: by row as with kernel="scalar".
+BATCH_MAX_DEGREE: int = _core.BATCH_MAX_DEGREE
+
+
+def batch_kernel() -> str:
+    """The instruction set of the batched kernel on this CPU ("avx512",
+    "avx2" or "sse2"): what ``kernel="auto"`` runs."""
+    return _core.batch_kernel()
+
+
+def find_roots_batch(
+    matrix: np.ndarray, method: str = "auto", kernel: str = "auto", radius: np.ndarray | None = None
+) -> BatchRoots:
     """:func:`find_roots` for every row of an (N, n+1) array, in C++ with the
     GIL released. Returns :class:`BatchRoots` of shape (N, n). Raises
-    ``ValueError`` naming the first bad row."""
+    ``ValueError`` naming the first bad row.
+
+    Every row gets :func:`find_roots`'s contract (not necessarily the same
+    discs). For degrees 1 to :data:`BATCH_MAX_DEGREE` (methods auto, smith
+    and unverified) the rows go through a batched kernel first: 16
+    polynomials at a time in the lanes of the CPU's vector registers
+    (AVX-512, AVX2 or SSE2, chosen at run time), closed-form starts for
+    degree <= 4, Aberth-Ehrlich, and Smith's discs with rigorous rounding
+    bounds. A row is answered there only when all its discs are proven to
+    hold one root each; every other row (clusters, multiple roots, exact
+    zeros, subnormal or extreme coefficients, ...) is solved by
+    :func:`find_roots`'s path with its escalation. ``kernel="scalar"`` skips
+    the batched kernel (the reference). ``radius`` (optional, the matrix's
+    shape): coefficient radii, row by row as :func:`find_roots`'s ``radius``
+    (each row's discs hold for its whole family; no exact fallback for a row
+    with a nonzero radius)."""
     _check_method(method)
+    if kernel not in KERNELS:
+        raise ValueError(f"unknown kernel {kernel!r}: expected one of {', '.join(KERNELS)}")
     mat = np.ascontiguousarray(np.asarray(matrix, dtype=np.float64))
     if mat.ndim != 2:
         raise ValueError(f"matrix must be 2-D (one polynomial per row), got shape {mat.shape}")
-    out = _core.find_roots_batch(mat, method)
+    rad = None
+    if radius is not None:
+        rad = np.ascontiguousarray(np.asarray(radius, dtype=np.float64))
+        if rad.shape != mat.shape:
+            raise ValueError(f"radius must have the matrix's shape {mat.shape}, got {rad.shape}")
+    out = _core.find_roots_batch(mat, method, kernel, rad)
     batch = BatchRoots(
         out["center"], out["radius"], out["count"], out["verified"], out["real"],
-        out["n_infinite"], out["escalation"], method,
+        out["n_infinite"], out["escalation"], method, out["kernel"], int(out["lanes_kept"]),
     )
     if method == "auto":
-        for r in np.flatnonzero(out["wants_exact"]):
+        wants = out["wants_exact"] if rad is None else out["wants_exact"] & ~np.any(rad > 0, axis=1)
+        for r in np.flatnonzero(wants):
             exact = exact_roots(mat[r])
             if exact is None:
                 continue

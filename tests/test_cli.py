@@ -175,7 +175,9 @@ def test_bench_roots_smoke(tmp_path):
     assert report["benchmark"] == "roots"
     assert report["machine"]["cpu_count"] >= 1 and report["machine"]["date"]
     assert set(report["versions"]) >= {"numpy", "python-flint", "mpmath"}
-    ours = ["argand-auto", "argand-smith", "argand-paper", "argand-unverified"]
+    ours = ["argand-auto", "argand-smith", "argand-paper", "argand-unverified",
+            "argand-auto (scalar)", "argand-smith (scalar)", "argand-unverified (scalar)"]
+    assert report["batch_kernel"] in ("avx512", "avx2", "sse2")
     alternatives = ["numpy-eigvals", "flint-acb_poly.roots", "flint-acb_poly.roots(tol=1e-14)", "mpmath-polyroots"]
     mpsolve = report["mpsolve"]
     if mpsolve["available"]:
@@ -202,6 +204,9 @@ def test_bench_roots_smoke(tmp_path):
             assert 0 <= rows[name]["fully_verified_share"] <= 1
         assert rows["argand-auto"]["fully_verified_share"] > 0.9
         assert rows["argand-unverified"]["fully_verified_share"] == 0
+        # The batched kernel answers most random rows; the scalar reference none.
+        assert rows["argand-auto"]["kernel"] == report["batch_kernel"] and rows["argand-auto"]["batched_share"] > 0.9
+        assert rows["argand-auto (scalar)"]["kernel"] == "scalar" and rows["argand-auto (scalar)"]["batched_share"] == 0
         assert "median_rel_radius" not in rows["argand-unverified"]  # estimates are not reported as radii
         for name, ratio in data["slowdown_vs_auto"].items():
             assert _finite_positive(ratio), name

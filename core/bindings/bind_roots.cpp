@@ -2,12 +2,15 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <algorithm>
 #include <complex>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "argand/roots.h"
+#include "argand/roots_batch.h"
 
 namespace py = pybind11;
 using argand::Method;
@@ -89,9 +92,29 @@ py::tuple find_roots_py(F64 coeffs, const std::string& method, py::object initia
 }
 
 // A batch: matrix (N, n+1) -> arrays (N, n), unused entries with count 0.
-py::dict find_roots_batch_py(F64 matrix, const std::string& method) {
+// kernel: "auto" (the widest batched kernel this CPU runs), "scalar"
+// (find_roots row by row, the reference), or an instruction set by name.
+py::dict find_roots_batch_py(F64 matrix, const std::string& method, const std::string& kernel, py::object coeff_radius) {
     if (matrix.ndim() != 2) throw py::value_error("matrix must be 2-D: one polynomial per row, lowest degree first");
+    F64 rad_arr;
+    if (!coeff_radius.is_none()) {
+        rad_arr = F64::ensure(coeff_radius);
+        if (!rad_arr || rad_arr.ndim() != 2 || rad_arr.shape(0) != matrix.shape(0) || rad_arr.shape(1) != matrix.shape(1))
+            throw py::value_error("radius must have the matrix's shape: one radius per coefficient");
+        const double* rp = rad_arr.data();
+        for (py::ssize_t i = 0; i < rad_arr.size(); ++i)
+            if (!(rp[i] >= 0.0) || !std::isfinite(rp[i]))
+                throw py::value_error("every coefficient radius must be a finite number >= 0 (row " +
+                                      std::to_string(i / std::max<py::ssize_t>(1, rad_arr.shape(1))) + ")");
+    }
+    const double* rad_data = coeff_radius.is_none() ? nullptr : rad_arr.data();
     const Method m = parse_method(method);
+    argand::BatchIsa isa;
+    if (!argand::batch_isa_from_name(kernel.c_str(), isa))
+        throw py::value_error("unknown kernel '" + kernel + "': expected one of auto, scalar, sse2, avx2, avx512");
+    if (!argand::batch_isa_supported(isa))
+        throw py::value_error("kernel '" + kernel + "' is not supported by this CPU (best: " +
+                              argand::batch_isa_name(argand::BatchIsa::Auto) + ")");
     const py::ssize_t rows = matrix.shape(0), cols = matrix.shape(1);
     if (cols < 1) throw py::value_error("matrix rows must not be empty");
     if (cols - 1 > argand::kMaxDegree)
@@ -113,36 +136,49 @@ py::dict find_roots_batch_py(F64 matrix, const std::string& method) {
     const double* data = matrix.data();
     py::ssize_t bad_row = -1;
     Status bad = Status::Ok;
+    argand::BatchCounters counters;
     {
         py::gil_scoped_release release;
-        RootsResult res;
+        // Rows are solved in chunks whose results are copied out (a
+        // RootsResult has room for kMaxDegree discs).
+        // The buffer is kept per thread: a fresh one per call cost page
+        // faults that were a good part of a batch of quartics' time.
+        constexpr py::ssize_t kChunk = 256;
+        thread_local std::vector<RootsResult> res(static_cast<std::size_t>(kChunk));
         const double nan = std::numeric_limits<double>::quiet_NaN();
-        for (py::ssize_t r = 0; r < rows; ++r) {
-            const Status s = argand::find_roots(data + r * cols, static_cast<int>(cols), m, res);
+        for (py::ssize_t start = 0; start < rows && bad == Status::Ok; start += kChunk) {
+            const py::ssize_t stop = std::min(rows, start + kChunk);
+            std::int64_t bad_local = -1;
+            const Status s = argand::find_roots_rows(data + start * cols, stop - start, static_cast<int>(cols), m,
+                                                     res.data(), &bad_local, isa, &counters,
+                                                     rad_data != nullptr ? rad_data + start * cols : nullptr);
+            const py::ssize_t done = s == Status::Ok ? stop : start + bad_local;
             if (s != Status::Ok) {
                 bad = s;
-                bad_row = r;
-                break;
+                bad_row = start + bad_local;
             }
-            for (py::ssize_t i = 0; i < n; ++i) {
-                if (i < res.n_discs) {
-                    const auto& d = res.discs[i];
-                    C(r, i) = {d.re, d.im};
-                    Rd(r, i) = d.radius;
-                    K(r, i) = d.count;
-                    V(r, i) = d.verified;
-                    Re(r, i) = d.real;
-                } else {
-                    C(r, i) = {nan, nan};
-                    Rd(r, i) = nan;
-                    K(r, i) = 0;
-                    V(r, i) = false;
-                    Re(r, i) = false;
+            for (py::ssize_t r = start; r < done; ++r) {
+                const RootsResult& rr = res[static_cast<std::size_t>(r - start)];
+                for (py::ssize_t i = 0; i < n; ++i) {
+                    if (i < rr.n_discs) {
+                        const auto& d = rr.discs[i];
+                        C(r, i) = {d.re, d.im};
+                        Rd(r, i) = d.radius;
+                        K(r, i) = d.count;
+                        V(r, i) = d.verified;
+                        Re(r, i) = d.real;
+                    } else {
+                        C(r, i) = {nan, nan};
+                        Rd(r, i) = nan;
+                        K(r, i) = 0;
+                        V(r, i) = false;
+                        Re(r, i) = false;
+                    }
                 }
+                W(r) = rr.wants_exact;
+                NI(r) = rr.n_infinite;
+                E(r) = rr.escalation;
             }
-            W(r) = res.wants_exact;
-            NI(r) = res.n_infinite;
-            E(r) = res.escalation;
         }
     }
     raise_status(bad, bad_row);
@@ -155,6 +191,14 @@ py::dict find_roots_batch_py(F64 matrix, const std::string& method) {
     out["wants_exact"] = wants_exact;
     out["n_infinite"] = n_infinite;
     out["escalation"] = escalation;
+    // The batched kernel runs for methods other than paper, degrees 1 to
+    // kBatchKernelMaxDegree; otherwise every row took the scalar path.
+    const bool batched = isa != argand::BatchIsa::Scalar && m != Method::Paper && n >= 1 &&
+                         n <= argand::kBatchKernelMaxDegree;
+    out["kernel"] = std::string(batched ? argand::batch_isa_name(isa) : "scalar");
+    out["lanes"] = counters.lanes;
+    out["lanes_kept"] = counters.kept;
+    out["scalar_rows"] = counters.scalar;
     return out;
 }
 
@@ -166,5 +210,9 @@ void init_roots(py::module_& m) {
           py::arg("initial") = py::none(), py::arg("radius") = py::none(),
           "Raw root finder for one polynomial (see argand.core.find_roots).");
     m.def("find_roots_batch", &find_roots_batch_py, py::arg("matrix"), py::arg("method") = "auto",
+          py::arg("kernel") = "auto", py::arg("radius") = py::none(),
           "Raw batch root finder, GIL released (see argand.core.find_roots_batch).");
+    m.def("batch_kernel", [] { return std::string(argand::batch_isa_name(argand::BatchIsa::Auto)); },
+          "Instruction set of the batched root kernel this CPU runs: avx512, avx2 or sse2.");
+    m.attr("BATCH_MAX_DEGREE") = argand::kBatchKernelMaxDegree;
 }

@@ -259,6 +259,9 @@ _BENCH_NAMES = {
     "argand-smith": "smith",
     "argand-paper": "paper",
     "argand-unverified": "unverified",
+    "argand-auto (scalar)": "auto (scalar)",
+    "argand-smith (scalar)": "smith (scalar)",
+    "argand-unverified (scalar)": "unverified (scalar)",
     "numpy-eigvals": "numpy eigvals",
     "flint-acb_poly.roots": "flint roots()",
     "flint-acb_poly.roots(tol=1e-14)": "flint roots(1e-14)",
@@ -294,6 +297,7 @@ def bench_roots_cmd(
             title_justify="left", box=box.SIMPLE_HEAD,
         )
         table.add_column("method", overflow="fold")
+        table.add_column("kernel", no_wrap=True)
         for col in ("ns/poly", "÷auto", "rad/|z|", "med err", "max err", "proved"):
             table.add_column(col, justify="right", no_wrap=True)
         auto = data["results"]["argand-auto"]["ns_per_poly"]
@@ -304,6 +308,7 @@ def bench_roots_cmd(
         for name, row in data["results"].items():
             table.add_row(
                 _BENCH_NAMES.get(name, name),
+                row.get("kernel", ""),
                 f"{row['ns_per_poly']:.0f}",
                 f"{row['ns_per_poly'] / auto:.1f}",
                 sci(row.get("median_rel_radius")),
@@ -313,7 +318,8 @@ def bench_roots_cmd(
             )
         console.print(table)
     console.print("rad/|z|: median radius / |root|; med/max err: relative error of the centers; "
-                  "proved: share of polynomials with every root proven", soft_wrap=True)
+                  "proved: share of polynomials with every root proven; kernel: the batched kernel's "
+                  f"instruction set ({report['batch_kernel']} on this CPU) or scalar", soft_wrap=True)
     for line in report["headline"]:
         console.print(f"  {line}", soft_wrap=True)
     mps = report["mpsolve"]

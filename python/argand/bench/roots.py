@@ -18,14 +18,21 @@ from typing import Callable
 import numpy as np
 
 from argand.bench import machine_info, median_time
-from argand.core import find_roots_batch
+from argand.core import batch_kernel, find_roots_batch
 
 OUR_METHODS = ("auto", "smith", "paper", "unverified")
+#: Methods also timed with kernel="scalar" (find_roots row by row, the
+#: reference and today's path before the batched kernels): rows
+#: "argand-<method> (scalar)".
+SCALAR_REFERENCE = ("auto", "smith", "unverified")
 #: How the headline names each suite.
 SUITE_LABELS = {"quartic": "quartics", "mixed_2_8": "mixed degrees 2-8", "rays": "real ray polynomials"}
 #: What each row measures (written into roots.json).
 CONTENDERS = {
-    "argand-*": "argand.core.find_roots_batch(matrix, method) on one (N, n+1) batch per degree",
+    "argand-*": "argand.core.find_roots_batch(matrix, method) on one (N, n+1) batch per degree: the batched "
+                "kernel of the instruction set named in `batch_kernel` for degrees 1-8 (auto, smith, unverified), "
+                "rows it does not prove answered by the scalar path",
+    "argand-* (scalar)": "the same call with kernel='scalar': find_roots row by row (the reference)",
     "numpy-eigvals": "numpy: build the (N, n, n) companion matrices and np.linalg.eigvals on the stack (both timed)",
     "flint-acb_poly.roots": "python-flint acb_poly(coeffs).roots() per polynomial, defaults (53 bits, isolation); "
                             "acb_poly construction not timed",
@@ -100,14 +107,15 @@ def accuracy(approx: list[np.ndarray], radii: list[np.ndarray] | None, truth: li
 # ---------------------------------------------------------------------------
 
 
-def run_ours(method: str, polys: list[np.ndarray], repeats: int):
+def run_ours(method: str, polys: list[np.ndarray], repeats: int, kernel: str = "auto"):
     groups = by_degree(polys)
     seconds = 0.0
     for n, mat in groups.items():
-        seconds += median_time(lambda: find_roots_batch(mat, method), repeats)
+        seconds += median_time(lambda: find_roots_batch(mat, method, kernel), repeats)
     # Results in the original order (for accuracy), one batch per degree.
     approx, radii, verified_rows = [], [], 0
-    results = {n: find_roots_batch(mat, method) for n, mat in groups.items()}
+    results = {n: find_roots_batch(mat, method, kernel) for n, mat in groups.items()}
+    kept = sum(b.lanes_kept for b in results.values())
     cursor = {n: 0 for n in groups}
     for p in polys:
         n = len(p) - 1
@@ -118,7 +126,8 @@ def run_ours(method: str, polys: list[np.ndarray], repeats: int):
         approx.append(np.repeat(r.center, r.count))
         radii.append(np.repeat(r.radius, r.count))
         verified_rows += bool(r.all_verified)
-    return seconds, approx, radii, verified_rows / len(polys)
+    kernels = sorted({b.kernel for b in results.values()})
+    return seconds, approx, radii, verified_rows / len(polys), kept / len(polys), "+".join(kernels)
 
 
 def run_numpy(polys: list[np.ndarray], repeats: int):
@@ -211,6 +220,49 @@ def run_mpsolve(polys: list[np.ndarray], repeats: int):
     return out["seconds"], approx, radii
 
 
+def kernel_table(polys: list[np.ndarray], rounds: int) -> dict:
+    """The batched kernels against the scalar path on the same batches, timed
+    in process CPU time (time.process_time: the time this process ran, so a
+    busy shared machine that preempts it does not count), best of `rounds`,
+    the configurations interleaved round by round so that drifts in the
+    machine's speed hit them alike. Methods auto and unverified; kernels
+    "scalar" and every instruction set this CPU runs."""
+    import time
+
+    from argand.core import KERNELS
+
+    best = batch_kernel()
+    isas = [k for k in ("avx512", "avx2", "sse2") if k in KERNELS and _runs(k)]
+    configs = [(m, k) for m in ("auto", "unverified") for k in ["scalar", *isas]]
+    groups = by_degree(polys)
+    times = {c: float("inf") for c in configs}
+    for mat in groups.values():  # warm-up
+        for m, k in configs:
+            find_roots_batch(mat, m, k)
+    for _ in range(rounds):
+        for c in configs:
+            t = time.process_time()
+            for mat in groups.values():
+                find_roots_batch(mat, *c)
+            times[c] = min(times[c], time.process_time() - t)
+    ns = {f"{m}/{k}": times[(m, k)] / len(polys) * 1e9 for m, k in configs}
+    return {
+        "ns_per_poly_cpu": ns,
+        "best_kernel": best,
+        "auto_speedup_vs_scalar_auto": ns["auto/scalar"] / ns[f"auto/{best}"],
+        "auto_speedup_vs_scalar_unverified": ns["unverified/scalar"] / ns[f"auto/{best}"],
+        "rounds": rounds,
+    }
+
+
+def _runs(kernel: str) -> bool:
+    try:
+        find_roots_batch(np.array([[1.0, 0.0, 1.0]]), "auto", kernel)
+    except ValueError:
+        return False
+    return True
+
+
 # ---------------------------------------------------------------------------
 # The benchmark
 # ---------------------------------------------------------------------------
@@ -262,6 +314,7 @@ def bench_roots(
         "sizes": sizes,  # per suite: at most these, at most the suite's size
         "repeats": timed_runs,
         "mpsolve": {"available": have_mpsolve, "note": mpsolve_note},
+        "batch_kernel": batch_kernel(),
         "contenders": CONTENDERS,
         "accuracy": (
             "against python-flint fmpq_poly.complex_roots() on the exact rational value of the double "
@@ -305,9 +358,13 @@ def bench_roots(
             run_ours(method, polys[: sizes["ours"]], 1)
         for method in OUR_METHODS:
             step(f"{suite}: argand {method}")
-            seconds, approx, radii, verified = run_ours(method, polys[: sizes["ours"]], repeats)
-            record(f"argand-{method}", sizes["ours"], seconds, approx, radii if method != "unverified" else None,
-                   {"fully_verified_share": verified})
+            runs = [("auto", f"argand-{method}")]
+            if method in SCALAR_REFERENCE:
+                runs.append(("scalar", f"argand-{method} (scalar)"))
+            for kernel, name in runs:
+                seconds, approx, radii, verified, kept, used = run_ours(method, polys[: sizes["ours"]], repeats, kernel)
+                record(name, sizes["ours"], seconds, approx, radii if method != "unverified" else None,
+                       {"fully_verified_share": verified, "kernel": used, "batched_share": kept})
         step(f"{suite}: numpy companion eigenvalues")
         seconds, approx, radii = run_numpy(polys[: sizes["numpy"]], repeats)
         record("numpy-eigvals", sizes["numpy"], seconds, approx, None)
@@ -332,7 +389,8 @@ def bench_roots(
             step(f"{suite}: MPSolve (skipped: failed before)")
         auto = rows["argand-auto"]["ns_per_poly"]
         ratios = {name: row["ns_per_poly"] / auto for name, row in rows.items() if name != "argand-auto"}
-        report["suites"][suite] = {"results": rows, "slowdown_vs_auto": ratios}
+        report["suites"][suite] = {"results": rows, "slowdown_vs_auto": ratios,
+                                   "kernels": kernel_table(polys[: sizes["ours"]], 3 if smoke else 7)}
     report["headline"] = headline(report)
     step("writing JSON, Markdown and the chart")
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -363,29 +421,60 @@ def headline(report: dict) -> list[str]:
                 lines.append(f"auto is {ratios[key]:.1f} times faster than {text} on {label}")
         if "argand-unverified" in ratios:
             lines.append(f"the proof costs {1 / ratios['argand-unverified']:.2f}x the unverified time on {label}")
+        if "kernels" in data:
+            k = data["kernels"]
+            ns = k["ns_per_poly_cpu"][f"auto/{k['best_kernel']}"]
+            lines.append(
+                f"the batched kernel ({k['best_kernel']}) makes auto {k['auto_speedup_vs_scalar_auto']:.1f} times "
+                f"faster than the scalar auto, and {k['auto_speedup_vs_scalar_unverified']:.1f} times faster than the "
+                f"scalar unverified Aberth, on {label} ({ns:.0f} ns of CPU time per verified polynomial)"
+            )
     return lines
 
 
 def markdown(report: dict) -> str:
     """The results as Markdown tables (for the README)."""
     lines = []
+    if "batch_kernel" in report:
+        lines += [
+            f"Batched kernel: **{report['batch_kernel']}** (the widest instruction set this CPU runs, chosen at "
+            "run time); rows marked (scalar) are the same calls with kernel='scalar', find_roots row by row.",
+            "",
+        ]
+    kernel_rows = [(suite, data["kernels"]) for suite, data in report["suites"].items() if "kernels" in data]
+    if kernel_rows:
+        configs = list(kernel_rows[0][1]["ns_per_poly_cpu"])
+        lines += [
+            "**Batched kernels vs the scalar path** (ns of process CPU time per polynomial, best of "
+            f"{kernel_rows[0][1]['rounds']} interleaved rounds: a busy machine's preemptions do not count)",
+            "",
+            "| suite | " + " | ".join(configs) + " | auto: batched ÷ scalar auto | batched auto ÷ scalar unverified |",
+            "|---|" + "---:|" * (len(configs) + 2),
+        ]
+        for suite, k in kernel_rows:
+            cells = " | ".join(f"{k['ns_per_poly_cpu'][c]:.0f}" for c in configs)
+            lines.append(f"| {suite} | {cells} | {1 / k['auto_speedup_vs_scalar_auto']:.2f} "
+                         f"| {1 / k['auto_speedup_vs_scalar_unverified']:.2f} |")
+        lines.append("")
     for suite, data in report["suites"].items():
         rows = data["results"]
         auto = rows["argand-auto"]["ns_per_poly"]
         lines += [
             f"**{suite}** ({rows['argand-auto']['polynomials']} polynomials; accuracy against the exact roots)",
             "",
-            "| method | ns / polynomial | time ÷ auto | median radius / \\|root\\| | median error | max error | fully verified | no answer |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|",
+            "| method | kernel | ns / polynomial | time ÷ auto | median radius / \\|root\\| | median error | max error | fully verified | answered in lanes | no answer |",
+            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for name, row in rows.items():
             def fmt(key):
                 v = row.get(key)
                 return f"{v:.1e}" if v is not None else ""
             verified = f"{100 * row['fully_verified_share']:.2f}%" if "fully_verified_share" in row else ""
+            lanes = f"{100 * row['batched_share']:.2f}%" if "batched_share" in row else ""
             lines.append(
-                f"| {name} | {row['ns_per_poly']:.0f} | {row['ns_per_poly'] / auto:.1f} | {fmt('median_rel_radius')} "
-                f"| {fmt('median_rel_error')} | {fmt('max_rel_error')} | {verified} | "
+                f"| {name} | {row.get('kernel', '')} | {row['ns_per_poly']:.0f} | {row['ns_per_poly'] / auto:.1f} "
+                f"| {fmt('median_rel_radius')} "
+                f"| {fmt('median_rel_error')} | {fmt('max_rel_error')} | {verified} | {lanes} | "
                 + (f"{100 * row['failed_share']:.1f}%" if "failed_share" in row else "") + " |"
             )
         lines.append("")

@@ -1,0 +1,64 @@
+// roots_batch.h: find_roots for many polynomials of one degree at once.
+//
+// find_roots_rows() answers each row exactly as find_roots() would promise
+// (the same contract, row by row; not necessarily the same discs): rows of
+// degree 1 to kBatchMaxDegree go through a lane-parallel kernel (16
+// polynomials per block, structure of arrays, vectorised for the widest
+// instruction set the CPU has: AVX-512, AVX2, or the x86-64 baseline), which
+// finds the approximations (closed-form starts for degree <= 4, circle
+// starts above, Aberth-Ehrlich sweeps) and proves Smith's discs with the
+// rounding bounds of smith_radii_fast, lane by lane. A lane is kept only when
+// every one of its discs is proven to hold exactly one root and the mapping
+// back from scaled coordinates is exact; every other row (clusters, multiple
+// roots, exact zero roots, roots at infinity, subnormal or extreme
+// coefficients, unconverged lanes, and every row of method "paper") is
+// solved by find_roots with its scaling and escalation ladder.
+#pragma once
+
+#include <cstdint>
+
+#include "argand/roots.h"
+
+namespace argand {
+
+/// Largest degree with a batched kernel (rows of higher degree use find_roots).
+constexpr int kBatchKernelMaxDegree = 8;
+
+/// Instruction set of the batched kernel. Auto: the widest this CPU runs.
+/// Scalar: no batched kernel, find_roots row by row (the reference).
+enum class BatchIsa : int { Auto = -1, Scalar = 0, Generic = 1, Avx2 = 2, Avx512 = 3 };
+
+/// "scalar", "sse2" (the x86-64 baseline, or the compiler's default
+/// elsewhere), "avx2", "avx512".
+const char* batch_isa_name(BatchIsa isa);
+/// Parses batch_isa_name's names and "auto"; false for anything else.
+bool batch_isa_from_name(const char* name, BatchIsa& out);
+/// The widest instruction set this CPU runs (what Auto means).
+BatchIsa batch_isa_best();
+/// True iff this CPU runs isa.
+bool batch_isa_supported(BatchIsa isa);
+
+/// What happened to the rows of one call.
+struct BatchCounters {
+    std::int64_t rows = 0;      // rows answered
+    std::int64_t lanes = 0;     // rows that entered the batched kernel
+    std::int64_t kept = 0;      // ... and were answered by it
+    std::int64_t scalar = 0;    // rows answered by find_roots
+    std::int64_t sweeps = 0;    // Aberth sweeps, summed over blocks
+    std::int64_t blocks = 0;    // kernel blocks run
+};
+
+/// Solves rows polynomials of n_coeffs coefficients each (row-major, lowest
+/// degree first) with `method`; out[r] receives row r's result. Stops at the
+/// first row whose status is not Ok: returns that status and sets *bad_row
+/// (rows after it are not answered). isa must be supported (Auto always is).
+///
+/// radius (optional, the same shape as coeffs): coefficient radii, as
+/// find_roots' coeff_radius row by row: each row's discs then hold for every
+/// real polynomial within those radii of it (Smith's family term in the
+/// lanes too). A row with an invalid radius gets Status::NonFinite.
+Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Method method, RootsResult* out,
+                       std::int64_t* bad_row, BatchIsa isa = BatchIsa::Auto, BatchCounters* counters = nullptr,
+                       const double* radius = nullptr);
+
+}  // namespace argand

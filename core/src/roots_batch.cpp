@@ -1,0 +1,213 @@
+// roots_batch.cpp: find_roots_rows, the driver of the batched root kernels
+// (runtime dispatch, admission of rows to lanes, exact scaling, exact
+// mapping back, and the scalar fallback). See argand/roots_batch.h.
+#include "argand/roots_batch.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+
+#include "roots_batch_block.h"
+
+#if defined(__x86_64__) || defined(_M_X64)
+#define ARGAND_BATCH_X86 1
+#include <xmmintrin.h>
+#endif
+
+namespace argand {
+static_assert(kBatchKernelMaxDegree == kBatchMaxDegree, "roots_batch.h and roots_batch_block.h disagree");
+namespace {
+
+/// The kernels' rounding argument needs IEEE-754 round-to-nearest with
+/// gradual underflow: no flush-to-zero, no denormals-are-zero. (On x86 the
+/// vector units obey MXCSR; anything else set there sends every row to the
+/// scalar path, which is the reference.)
+bool fp_environment_default() {
+#ifdef ARGAND_BATCH_X86
+    const unsigned csr = _mm_getcsr();
+    return (csr & 0x8040u) == 0 && (csr & 0x6000u) == 0;  // FTZ, DAZ; rounding control
+#else
+    return true;
+#endif
+}
+
+using Kernel = int (*)(BatchBlock&, bool);
+
+Kernel kernel_for(BatchIsa isa) {
+    switch (isa) {
+        case BatchIsa::Generic: return &batch_generic::solve_block;
+#ifdef ARGAND_BATCH_X86
+        case BatchIsa::Avx2: return &batch_avx2::solve_block;
+        case BatchIsa::Avx512: return &batch_avx512::solve_block;
+#endif
+        default: return nullptr;
+    }
+}
+
+/// Admits row c (degree n) to lane l: finite coefficients with c_0 and c_n
+/// nonzero (no exact zero roots, no roots at infinity). The kernel scales
+/// the lane and sends it back when that is not exact.
+inline bool admit(const double* c, const double* rad, int n, BatchBlock& b, int l) {
+    if (c[0] == 0.0 || c[n] == 0.0) return false;
+    bool finite = true;
+    for (int k = 0; k <= n; ++k) {
+        finite = finite && std::fabs(c[k]) <= std::numeric_limits<double>::max();
+        b.c[k][l] = c[k];
+    }
+    if (rad != nullptr)
+        for (int k = 0; k <= n; ++k) {
+            // (find_roots refuses NaN, negative or infinite radii: NonFinite.)
+            finite = finite && rad[k] >= 0.0 && rad[k] <= std::numeric_limits<double>::max();
+            b.rad[k][l] = rad[k];
+        }
+    return finite;
+}
+
+/// Writes lane l of a solved block (ok: proven or estimated, mapped back
+/// exactly by the kernel) as a row result.
+void write_lane(const BatchBlock& b, int l, bool verify, RootsResult& res) {
+    const int n = b.n;
+    for (int i = 0; i < n; ++i) {
+        RootDisc& d = res.discs[i];
+        d.re = b.xr[i][l];
+        d.im = b.xi[i][l];
+        d.radius = b.r[i][l];
+        d.count = 1;
+        d.verified = verify;
+        d.real = verify && b.xi[i][l] == 0.0;
+    }
+    res.n_discs = n;
+    res.n_infinite = 0;
+    res.wants_exact = false;
+    res.escalation = 0;
+}
+
+}  // namespace
+
+const char* batch_isa_name(BatchIsa isa) {
+    switch (isa) {
+        case BatchIsa::Auto: return batch_isa_name(batch_isa_best());
+        case BatchIsa::Scalar: return "scalar";
+        case BatchIsa::Generic: return "sse2";
+        case BatchIsa::Avx2: return "avx2";
+        case BatchIsa::Avx512: return "avx512";
+    }
+    return "scalar";
+}
+
+bool batch_isa_from_name(const char* name, BatchIsa& out) {
+    static const struct { const char* name; BatchIsa isa; } table[] = {
+        {"auto", BatchIsa::Auto}, {"scalar", BatchIsa::Scalar}, {"sse2", BatchIsa::Generic},
+        {"avx2", BatchIsa::Avx2}, {"avx512", BatchIsa::Avx512}};
+    for (const auto& entry : table)
+        if (std::strcmp(name, entry.name) == 0) {
+            out = entry.isa;
+            return true;
+        }
+    return false;
+}
+
+bool batch_isa_supported(BatchIsa isa) {
+    switch (isa) {
+        case BatchIsa::Auto:
+        case BatchIsa::Scalar:
+        case BatchIsa::Generic: return true;
+#ifdef ARGAND_BATCH_X86
+        case BatchIsa::Avx2: return __builtin_cpu_supports("avx2");
+        case BatchIsa::Avx512:
+            return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+                   __builtin_cpu_supports("avx512vl");
+#endif
+        default: return false;
+    }
+}
+
+BatchIsa batch_isa_best() {
+    static const BatchIsa best = [] {
+        if (batch_isa_supported(BatchIsa::Avx512)) return BatchIsa::Avx512;
+        if (batch_isa_supported(BatchIsa::Avx2)) return BatchIsa::Avx2;
+        return BatchIsa::Generic;
+    }();
+    return best;
+}
+
+Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Method method, RootsResult* out,
+                       std::int64_t* bad_row, BatchIsa isa, BatchCounters* counters, const double* radius) {
+    BatchCounters local;
+    BatchCounters& cnt = counters ? *counters : local;
+    if (isa == BatchIsa::Auto) isa = batch_isa_best();
+    const int n = n_coeffs - 1;
+    Kernel kernel = batch_isa_supported(isa) ? kernel_for(isa) : nullptr;
+    if (method == Method::Paper || n < 1 || n > kBatchMaxDegree || !fp_environment_default()) kernel = nullptr;
+    const bool verify = method != Method::Unverified;
+
+    BatchBlock block;
+    std::int64_t lanes[kBatchLanes];
+    int used = 0;
+    if (kernel != nullptr) {
+        block.n = n;
+        block.has_radius = radius != nullptr ? 1 : 0;
+        for (int k = 0; k <= n; ++k)
+            for (int l = 0; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
+        // smith_radii_fast's slack: n 2^max(8n - 1070, -1014).
+        block.slack = n * std::ldexp(1.0, std::max(8 * n - 1070, -1014));
+        for (int i = 0; i < n; ++i) {
+            const double angle = 2.0 * 3.14159265358979323846 * i / n + 0.4;
+            block.circle_re[i] = std::cos(angle);
+            block.circle_im[i] = std::sin(angle);
+        }
+    }
+    // Solves the lanes gathered so far; rows whose lane is not kept go to find_roots.
+    auto flush = [&]() {
+        if (used == 0) return;
+        for (int l = 0; l < kBatchLanes; ++l) {
+            block.active[l] = l < used ? 1.0 : 0.0;
+            if (l >= used)  // padding: a copy of lane 0 (finite, inactive)
+                for (int k = 0; k <= n; ++k) {
+                    block.c[k][l] = block.c[k][0];
+                    block.rad[k][l] = block.rad[k][0];
+                }
+        }
+        cnt.sweeps += kernel(block, verify);
+        ++cnt.blocks;
+        cnt.lanes += used;
+        for (int l = 0; l < used; ++l) {
+            RootsResult& res = out[lanes[l]];
+            if (block.ok[l] != 0.0 && (verify || block.converged[l] != 0.0)) {
+                write_lane(block, l, verify, res);
+                ++cnt.kept;
+            } else {
+                find_roots(coeffs + lanes[l] * n_coeffs, n_coeffs, method, res, nullptr, nullptr,
+                           radius != nullptr ? radius + lanes[l] * n_coeffs : nullptr);  // all finite: Ok
+                ++cnt.scalar;
+            }
+        }
+        used = 0;
+    };
+
+    for (std::int64_t r = 0; r < rows; ++r) {
+        const double* c = coeffs + r * n_coeffs;
+        const double* rad = radius != nullptr ? radius + r * n_coeffs : nullptr;
+        if (kernel != nullptr && admit(c, rad, n, block, used)) {
+            lanes[used++] = r;
+            ++cnt.rows;
+            if (used == kBatchLanes) flush();
+            continue;
+        }
+        const Status s = find_roots(c, n_coeffs, method, out[r], nullptr, nullptr, rad);
+        if (s != Status::Ok) {
+            if (kernel != nullptr) flush();
+            if (bad_row) *bad_row = r;
+            return s;
+        }
+        ++cnt.rows;
+        ++cnt.scalar;
+    }
+    if (kernel != nullptr) flush();
+    if (bad_row) *bad_row = -1;
+    return Status::Ok;
+}
+
+}  // namespace argand

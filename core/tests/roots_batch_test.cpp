@@ -1,0 +1,358 @@
+// roots_batch_test.cpp: the batched root kernels (roots_batch_kernel.h)
+// against the scalar reference, lane by lane:
+//  * every lane a kernel proves has exactly the radii smith_radii_fast
+//    computes for the same scaled polynomial and approximations, bit for
+//    bit, and passes the same separation test (so the scalar rounding
+//    argument is the one that holds in the lanes);
+//  * every instruction set this CPU runs gives bit-identical lanes;
+//  * find_roots_rows on batches mixing easy and hard rows (exact multiple
+//    roots, clusters, subnormal and zero coefficients, huge ranges) claims
+//    only what holds for polynomials with known exact roots (dyadic roots,
+//    expansion exact), and agrees with find_roots row by row (same counts,
+//    verified discs overlap);
+//  * under flush-to-zero / denormals-are-zero nothing enters a lane.
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "../src/roots_batch_block.h"
+#include "../src/solver.h"
+#include "argand/roots.h"
+#include "argand/roots_batch.h"
+
+#if defined(__x86_64__)
+#include <xmmintrin.h>
+#endif
+
+using namespace argand;
+
+static int failures = 0;
+#define CHECK(cond, ...)                                                  \
+    do {                                                                  \
+        if (!(cond)) {                                                    \
+            if (++failures <= 30) {                                       \
+                std::printf("FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
+                std::printf(__VA_ARGS__);                                 \
+                std::printf("\n");                                        \
+            }                                                             \
+        }                                                                 \
+    } while (0)
+
+static bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+using KernelFn = int (*)(BatchBlock&, bool);
+
+// ---------------------------------------------------------------------------
+// The kernel against smith_radii_fast, and the instruction sets against
+// each other.
+// ---------------------------------------------------------------------------
+
+static void fill_block(BatchBlock& b, int n, std::mt19937_64& rng, int kind, bool family) {
+    std::normal_distribution<double> normal;
+    std::uniform_real_distribution<double> uni(-1.0, 1.0);
+    b.n = n;
+    b.slack = n * std::ldexp(1.0, std::max(8 * n - 1070, -1014));
+    for (int i = 0; i < n; ++i) {
+        b.circle_re[i] = std::cos(2.0 * detail::kPi * i / n + 0.4);
+        b.circle_im[i] = std::sin(2.0 * detail::kPi * i / n + 0.4);
+    }
+    for (int l = 0; l < kBatchLanes; ++l) {
+        b.active[l] = 1.0;
+        for (int k = 0; k <= n; ++k) {
+            double v = kind == 0 ? normal(rng) : uni(rng);
+            if (kind == 2 && l % 3 == 0 && k > 0 && k < n) v = 0.0;  // sparse rows
+            if (kind == 3 && l % 4 == 1) v = std::ldexp(1.0, (int)(rng() % 3)) * (k % 2 ? -1 : 1);  // clusters / multiples
+            b.c[k][l] = v;
+        }
+        if (b.c[0][l] == 0.0) b.c[0][l] = 0.5;
+        if (b.c[n][l] == 0.0) b.c[n][l] = 1.0;
+        // Roots and coefficients at other scales (exact): t -> 2^s t, times 2^g.
+        const int sh = (int)(rng() % 41) - 20, g = (int)(rng() % 201) - 100;
+        for (int k = 0; k <= n; ++k) b.c[k][l] = std::ldexp(b.c[k][l], g - sh * k);
+        // Coefficient radii (a family), sometimes zero, sometimes tiny
+        // enough to round when scaled.
+        for (int k = 0; k <= n; ++k)
+            b.rad[k][l] = family && rng() % 4 ? std::fabs(b.c[k][l]) * std::ldexp(1.0, -(int)(rng() % 40) - 20) : 0.0;
+    }
+    b.has_radius = family ? 1 : 0;
+}
+
+static void kernel_matches_scalar_bound() {
+    std::vector<std::pair<const char*, KernelFn>> kernels = {{"sse2", &batch_generic::solve_block}};
+#if defined(__x86_64__)
+    if (batch_isa_supported(BatchIsa::Avx2)) kernels.push_back({"avx2", &batch_avx2::solve_block});
+    if (batch_isa_supported(BatchIsa::Avx512)) kernels.push_back({"avx512", &batch_avx512::solve_block});
+#endif
+    std::mt19937_64 rng(15);
+    long lanes = 0, proven = 0;
+    for (int n = 1; n <= kBatchMaxDegree; ++n)
+        for (int rep = 0; rep < 200; ++rep) {
+            BatchBlock input;
+            const bool family = rep % 3 == 2;
+            fill_block(input, n, rng, rep % 4, family);
+            if (rep % 5 == 4) input.active[rep % kBatchLanes] = 0.0;  // padding lane
+            BatchBlock first;
+            for (std::size_t kk = 0; kk < kernels.size(); ++kk) {
+                BatchBlock b = input;
+                kernels[kk].second(b, true);
+                if (kk == 0) {
+                    first = b;
+                    continue;
+                }
+                for (int l = 0; l < kBatchLanes; ++l) {
+                    bool same = same_bits(b.ok[l], first.ok[l]);
+                    for (int i = 0; i < n; ++i)
+                        same = same && same_bits(b.xr[i][l], first.xr[i][l]) && same_bits(b.xi[i][l], first.xi[i][l]) &&
+                               same_bits(b.r[i][l], first.r[i][l]);
+                    CHECK(same, "%s and %s differ: degree %d lane %d", kernels[kk].first, kernels[0].first, n, l);
+                }
+            }
+            for (int l = 0; l < kBatchLanes; ++l) {
+                ++lanes;
+                if (input.active[l] == 0.0) {
+                    CHECK(first.ok[l] == 0.0, "padding lane %d proven", l);
+                    continue;
+                }
+                if (first.ok[l] == 0.0) continue;
+                ++proven;
+                // The kernel scaled the lane in place (t = 2^e u) and mapped
+                // its discs back exactly: compare in the scaled coordinates.
+                const int e = (int)first.e[l];
+                double c[kBatchMaxDegree + 1];
+                for (int k = 0; k <= n; ++k) c[k] = first.c[k][l];
+                Complex<double> x[kBatchMaxDegree];
+                for (int i = 0; i < n; ++i)
+                    x[i] = Complex<double>(std::ldexp(first.xr[i][l], -e), std::ldexp(first.xi[i][l], -e));
+                double r[kBatchMaxDegree], low[kBatchMaxDegree * kBatchMaxDegree];
+                double rad[kBatchMaxDegree + 1];
+                for (int k = 0; k <= n; ++k) rad[k] = first.rad[k][l];  // scaled by the kernel (rounded up)
+                for (int k = 0; k <= n; ++k)
+                    CHECK(first.rad[k][l] >= std::ldexp(input.rad[k][l], (int)(std::ilogb(first.c[k][l]) - std::ilogb(input.c[k][l]))) || input.c[k][l] == 0.0,
+                          "degree %d lane %d: radius %d scaled down", n, l, k);
+                const double* rp = family ? rad : nullptr;
+                const bool ok = detail::smith_radii_fast(c, n, x, r, low, rp);
+                CHECK(ok, "degree %d lane %d: the kernel proved what smith_radii_fast refuses", n, l);
+                if (!ok) continue;
+                for (int i = 0; i < n; ++i) {
+                    CHECK(same_bits(std::ldexp(r[i], e), first.r[i][l]), "degree %d lane %d root %d: radius %.17g, scalar %.17g",
+                          n, l, i, first.r[i][l], std::ldexp(r[i], e));
+                    for (int j = i + 1; j < n; ++j)
+                        CHECK(low[i * n + j] > add_up(r[i], r[j]), "degree %d lane %d: discs %d, %d not separated", n, l,
+                              i, j);
+                }
+                // The proven radius (rigorous, independent of the kernel's
+                // own loop): the slow smith_radii with outward rounding
+                // everywhere gives radii the fast ones must not undercut by
+                // more than the final inflation factors.
+                double slow[kBatchMaxDegree];
+                if (detail::smith_radii(c, n, x, slow, nullptr, rp))
+                    for (int i = 0; i < n; ++i)
+                        CHECK(std::ldexp(first.r[i][l], -e) >= slow[i] * (1.0 - 1e-12), "degree %d lane %d root %d: %.17g < slow %.17g", n,
+                              l, i, first.r[i][l], slow[i]);
+            }
+        }
+    std::printf("kernel vs smith_radii_fast (a third of the blocks with coefficient radii): %ld lanes, %ld proven, %zu instruction sets\n", lanes, proven,
+                kernels.size());
+    CHECK(proven > lanes / 2, "only %ld of %ld lanes proven", proven, lanes);
+}
+
+// ---------------------------------------------------------------------------
+// find_roots_rows on mixed batches, against known roots and find_roots.
+// ---------------------------------------------------------------------------
+
+struct Known {
+    std::vector<double> coeffs;  // lowest degree first
+    std::vector<long double> re, im;  // the exact roots (with multiplicity), when known
+    bool exact;
+};
+
+// prod (t - root) with dyadic roots (k/8, pairs a +- bi with a, b in k/8):
+// every coefficient is a small dyadic rational, exact in double.
+static Known from_dyadic_roots(std::mt19937_64& rng, int n, double scale_pow2) {
+    Known out;
+    std::vector<double> c = {1.0};
+    auto mul = [&](std::vector<double> f) {
+        std::vector<double> r(c.size() + f.size() - 1, 0.0);
+        for (std::size_t a = 0; a < c.size(); ++a)
+            for (std::size_t b = 0; b < f.size(); ++b) r[a + b] += c[a] * f[b];
+        c = r;
+    };
+    int deg = 0;
+    double prev_re = 0.5;
+    while (deg < n) {
+        const double a = (double)((long)(rng() % 33) - 16) / 8.0;
+        const double bb = (double)(rng() % 16 + 1) / 8.0;
+        const bool repeat = deg > 0 && rng() % 4 == 0;
+        if (deg + 2 <= n && rng() % 2) {
+            mul({a * a + bb * bb, -2.0 * a, 1.0});
+            out.re.push_back(a); out.im.push_back(bb);
+            out.re.push_back(a); out.im.push_back(-bb);
+            deg += 2;
+        } else {
+            const double root = repeat ? prev_re : a;
+            mul({-root, 1.0});
+            out.re.push_back(root); out.im.push_back(0.0);
+            prev_re = root;
+            deg += 1;
+        }
+    }
+    for (double& v : c) v = std::ldexp(v, (int)scale_pow2);
+    out.coeffs = c;
+    out.exact = true;
+    return out;
+}
+
+static bool inside(long double re, long double im, const RootDisc& d, bool& sure) {
+    const long double dr = re - d.re, di = im - d.im;
+    const long double lhs = dr * dr + di * di, rhs = (long double)d.radius * d.radius;
+    sure = std::fabs((double)(lhs - rhs)) > 1e-12 * (double)(lhs + rhs);
+    return lhs <= rhs;
+}
+
+static bool overlaps(const RootDisc& a, const RootDisc& b) {
+    const long double dr = (long double)a.re - b.re, di = (long double)a.im - b.im;
+    const long double s = (long double)a.radius + b.radius;
+    return dr * dr + di * di <= s * s * (1 + 1e-12L);
+}
+
+static void mixed_batches() {
+    std::mt19937_64 rng(1515);
+    std::normal_distribution<double> normal;
+    long total_rows = 0, total_lanes = 0, total_kept = 0, checked_discs = 0;
+    for (int n = 1; n <= kBatchMaxDegree + 1; ++n) {
+        const int nc = n + 1;
+        std::vector<Known> rows;
+        for (int r = 0; r < 400; ++r) {
+            Known k;
+            k.exact = false;
+            switch (r % 10) {
+                case 0: case 1: case 2: case 3:  // easy: standard normal
+                    for (int j = 0; j <= n; ++j) k.coeffs.push_back(normal(rng));
+                    break;
+                case 4: case 5:  // known dyadic roots, some multiple, exact expansion
+                    k = from_dyadic_roots(rng, n, (double)((long)(rng() % 41) - 20));
+                    break;
+                case 6:  // a subnormal coefficient (or several)
+                    for (int j = 0; j <= n; ++j) k.coeffs.push_back(normal(rng));
+                    k.coeffs[rng() % nc] = 4.9406564584124654e-324 * (double)(rng() % 1000 + 1);
+                    break;
+                case 7:  // exact zero constant term / zero leading coefficient
+                    for (int j = 0; j <= n; ++j) k.coeffs.push_back(normal(rng));
+                    k.coeffs[(r / 10) % 2 ? 0 : n] = 0.0;
+                    break;
+                case 8:  // huge ranges
+                    for (int j = 0; j <= n; ++j)
+                        k.coeffs.push_back((rng() % 2 ? -1.0 : 1.0) * std::pow(10.0, (double)((long)(rng() % 601) - 300)));
+                    break;
+                default:  // a tight cluster: (t - 1)^n perturbed in the last bits
+                    k.coeffs.assign(nc, 0.0);
+                    {
+                        std::vector<double> c = {1.0};
+                        for (int j = 0; j < n; ++j) {
+                            std::vector<double> nx(c.size() + 1, 0.0);
+                            for (std::size_t a = 0; a < c.size(); ++a) { nx[a] -= c[a]; nx[a + 1] += c[a]; }
+                            c = nx;
+                        }
+                        k.coeffs = c;
+                        k.coeffs[0] *= 1.0 + 0x1p-50 * (double)(r % 7);
+                    }
+            }
+            rows.push_back(k);
+        }
+        std::vector<double> matrix;
+        for (const Known& k : rows) matrix.insert(matrix.end(), k.coeffs.begin(), k.coeffs.end());
+        for (Method m : {Method::Auto, Method::Smith, Method::Unverified}) {
+            std::vector<RootsResult> out(rows.size());
+            BatchCounters cnt;
+            std::int64_t bad = -2;
+            const Status s = find_roots_rows(matrix.data(), (std::int64_t)rows.size(), nc, m, out.data(), &bad, BatchIsa::Auto, &cnt);
+            CHECK(s == Status::Ok && bad == -1, "degree %d method %d: status %d bad row %ld", n, (int)m, (int)s, (long)bad);
+            CHECK(cnt.rows == (std::int64_t)rows.size() && cnt.kept + cnt.scalar == cnt.rows, "degree %d: counters", n);
+            if (n <= kBatchMaxDegree) CHECK(cnt.kept > 0, "degree %d method %d: no lane kept", n, (int)m);
+            else CHECK(cnt.lanes == 0, "degree %d above the kernels' range entered a lane", n);
+            total_rows += cnt.rows;
+            total_lanes += cnt.lanes;
+            total_kept += cnt.kept;
+            for (std::size_t r = 0; r < rows.size(); ++r) {
+                const RootsResult& b = out[r];
+                RootsResult ref;
+                find_roots(rows[r].coeffs.data(), nc, m, ref);
+                int sum_b = b.n_infinite, sum_s = ref.n_infinite;
+                for (int i = 0; i < b.n_discs; ++i) sum_b += b.discs[i].count;
+                for (int i = 0; i < ref.n_discs; ++i) sum_s += ref.discs[i].count;
+                CHECK(sum_b == n && sum_s == n, "degree %d row %zu: counts %d (batch) %d (scalar)", n, r, sum_b, sum_s);
+                CHECK(b.n_infinite == ref.n_infinite, "degree %d row %zu: n_infinite", n, r);
+                for (int i = 0; i < b.n_discs; ++i) {
+                    const RootDisc& d = b.discs[i];
+                    if (m == Method::Unverified) {
+                        CHECK(!d.verified && !d.real, "unverified method claimed a disc");
+                        continue;
+                    }
+                    if (!d.verified) continue;
+                    for (int j = 0; j < i; ++j)
+                        if (b.discs[j].verified) CHECK(!overlaps(d, b.discs[j]), "degree %d row %zu: discs overlap", n, r);
+                    // A verified batch disc holding single roots meets the
+                    // scalar answer's verified discs with the same total.
+                    int met = 0;
+                    bool all_verified = true;
+                    for (int j = 0; j < ref.n_discs; ++j) {
+                        all_verified = all_verified && ref.discs[j].verified;
+                        if (ref.discs[j].verified && overlaps(d, ref.discs[j])) met += ref.discs[j].count;
+                    }
+                    if (all_verified) CHECK(met >= d.count, "degree %d row %zu disc %d: meets %d scalar roots", n, r, i, met);
+                    if (rows[r].exact) {
+                        int held = 0;
+                        bool sure_all = true;
+                        for (std::size_t q = 0; q < rows[r].re.size(); ++q) {
+                            bool sure;
+                            const long double sc = std::ldexp(1.0L, 0);
+                            held += inside(rows[r].re[q] * sc, rows[r].im[q] * sc, d, sure) ? 1 : 0;
+                            sure_all = sure_all && sure;
+                        }
+                        (void)sure_all;
+                        ++checked_discs;
+                        CHECK(held == d.count, "degree %d row %zu disc %d D(%g%+gi, %g) claims %d, holds %d", n, r, i,
+                              d.re, d.im, d.radius, d.count, held);
+                    }
+                }
+            }
+        }
+    }
+    std::printf("find_roots_rows: %ld rows, %ld entered lanes, %ld kept; %ld discs checked against known roots\n",
+                total_rows, total_lanes, total_kept, checked_discs);
+}
+
+static void flush_to_zero_refused() {
+#if defined(__x86_64__)
+    std::vector<double> m;
+    std::mt19937_64 rng(3);
+    std::normal_distribution<double> normal;
+    for (int r = 0; r < 64; ++r)
+        for (int k = 0; k < 5; ++k) m.push_back(normal(rng));
+    std::vector<RootsResult> out(64);
+    const unsigned csr = _mm_getcsr();
+    _mm_setcsr(csr | 0x8040u);
+    BatchCounters cnt;
+    find_roots_rows(m.data(), 64, 5, Method::Auto, out.data(), nullptr, BatchIsa::Auto, &cnt);
+    _mm_setcsr(csr);
+    CHECK(cnt.lanes == 0 && cnt.scalar == 64, "lanes ran under FTZ/DAZ: %ld", (long)cnt.lanes);
+    BatchCounters again;
+    find_roots_rows(m.data(), 64, 5, Method::Auto, out.data(), nullptr, BatchIsa::Auto, &again);
+    CHECK(again.lanes == 64, "lanes after restoring MXCSR: %ld", (long)again.lanes);
+#endif
+}
+
+int main() {
+    std::printf("batched kernel: %s\n", batch_isa_name(BatchIsa::Auto));
+    kernel_matches_scalar_bound();
+    mixed_batches();
+    flush_to_zero_refused();
+    if (failures) {
+        std::printf("%d failures\n", failures);
+        return 1;
+    }
+    std::printf("roots_batch_test: all passed\n");
+    return 0;
+}

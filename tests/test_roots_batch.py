@@ -1,0 +1,217 @@
+"""The batched root kernels behind find_roots_batch (issue 15), lane by lane
+against the exact truth (truth.py).
+
+Each batch mixes easy rows (standard normal coefficients: the lanes keep
+them) with hard ones (clusters, exact multiple roots, subnormal and zero
+coefficients, roots that map back to subnormals, coefficients spanning the
+double range, leading coefficients near overflow, Mignotte shapes), shuffled
+so that hard rows share blocks with easy ones. Every claim of every row is
+checked against python-flint's exact roots; the batched answers are
+compared with the scalar path (kernel="scalar": find_roots row by row) for
+the same counts and overlapping discs, and every instruction set this CPU
+runs must give the same bits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from argand.core import BATCH_MAX_DEGREE, KERNELS, batch_kernel, find_roots_batch
+from stability_families import generate, mignotte
+from test_roots_random import family
+from truth import Truth, check_roots, reproducer
+
+SEED = 15_2026
+DENORM_MIN = 5e-324
+ISAS = {"avx512": ("avx512", "avx2", "sse2"), "avx2": ("avx2", "sse2"), "sse2": ("sse2",)}[batch_kernel()]
+
+
+def _hard_rows(rng: np.random.Generator, n: int) -> list[list[float]]:
+    rows: list[list[float]] = []
+    for kind in ("from_roots", "clustered", "integer", "sparse", "loguniform"):
+        rows += family(kind, rng, n, 12).tolist()
+    for _ in range(8):  # a subnormal coefficient among normal ones
+        c = rng.standard_normal(n + 1)
+        c[int(rng.integers(0, n + 1))] = DENORM_MIN * float(rng.integers(1, 1 << 20))
+        rows.append(c.tolist())
+    for _ in range(6):  # roots ~1e-310: the scaled lanes would map back to subnormals
+        roots = rng.standard_normal(n) * 1e-310
+        c = [1.0]
+        for r in roots:
+            c = np.convolve(c, [-float(r), 1.0]).tolist()
+        rows.append([float(v) for v in c])
+    for _ in range(6):  # exact powers of two far out: scaling at the ends of the range
+        c = rng.standard_normal(n + 1) * 2.0 ** float(rng.choice([-1000, -600, 600, 1000]))
+        rows.append(c.tolist())
+    for _ in range(4):  # a leading coefficient near overflow
+        c = rng.standard_normal(n + 1)
+        c[n] = math.copysign(1.7976931348623157e308, c[n])
+        rows.append(c.tolist())
+    for _ in range(4):  # exact zero constant term / zero leading coefficient
+        c = rng.standard_normal(n + 1)
+        c[0 if rng.random() < 0.5 else n] = 0.0
+        rows.append(c.tolist())
+    if n >= 4:  # Mignotte t^n - 2(a t - 1)^k: k roots near 1/a
+        for a, k in ((2.0, 2), (10.0, 3), (16.0, n - 2)):
+            rows.append(mignotte(n, a, min(k, n - 2)))
+    for fam in ("multiple+subnormal", "subnormal roots", "subnormal pairs", "near overflow", "full range"):
+        rows += [c for c in generate(fam, 120, SEED + n) if len(c) == n + 1][:4]
+    return rows
+
+
+def mixed_batch(n: int) -> np.ndarray:
+    rng = np.random.default_rng([SEED, n])
+    easy = rng.standard_normal((160, n + 1)).tolist()
+    with np.errstate(all="ignore"):  # the families over/underflow on purpose
+        hard = _hard_rows(rng, n)
+    rows = easy + [c for c in hard if all(math.isfinite(v) for v in c) and any(v != 0.0 for v in c)]
+    order = rng.permutation(len(rows))
+    return np.array([rows[i] for i in order], dtype=np.float64)
+
+
+DEGREES = range(1, BATCH_MAX_DEGREE + 2)  # the last one is above the kernels: all scalar
+
+
+@pytest.fixture(scope="module")
+def batches() -> dict[int, np.ndarray]:
+    return {n: mixed_batch(n) for n in DEGREES}
+
+
+def _same(a, b) -> bool:
+    return all(
+        np.array_equal(getattr(a, f), getattr(b, f), equal_nan=True)
+        for f in ("center", "radius", "count", "verified", "real", "n_infinite", "escalation")
+    )
+
+
+@pytest.mark.parametrize("method", ["auto", "smith"])
+def test_every_lane_against_the_exact_truth(batches, method):
+    problems: list[str] = []
+    kept = 0
+    for n, matrix in batches.items():
+        result = find_roots_batch(matrix, method)
+        assert result.kernel == (batch_kernel() if n <= BATCH_MAX_DEGREE else "scalar")
+        kept += result.lanes_kept
+        if n > BATCH_MAX_DEGREE:
+            assert result.lanes_kept == 0, n
+        else:
+            # Most easy rows are answered in the lanes (the batch is not all scalar).
+            assert result.lanes_kept >= 100, (n, result.lanes_kept)
+        for r in range(len(matrix)):
+            found = check_roots(matrix[r], result.row(r), Truth(list(matrix[r])))
+            if found:
+                problems.append(f"{reproducer(matrix[r], method)} (batch row {r}): {found}")
+    assert not problems, f"{len(problems)} rows with false claims:\n" + "\n".join(problems[:10])
+    assert kept > 0
+
+
+@pytest.mark.parametrize("method", ["auto", "smith", "unverified"])
+def test_instruction_sets_agree_bit_for_bit(batches, method):
+    for n, matrix in batches.items():
+        answers = [find_roots_batch(matrix, method, isa) for isa in ISAS]
+        for isa, other in zip(ISAS[1:], answers[1:]):
+            assert _same(answers[0], other), (n, ISAS[0], isa)
+
+
+def _overlap(c1: complex, r1: float, c2: complex, r2: float) -> bool:
+    return abs(c1 - c2) <= (r1 + r2) * (1 + 1e-12)
+
+
+@pytest.mark.parametrize("method", ["auto", "smith", "unverified"])
+def test_batch_consistent_with_scalar(batches, method):
+    for n, matrix in batches.items():
+        batched = find_roots_batch(matrix, method)
+        scalar = find_roots_batch(matrix, method, "scalar")
+        assert scalar.kernel == "scalar" and scalar.lanes_kept == 0
+        for r in range(len(matrix)):
+            b, s = batched.row(r), scalar.row(r)
+            assert int(b.count.sum()) + b.n_infinite == n == int(s.count.sum()) + s.n_infinite, r
+            assert b.n_infinite == s.n_infinite
+            if method == "unverified":
+                assert not b.verified.any() and not b.real.any()
+                continue
+            if not (b.all_verified and s.all_verified):
+                continue
+            # Both proven: every batch disc's roots lie in scalar discs, which
+            # must therefore meet it with at least as many roots.
+            for cb, rb, kb in zip(b.center, b.radius, b.count):
+                met = sum(int(ks) for cs, rs, ks in zip(s.center, s.radius, s.count) if _overlap(cb, rb, cs, rs))
+                assert met >= kb, (reproducer(matrix[r], method), b, s)
+        # Where the lanes answer, they verify as much as the scalar path.
+        assert batched.all_verified.sum() >= scalar.all_verified.sum() - 2, n
+
+
+def test_denormal_inputs_in_the_batched_path():
+    """Rows with subnormal coefficients, or whose roots are subnormal, share
+    blocks with easy rows: they leave the lanes and are answered right."""
+    rng = np.random.default_rng(SEED + 99)
+    rows = rng.standard_normal((64, 5))
+    rows[5, 2] = DENORM_MIN
+    rows[17, 0] = 3 * DENORM_MIN
+    rows[33] = [1e-323, -5.960464477539065e-08, 8.98846567431158e307, 0.0, 0.0][::1]
+    rows[33, 3:] = 0.0  # degree 2 in a degree-4 row: roots at infinity
+    with np.errstate(all="ignore"):
+        rows[40] = np.convolve(np.convolve([-1e-310, 1.0], [-2e-310, 1.0]), [1.0, 0.0, 1.0])
+    result = find_roots_batch(rows, "auto")
+    assert result.lanes_kept >= 56
+    for r in (5, 17, 33, 40):
+        assert not check_roots(rows[r], result.row(r)), r
+    assert result.row(33).n_infinite == 2
+
+
+def test_bad_kernel_names_are_refused():
+    m = np.ones((2, 3))
+    with pytest.raises(ValueError, match="unknown kernel 'avx9'"):
+        find_roots_batch(m, "auto", "avx9")
+    assert set(ISAS) <= set(KERNELS)
+
+
+def test_bad_rows_are_still_named():
+    m = np.random.default_rng(0).standard_normal((40, 5))
+    m[23, 1] = math.nan
+    with pytest.raises(ValueError, match=r"row 23"):
+        find_roots_batch(m, "auto")
+
+
+@pytest.mark.parametrize("method", ["auto", "smith"])
+def test_family_radii_in_the_lanes(method):
+    """find_roots_batch(radius=...): each row's discs hold for every member
+    of its family (corners and random points of the coefficient box, exact
+    truth per member), in the lanes as in the scalar path."""
+    import random
+
+    from test_roots_family import members, random_family
+
+    rng = random.Random(15_16)
+    problems: list[str] = []
+    kept = 0
+    for n in (2, 4, 6):
+        rows, radii = [], []
+        while len(rows) < 48:
+            coeffs, radius = random_family(rng)
+            if len(coeffs) == n + 1:
+                rows.append(coeffs)
+                radii.append(radius)
+        matrix, rad = np.array(rows), np.array(radii)
+        result = find_roots_batch(matrix, method, radius=rad)
+        scalar = find_roots_batch(matrix, method, "scalar", radius=rad)
+        kept += result.lanes_kept
+        for r in range(len(rows)):
+            roots = result.row(r)
+            assert int(roots.count.sum()) + roots.n_infinite == n
+            assert int(scalar.row(r).count.sum()) + scalar.row(r).n_infinite == n
+            for q in members(rows[r], radii[r], rng, 2):
+                truth = Truth(q)
+                if truth.n_infinite != roots.n_infinite:
+                    if roots.verified.any():
+                        problems.append(f"row {r}: member {q} of another degree, yet verified")
+                    continue
+                problems += [f"{reproducer(rows[r], method)} radius {radii[r]} member {q}: {p}"
+                             for p in check_roots(q, roots, truth)]
+    assert not problems, "\n".join(problems[:10])
+    assert kept > 0
+    with pytest.raises(ValueError, match="radius"):
+        find_roots_batch(np.ones((2, 3)), "auto", radius=-np.ones((2, 3)))
