@@ -271,15 +271,6 @@ bool find_roots_fast(const double* c, int n_coeffs, Method method, RootsResult& 
         // Not finite, or subnormal (a zero is fine: its exponent is not used).
         if (biased[k] == 0x7ff || (biased[k] == 0 && c[k] != 0.0)) return false;
     }
-    bool has_radius = false;
-    if (coeff_radius != nullptr)
-        for (int k = 0; k <= n; ++k) {
-            const double r = coeff_radius[k];
-            if (r == 0.0) continue;
-            // Positive and normal (NaN, negative, infinite, subnormal: general path).
-            if (!(r >= 0x1p-1022) || !(r <= std::numeric_limits<double>::max())) return false;
-            has_radius = true;
-        }
     // scale_polynomial's fast path (see there): the same e and f.
     const int diff = biased[0] - biased[n];
     const int q = (2 * (diff < 0 ? -diff : diff) + n) / (2 * n);
@@ -294,6 +285,7 @@ bool find_roots_fast(const double* c, int n_coeffs, Method method, RootsResult& 
     if (top - bottom > 1022) return false;
     const int f = 1023 - top;
     double scaled[kMaxDegree + 1], scaled_radius[kMaxDegree + 1];
+    bool has_radius = false;
     for (int k = 0; k <= n; ++k) {
         if (c[k] == 0.0) {
             scaled[k] = c[k];
@@ -301,7 +293,16 @@ bool find_roots_fast(const double* c, int n_coeffs, Method method, RootsResult& 
             const std::uint64_t moved = bits[k] + (static_cast<std::uint64_t>(static_cast<std::int64_t>(e * k + f)) << 52);
             std::memcpy(&scaled[k], &moved, sizeof moved);
         }
-        if (has_radius && !shift_exponent(coeff_radius[k], e * k + f, scaled_radius[k])) return false;
+        if (coeff_radius == nullptr) continue;
+        const double r = coeff_radius[k];
+        if (r == 0.0) {
+            scaled_radius[k] = 0.0;
+            continue;
+        }
+        // Positive and normal, and so after the scaling (NaN, negative,
+        // infinite, subnormal, or an inexact scaling: the general path).
+        if (!(r >= 0x1p-1022) || !shift_exponent(r, e * k + f, scaled_radius[k])) return false;
+        has_radius = true;
     }
     out.n_discs = 0;
     out.n_infinite = 0;
