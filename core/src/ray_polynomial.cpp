@@ -63,9 +63,10 @@ void object_direction(const SurfaceSpec& s, bool exact, const double d[3], T mid
     for (int r = 0; r < 3; ++r) {
         const double* L = s.linear + 3 * r;
         if (exact) {
-            T v(0.0);
-            for (int c = 0; c < 3; ++c)
-                if (L[c] != 0.0) v = T(L[c] == 1.0 ? d[c] : -d[c]);
+            // A signed permutation's row: one entry +-1, two zeros, so the
+            // dot product is exactly +-d_c (products by 0 and +-1 are exact,
+            // and so are sums with zeros), without branches.
+            const T v(L[0] * d[0] + L[1] * d[1] + L[2] * d[2]);
             mid[r] = v;
             mag[r] = std::fabs(to_double(v));
             rad[r] = 0.0;
@@ -441,13 +442,16 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
     }
     const double terms = static_cast<double>(s.terms.size());
     double grow = 1.0;
-    for (int k = 0; k <= n; ++k) grow = mul_up(grow, amax);
+    if (slack)
+        for (int k = 0; k <= n; ++k) grow = mul_up(grow, amax);
     out.n = n;
     out.finite = true;
     for (int k = 0; k <= n; ++k) {
         out.c[k] = sum[k];
-        const double factor = mul_up(2.0, add_up(mul_up(n, 5.0 * kU), mul_up(2.0 * n + 6.0 + added[k], kU)));
-        double r = mag[k] == 0.0 ? 0.0 : next_up(mul_up(add_up(1.0, factor), mag[k]) * factor);
+        // factor_k = 2 (5n + 2n + 6 + N_k) u, an integer times 2^-52 below
+        // 2^-40: exact in round-to-nearest, and so is 1 + factor_k.
+        const double factor = 2.0 * (5.0 * n + (2.0 * n + 6.0 + added[k])) * kU;
+        double r = mag[k] == 0.0 ? 0.0 : next_up(next_up((1.0 + factor) * mag[k]) * factor);
         // (An absolute loss in one product is carried by the coefficient and
         // the remaining factors: at most max(1, |coeff|) max(1, A)^n.)
         if (slack) r = add_up(r, mul_up(mul_up((3.0 * n + terms + 8.0) * kSlackPerOp, 1.0 + highest), grow));
