@@ -207,6 +207,15 @@ inline bool shift_exponent(double v, int s, double& out) {
     return true;
 }
 
+/// out = v p for a power of two p, true iff that is exact: the product is
+/// normal (a product by a power of two with a normal result loses nothing),
+/// or v is zero. NaN and infinities fail.
+inline bool times_power_exact(double v, double p, double& out) {
+    out = v * p;
+    const double a = std::fabs(out);
+    return (a >= 0x1p-1022 && a <= std::numeric_limits<double>::max()) || v == 0.0;
+}
+
 /// The kernel on the scaled polynomial, with its discs mapped back to t and
 /// the contract restored where the mapping enlarged one (shared by the fast
 /// and the general entry).
@@ -235,11 +244,16 @@ void solve_scaled(const double* scaled, const double* rad, int n, int e, Method 
     if (e == 0) return;
     bool enlarged[kMaxDegree];
     bool any_enlarged = false;
+    // 2^e as a double (the fast entry's e is within [-1022, 1023]; otherwise
+    // 0, and every product below fails its check).
+    const double scale = e >= -1022 && e <= 1023 ? pow2(e) : 0.0;
     for (int i = 0; i < kr.n_discs; ++i) {
         RootDisc& d = kr.discs[i];
         double re, im, r;
-        // Exact in the normal range (the usual case): every claim carries over.
-        if (shift_exponent(d.re, e, re) && shift_exponent(d.im, e, im) && shift_exponent(d.radius, e, r)) {
+        // Exact (the product by a power of two lands in the normal range, or
+        // is of a zero): every claim carries over.
+        if (times_power_exact(d.re, scale, re) && times_power_exact(d.im, scale, im) &&
+            times_power_exact(d.radius, scale, r)) {
             d.re = re;
             d.im = im;
             d.radius = r;
@@ -264,21 +278,22 @@ bool find_roots_fast(const double* c, int n_coeffs, Method method, RootsResult& 
     const int n = n_coeffs - 1;
     if (n < 1 || c[0] == 0.0 || c[n] == 0.0) return false;
     std::uint64_t bits[kMaxDegree + 1];
-    int biased[kMaxDegree + 1];
-    for (int k = 0; k <= n; ++k) {
-        std::memcpy(&bits[k], &c[k], sizeof bits[k]);
-        biased[k] = static_cast<int>((bits[k] >> 52) & 0x7ff);
-        // Not finite, or subnormal (a zero is fine: its exponent is not used).
-        if (biased[k] == 0x7ff || (biased[k] == 0 && c[k] != 0.0)) return false;
-    }
+    std::memcpy(&bits[0], &c[0], sizeof bits[0]);
+    std::memcpy(&bits[n], &c[n], sizeof bits[n]);
     // scale_polynomial's fast path (see there): the same e and f.
-    const int diff = biased[0] - biased[n];
+    const int diff = static_cast<int>((bits[0] >> 52) & 0x7ff) - static_cast<int>((bits[n] >> 52) & 0x7ff);
     const int q = (2 * (diff < 0 ? -diff : diff) + n) / (2 * n);
     const int e = diff < 0 ? -q : q;
     int top = -100000, bottom = 100000;
     for (int k = 0; k <= n; ++k) {
+        std::memcpy(&bits[k], &c[k], sizeof bits[k]);
+        const int biased = static_cast<int>((bits[k] >> 52) & 0x7ff);
+        // Not finite, or subnormal (a zero is fine: its exponent is not used).
+        // (The end coefficients are nonzero; if one is not finite or
+        // subnormal, e above is meaningless but this returns first.)
+        if (biased == 0x7ff || (biased == 0 && c[k] != 0.0)) return false;
         if (c[k] == 0.0) continue;
-        const int ex = biased[k] + e * k;
+        const int ex = biased + e * k;
         top = std::max(top, ex);
         bottom = std::min(bottom, ex);
     }
