@@ -18,7 +18,8 @@ constexpr double kTrigAbsError = 0x1p-50;
 
 /// Bounds of s(z) = Im(z e^{-i alpha}) = y cos(alpha) - x sin(alpha) over
 /// the disc D((x, y), r), for the edge alpha enclosed by e.
-void edge_range(const FramePlan::BandEdge& e, double x, double y, double r, double& lo, double& hi) {
+__attribute__((always_inline)) inline void edge_range(const FramePlan::BandEdge& e, double x, double y, double r,
+                                                      double& lo, double& hi) {
     const double s = y * e.cos_mid - x * e.sin_mid;
     // |y C - x S - s| <= err (|x| + |y|) + 2u (|y C'| + |x S'|) (two roundings
     // and the products'), plus underflow. The bound itself is computed in
@@ -27,8 +28,9 @@ void edge_range(const FramePlan::BandEdge& e, double x, double y, double r, doub
     const double mag = std::fabs(y) * std::fabs(e.cos_mid) + std::fabs(x) * std::fabs(e.sin_mid);
     const double err = next_up((mag * (4.0 * kU) + e.err * (std::fabs(x) + std::fabs(y))) * (1.0 + 8.0 * kU) +
                                8.0 * kDenormMin);
-    lo = next_down(next_down(s - err) - r);
-    hi = next_up(next_up(s + err) + r);
+    const double reach = add_up(err, r);  // >= err + r
+    lo = next_down(s - reach);
+    hi = next_up(s + reach);
 }
 
 }  // namespace
@@ -64,20 +66,37 @@ double modulus_up(const RootDisc& d) {
     if (modulus_in_safe_range(m)) return next_up(next_up(m * kModulusHigh) + d.radius);
     return add_up0(mag_up(Complex<double>(d.re, d.im)), d.radius);
 }
+void modulus_bounds(const RootDisc& d, double& lo, double& hi) {
+    const double m = std::sqrt(d.re * d.re + d.im * d.im);
+    if (!modulus_in_safe_range(m)) {
+        lo = modulus_down(d);
+        hi = modulus_up(d);
+        return;
+    }
+    // (modulus_down's and modulus_up's safe-range formulas, one square root.)
+    const double l = next_down(next_down(m * kModulusLow) - d.radius);
+    lo = l > 0.0 ? l : 0.0;
+    hi = next_up(next_up(m * kModulusHigh) + d.radius);
+}
 
 namespace {
 /// True unless D(a) and D(b)'s mirror image are proven disjoint.
 bool may_meet_mirror(const RootDisc& a, const RootDisc& b) {
-    return !(dist_down(a.re, a.im, b.re, -b.im) > add_up(a.radius, b.radius));
+    const double reach = add_up(a.radius, b.radius);
+    // A cheap sufficient test first: the distance is at least the larger
+    // component difference. A difference of doubles is correctly rounded
+    // (exact where subnormal), so the exact one is at least the computed one
+    // times (1 - u); (1 - 2u) and a step down cover that and the product's
+    // rounding. (NaN and inf fail the comparison: the full test decides.)
+    if (next_down(std::fabs(a.re - b.re) * (1.0 - 2.0 * kU)) > reach ||
+        next_down(std::fabs(a.im + b.im) * (1.0 - 2.0 * kU)) > reach)
+        return false;
+    return !(dist_down(a.re, a.im, b.re, -b.im) > reach);
 }
 }  // namespace
 
-bool proven_real(const RootDisc* all, int n_all, int self, bool all_verified) {
+bool real_by_mirror(const RootDisc* all, int n_all, int self) {
     const RootDisc& d = all[self];
-    if (!d.verified || d.count != 1) return false;
-    if (d.real) return true;
-    // d meets its mirror image iff |im| <= radius (exact comparison).
-    if (!all_verified || !(std::fabs(d.im) <= d.radius)) return false;
     for (int j = 0; j < n_all; ++j)
         if (j != self && may_meet_mirror(all[j], d)) return false;
     return true;

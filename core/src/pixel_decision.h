@@ -5,6 +5,7 @@
 // proofs, Unknown claims nothing.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "argand/render.h"
@@ -21,13 +22,25 @@ FramePlan::BandEdge band_edge(double a, double b);
 /// Lower / upper bounds of the moduli of the points of disc d (lo >= 0).
 double modulus_down(const RootDisc& d);
 double modulus_up(const RootDisc& d);
+/// Both at once (lo = modulus_down(d), hi = modulus_up(d)).
+void modulus_bounds(const RootDisc& d, double& lo, double& hi);
+
+/// proven_real's mirror test alone (d verified, count 1, meeting its mirror).
+bool real_by_mirror(const RootDisc* all, int n_all, int self);
 
 /// Is the root in disc all[self] (count 1, verified) real? True when the
 /// disc says so, or when every other disc of the same polynomial (all
 /// verified, so they cover every root) is proven disjoint from the mirror
 /// image of all[self]: the conjugate of its root then lies in it, and it
-/// holds one root.
-bool proven_real(const RootDisc* all, int n_all, int self, bool all_verified);
+/// holds one root. (Inline: most discs are decided by the first checks.)
+inline bool proven_real(const RootDisc* all, int n_all, int self, bool all_verified) {
+    const RootDisc& d = all[self];
+    if (!d.verified || d.count != 1) return false;
+    if (d.real) return true;
+    // d meets its mirror image iff |im| <= radius (exact comparison).
+    if (!all_verified || !(std::fabs(d.im) <= d.radius)) return false;
+    return real_by_mirror(all, n_all, self);
+}
 
 /// Band membership of every root in disc d: Yes (all in the band), No (all
 /// outside), Unknown. `real` says d's single root is proven real. For a real

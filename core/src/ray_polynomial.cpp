@@ -36,6 +36,9 @@ constexpr double kU = kUnitRoundoff;
 constexpr double kProductFloor = 0x1p-900;  // nonzero products stay above this without slack
 constexpr double kSlackPerOp = 0x1p-1018;
 
+/// max(floor, v), and floor when v is NaN (as std::fmax(floor, v)).
+inline double floor_at(double floor, double v) { return v > floor ? v : floor; }
+
 /// Exact binomial coefficients C(n, k), n <= kMaxDegree (C(64, 32) < 2^61).
 const std::uint64_t* binomial_row(int n) {
     struct Table {
@@ -60,9 +63,10 @@ void object_direction(const SurfaceSpec& s, bool exact, const double d[3], T mid
     for (int r = 0; r < 3; ++r) {
         const double* L = s.linear + 3 * r;
         if (exact) {
-            T v(0.0);
-            for (int c = 0; c < 3; ++c)
-                if (L[c] != 0.0) v = T(L[c] == 1.0 ? d[c] : -d[c]);
+            // A signed permutation's row: one entry +-1, two zeros, so the
+            // dot product is exactly +-d_c (products by 0 and +-1 are exact,
+            // and so are sums with zeros), without branches.
+            const T v(L[0] * d[0] + L[1] * d[1] + L[2] * d[2]);
             mid[r] = v;
             mag[r] = std::fabs(to_double(v));
             rad[r] = 0.0;
@@ -179,6 +183,58 @@ void primary_impl(const FramePlan::ObjectPlan& op, int n, const T* g, const doub
         }
     }
     out.finite = finite;
+}
+
+/// general_ray_polynomial's expansion: the powers (o'_i + t d'_i)^a and
+/// their magnitude twins (oa, da for o', d'), then every term's product of
+/// three of them summed into sum and mag by degree (added counts summands).
+template <int S>
+void expand_terms(const SurfaceSpec& s, int n, const double* om, const double* oa, const double* dm, const double* da,
+                  double (*pw)[S][S], double (*pm)[S][S], double* sum, double* mag, int* added, double& lowest,
+                  double& highest) {
+    for (int axis = 0; axis < 3; ++axis) {
+        pw[axis][0][0] = pm[axis][0][0] = 1.0;
+        for (int a = 1; a <= n; ++a) {
+            pw[axis][a][0] = pw[axis][a - 1][0] * om[axis];
+            pm[axis][a][0] = pm[axis][a - 1][0] * oa[axis];
+            for (int k = 1; k < a; ++k) {
+                pw[axis][a][k] = pw[axis][a - 1][k] * om[axis] + pw[axis][a - 1][k - 1] * dm[axis];
+                pm[axis][a][k] = pm[axis][a - 1][k] * oa[axis] + pm[axis][a - 1][k - 1] * da[axis];
+            }
+            pw[axis][a][a] = pw[axis][a - 1][a - 1] * dm[axis];
+            pm[axis][a][a] = pm[axis][a - 1][a - 1] * da[axis];
+        }
+    }
+    for (int k = 0; k <= n; ++k) {
+        sum[k] = mag[k] = 0.0;
+        added[k] = 0;
+    }
+    for (const Term& term : s.terms) {
+        if (term.coeff == 0.0) continue;
+        const double ac = std::fabs(term.coeff);
+        lowest = ac < lowest ? ac : lowest;
+        highest = ac > highest ? ac : highest;
+        const double* px = pw[0][term.ex];
+        const double* py = pw[1][term.ey];
+        const double* pz = pw[2][term.ez];
+        const double* mx = pm[0][term.ex];
+        const double* my = pm[1][term.ey];
+        const double* mz = pm[2][term.ez];
+        for (int i = 0; i <= term.ex; ++i)
+            for (int j = 0; j <= term.ey; ++j) {
+                const double xy = term.coeff * px[i] * py[j];
+                const double xym = ac * mx[i] * my[j];
+                if (xym == 0.0) continue;
+                double* sk = sum + i + j;
+                double* mk = mag + i + j;
+                int* ak = added + i + j;
+                for (int l = 0; l <= term.ez; ++l) {
+                    sk[l] += xy * pz[l];
+                    mk[l] += xym * mz[l];
+                    ++ak[l];
+                }
+            }
+    }
 }
 
 }  // namespace
@@ -347,53 +403,28 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
         }
         om[r] = vo;
         dm[r] = vd;
-        oa[r] = zero_o ? 0.0 : std::fmax(kProductFloor, next_up(next_up(so * (1.0 + 8.0 * kU)) + 8.0 * kDenormMin));
-        da[r] = zero_d ? 0.0 : std::fmax(kProductFloor, next_up(next_up(sd * (1.0 + 8.0 * kU)) + 8.0 * kDenormMin));
+        // (floor_at: std::fmax's NaN rule without its libm call.)
+        oa[r] = zero_o ? 0.0 : floor_at(kProductFloor, next_up(next_up(so * (1.0 + 8.0 * kU)) + 8.0 * kDenormMin));
+        da[r] = zero_d ? 0.0 : floor_at(kProductFloor, next_up(next_up(sd * (1.0 + 8.0 * kU)) + 8.0 * kDenormMin));
         orad[r] = oa[r] == 0.0 ? 0.0 : mul_up(6.0 * kU, oa[r]);
         drad[r] = da[r] == 0.0 ? 0.0 : mul_up(6.0 * kU, da[r]);
         ray.origin[r] = Ball(om[r], orad[r]);
         ray.direction[r] = Ball(dm[r], drad[r]);
     }
-    // Powers (o'_i + t d'_i)^a as polynomials in t, and their magnitudes.
-    // (Thread-local: 200 KB on the stack per secondary ray would be probed
-    // page by page on every call.)
-    static thread_local double pw[3][kMaxDegree + 1][kMaxDegree + 1], pm[3][kMaxDegree + 1][kMaxDegree + 1];
-    for (int axis = 0; axis < 3; ++axis) {
-        pw[axis][0][0] = pm[axis][0][0] = 1.0;
-        for (int a = 1; a <= n; ++a) {
-            pw[axis][a][0] = pw[axis][a - 1][0] * om[axis];
-            pm[axis][a][0] = pm[axis][a - 1][0] * oa[axis];
-            for (int k = 1; k < a; ++k) {
-                pw[axis][a][k] = pw[axis][a - 1][k] * om[axis] + pw[axis][a - 1][k - 1] * dm[axis];
-                pm[axis][a][k] = pm[axis][a - 1][k] * oa[axis] + pm[axis][a - 1][k - 1] * da[axis];
-            }
-            pw[axis][a][a] = pw[axis][a - 1][a - 1] * dm[axis];
-            pm[axis][a][a] = pm[axis][a - 1][a - 1] * da[axis];
-        }
-    }
+    // Powers (o'_i + t d'_i)^a as polynomials in t, and their magnitudes:
+    // on the stack for the usual degrees; thread-local above (200 KB on the
+    // stack per secondary ray would be probed page by page on every call).
     double sum[kMaxDegree + 1], mag[kMaxDegree + 1];
     int added[kMaxDegree + 1];  // summands of each coefficient (roundings of its sum)
-    for (int k = 0; k <= n; ++k) {
-        sum[k] = mag[k] = 0.0;
-        added[k] = 0;
-    }
     double lowest = INFINITY, highest = 0.0;
-    for (const Term& term : s.terms) {
-        if (term.coeff == 0.0) continue;
-        lowest = std::fabs(term.coeff) < lowest ? std::fabs(term.coeff) : lowest;
-        highest = std::fabs(term.coeff) > highest ? std::fabs(term.coeff) : highest;
-        const double ac = std::fabs(term.coeff);
-        for (int i = 0; i <= term.ex; ++i)
-            for (int j = 0; j <= term.ey; ++j) {
-                const double xy = term.coeff * pw[0][term.ex][i] * pw[1][term.ey][j];
-                const double xym = ac * pm[0][term.ex][i] * pm[1][term.ey][j];
-                if (xym == 0.0) continue;
-                for (int l = 0; l <= term.ez; ++l) {
-                    sum[i + j + l] += xy * pw[2][term.ez][l];
-                    mag[i + j + l] += xym * pm[2][term.ez][l];
-                    ++added[i + j + l];
-                }
-            }
+    constexpr int kSmall = 12;
+    if (n < kSmall) {
+        double pw[3][kSmall][kSmall], pm[3][kSmall][kSmall];
+        expand_terms<kSmall>(s, n, om, oa, dm, da, pw, pm, sum, mag, added, lowest, highest);
+    } else {
+        using Table = double[kMaxDegree + 1][kMaxDegree + 1];
+        static thread_local Table tls_pw[3], tls_pm[3];
+        expand_terms<kMaxDegree + 1>(s, n, om, oa, dm, da, tls_pw, tls_pm, sum, mag, added, lowest, highest);
     }
     // No product underflows when every nonzero factor is large enough.
     double amin = 1.0, amax = 1.0;
@@ -411,13 +442,16 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
     }
     const double terms = static_cast<double>(s.terms.size());
     double grow = 1.0;
-    for (int k = 0; k <= n; ++k) grow = mul_up(grow, amax);
+    if (slack)
+        for (int k = 0; k <= n; ++k) grow = mul_up(grow, amax);
     out.n = n;
     out.finite = true;
     for (int k = 0; k <= n; ++k) {
         out.c[k] = sum[k];
-        const double factor = mul_up(2.0, add_up(mul_up(n, 5.0 * kU), mul_up(2.0 * n + 6.0 + added[k], kU)));
-        double r = mag[k] == 0.0 ? 0.0 : next_up(mul_up(add_up(1.0, factor), mag[k]) * factor);
+        // factor_k = 2 (5n + 2n + 6 + N_k) u, an integer times 2^-52 below
+        // 2^-40: exact in round-to-nearest, and so is 1 + factor_k.
+        const double factor = 2.0 * (5.0 * n + (2.0 * n + 6.0 + added[k])) * kU;
+        double r = mag[k] == 0.0 ? 0.0 : next_up(next_up((1.0 + factor) * mag[k]) * factor);
         // (An absolute loss in one product is carried by the coefficient and
         // the remaining factors: at most max(1, |coeff|) max(1, A)^n.)
         if (slack) r = add_up(r, mul_up(mul_up((3.0 * n + terms + 8.0) * kSlackPerOp, 1.0 + highest), grow));

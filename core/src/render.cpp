@@ -429,8 +429,7 @@ private:
                 info.object = obj;
                 info.index = i;
                 if (!disc.verified) {
-                    info.lo = detail::modulus_down(disc);
-                    info.hi = detail::modulus_up(disc);
+                    detail::modulus_bounds(disc, info.lo, info.hi);
                     // Not enclosed: may be anywhere.
                     info.band = info.clip = Verdict::Unknown;
                     info.live = true;
@@ -445,8 +444,7 @@ private:
                 // (Moduli and the sphere only matter for a root that may be in
                 // the band.)
                 if (info.band != Verdict::No) {
-                    info.lo = detail::modulus_down(disc);
-                    info.hi = detail::modulus_up(disc);
+                    detail::modulus_bounds(disc, info.lo, info.hi);
                 }
                 info.clip = s.clip_radius <= 0.0 || info.band == Verdict::No
                                 ? Verdict::Yes

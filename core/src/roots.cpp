@@ -37,10 +37,50 @@ inline bool scale_exactly(const double* c, int n, int e, int f, double* s) {
 /// raised just enough to keep every coefficient exact, as long as the largest
 /// stays below 2^(1023 - 64 - 8) (headroom for Horner at |u| ~ 1). Tries the
 /// root scaling from the end coefficients, then e = 0; otherwise no scaling.
-int scale_polynomial(const double* c, int n, double* s) {
+int scale_polynomial(const double* c, int n, double* s, int& f_out) {
     const int lo_exp = exponent_of(c[0]);
     const int hi_exp = exponent_of(c[n]);
-    const int e_guess = static_cast<int>(std::lround(static_cast<double>(lo_exp - hi_exp) / n));
+    // lround((lo_exp - hi_exp) / n) in integers (halves away from zero; a
+    // quotient of such small integers is never within rounding of a half
+    // without being one, so this is the same e as the double formula).
+    const int diff = lo_exp - hi_exp;
+    const int q = (2 * (diff < 0 ? -diff : diff) + n) / (2 * n);
+    const int e_guess = diff < 0 ? -q : q;
+    {
+        // Fast path (the usual case): every nonzero coefficient is normal and
+        // the scaled exponents span at most 1022 binades. Then the general
+        // path below takes f = -top (a normal c has its lowest bit at or
+        // above exponent - 52, so -1074 - low <= -1022 - min <= -top), and
+        // every scaled coefficient c_k 2^(e k + f) has its exponent in
+        // [min - top, 0], inside the normal range: the scaling only moves
+        // exponent fields, exactly. Same e, f and s as the general path.
+        std::uint64_t bits[kMaxDegree + 1];
+        int top = -100000, bottom = 100000;
+        bool fast = true;
+        for (int k = 0; k <= n; ++k) {
+            std::memcpy(&bits[k], &c[k], sizeof bits[k]);
+            if (c[k] == 0.0) continue;
+            const int biased = static_cast<int>((bits[k] >> 52) & 0x7ff);
+            fast = fast && biased != 0;
+            const int ex = biased + e_guess * k;
+            top = std::max(top, ex);
+            bottom = std::min(bottom, ex);
+        }
+        if (fast && top - bottom <= 1022) {
+            const int f = 1023 - top;  // (biased exponents: top - 1023 is the true one)
+            for (int k = 0; k <= n; ++k) {
+                if (c[k] == 0.0) {
+                    s[k] = c[k];
+                    continue;
+                }
+                const std::uint64_t moved =
+                    bits[k] + (static_cast<std::uint64_t>(static_cast<std::int64_t>(e_guess * k + f)) << 52);
+                std::memcpy(&s[k], &moved, sizeof moved);
+            }
+            f_out = f;
+            return e_guess;
+        }
+    }
     for (int attempt = 0; attempt < 2; ++attempt) {
         const int e = attempt == 0 ? e_guess : 0;
         // Largest exponent and lowest bit after the root scaling.
@@ -52,9 +92,13 @@ int scale_polynomial(const double* c, int n, double* s) {
             }
         const int f = std::max(-top, -1074 - low);
         if (top + f > 1023 - kMaxDegree - 8) continue;
-        if (scale_exactly(c, n, e, f, s)) return e;
+        if (scale_exactly(c, n, e, f, s)) {
+            f_out = f;
+            return e;
+        }
     }
     for (int k = 0; k <= n; ++k) s[k] = c[k];
+    f_out = 0;
     return 0;
 }
 
@@ -146,6 +190,146 @@ double scale_radius_up(double rad, int k) {
     return out;
 }
 
+/// out = v 2^s when that is exact without leaving the normal range (v zero,
+/// or v normal with v 2^s normal): only the exponent field moves. False
+/// (out untouched) otherwise; the caller then takes the general path.
+inline bool shift_exponent(double v, int s, double& out) {
+    if (v == 0.0) {
+        out = v;
+        return true;
+    }
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    const int biased = static_cast<int>((bits >> 52) & 0x7ff);
+    if (static_cast<unsigned>(biased - 1) >= 0x7feu || static_cast<unsigned>(biased + s - 1) >= 0x7feu) return false;
+    bits += static_cast<std::uint64_t>(static_cast<std::int64_t>(s)) << 52;
+    std::memcpy(&out, &bits, sizeof out);
+    return true;
+}
+
+/// out = v p for a power of two p, true iff that is exact: the product is
+/// normal (a product by a power of two with a normal result loses nothing),
+/// or v is zero. NaN and infinities fail.
+inline bool times_power_exact(double v, double p, double& out) {
+    out = v * p;
+    const double a = std::fabs(out);
+    return (a >= 0x1p-1022 && a <= std::numeric_limits<double>::max()) || v == 0.0;
+}
+
+/// The kernel on the scaled polynomial, with its discs mapped back to t and
+/// the contract restored where the mapping enlarged one (shared by the fast
+/// and the general entry).
+void solve_scaled(const double* scaled, const double* rad, int n, int e, Method method, const double* initial_re,
+                  const double* initial_im, detail::KernelResult& kr) {
+    Complex<double> seed[kMaxDegree];
+    const bool use_seed = initial_re != nullptr && initial_im != nullptr;
+    if (use_seed) {
+        for (int i = 0; i < n; ++i) {
+            double sr, si;
+            exact_ldexp(initial_re[i], -e, sr);
+            exact_ldexp(initial_im[i], -e, si);
+            seed[i] = Complex<double>(sr, si);
+            if (!is_finite(seed[i])) seed[i] = Complex<double>(0.5 + 0.1 * i, 0.3 + 0.05 * i);
+        }
+    }
+    if (method == Method::Paper && rad == nullptr) {
+        detail::solve_paper(scaled, n, kr);
+    } else {
+        // (With coefficient radii the paper's per-root Krawczyk test is
+        // not extended to the family: Smith's discs, with the paper's
+        // double-double retry, prove the roots instead.)
+        const Method kernel = method == Method::Paper ? Method::Auto : method;
+        detail::solve_smith(scaled, rad, n, kernel, use_seed ? seed : nullptr, kr);
+    }
+    if (e == 0) return;
+    bool enlarged[kMaxDegree];
+    bool any_enlarged = false;
+    // 2^e as a double (the fast entry's e is within [-1022, 1023]; otherwise
+    // 0, and every product below fails its check).
+    const double scale = e >= -1022 && e <= 1023 ? pow2(e) : 0.0;
+    for (int i = 0; i < kr.n_discs; ++i) {
+        RootDisc& d = kr.discs[i];
+        double re, im, r;
+        // Exact (the product by a power of two lands in the normal range, or
+        // is of a zero): every claim carries over.
+        if (times_power_exact(d.re, scale, re) && times_power_exact(d.im, scale, im) &&
+            times_power_exact(d.radius, scale, r)) {
+            d.re = re;
+            d.im = im;
+            d.radius = r;
+            enlarged[i] = false;
+            continue;
+        }
+        enlarged[i] = !unscale_disc(d, e);
+        any_enlarged = any_enlarged || enlarged[i];
+    }
+    if (any_enlarged && method != Method::Unverified) reconcile_enlarged(kr, enlarged, n);
+}
+
+/// find_roots's usual case in one pass over the input: nonzero end
+/// coefficients (no root at 0 or at infinity), every coefficient zero or
+/// normal, every radius zero or normal, and the fast exact scaling of
+/// scale_polynomial applicable to the coefficients and the radii alike
+/// (every scaled radius normal: exact, so equal to scale_radius_up's). Then
+/// the result is the general path's, computed with less bookkeeping. Returns
+/// false, having written nothing, when the input is not of that kind.
+bool find_roots_fast(const double* c, int n_coeffs, Method method, RootsResult& out, const double* initial_re,
+                     const double* initial_im, const double* coeff_radius) {
+    const int n = n_coeffs - 1;
+    if (n < 1 || c[0] == 0.0 || c[n] == 0.0) return false;
+    std::uint64_t bits[kMaxDegree + 1];
+    std::memcpy(&bits[0], &c[0], sizeof bits[0]);
+    std::memcpy(&bits[n], &c[n], sizeof bits[n]);
+    // scale_polynomial's fast path (see there): the same e and f.
+    const int diff = static_cast<int>((bits[0] >> 52) & 0x7ff) - static_cast<int>((bits[n] >> 52) & 0x7ff);
+    const int q = (2 * (diff < 0 ? -diff : diff) + n) / (2 * n);
+    const int e = diff < 0 ? -q : q;
+    int top = -100000, bottom = 100000;
+    for (int k = 0; k <= n; ++k) {
+        std::memcpy(&bits[k], &c[k], sizeof bits[k]);
+        const int biased = static_cast<int>((bits[k] >> 52) & 0x7ff);
+        // Not finite, or subnormal (a zero is fine: its exponent is not used).
+        // (The end coefficients are nonzero; if one is not finite or
+        // subnormal, e above is meaningless but this returns first.)
+        if (biased == 0x7ff || (biased == 0 && c[k] != 0.0)) return false;
+        if (c[k] == 0.0) continue;
+        const int ex = biased + e * k;
+        top = std::max(top, ex);
+        bottom = std::min(bottom, ex);
+    }
+    if (top - bottom > 1022) return false;
+    const int f = 1023 - top;
+    double scaled[kMaxDegree + 1], scaled_radius[kMaxDegree + 1];
+    bool has_radius = false;
+    for (int k = 0; k <= n; ++k) {
+        if (c[k] == 0.0) {
+            scaled[k] = c[k];
+        } else {
+            const std::uint64_t moved = bits[k] + (static_cast<std::uint64_t>(static_cast<std::int64_t>(e * k + f)) << 52);
+            std::memcpy(&scaled[k], &moved, sizeof moved);
+        }
+        if (coeff_radius == nullptr) continue;
+        const double r = coeff_radius[k];
+        if (r == 0.0) {
+            scaled_radius[k] = 0.0;
+            continue;
+        }
+        // Positive and normal, and so after the scaling (NaN, negative,
+        // infinite, subnormal, or an inexact scaling: the general path).
+        if (!(r >= 0x1p-1022) || !shift_exponent(r, e * k + f, scaled_radius[k])) return false;
+        has_radius = true;
+    }
+    out.n_discs = 0;
+    out.n_infinite = 0;
+    detail::KernelResult kr;
+    solve_scaled(scaled, has_radius ? scaled_radius : nullptr, n, e, method, initial_re, initial_im, kr);
+    out.escalation = kr.escalation;
+    out.wants_exact = kr.wants_exact;
+    out.n_discs = kr.n_discs;
+    for (int i = 0; i < kr.n_discs; ++i) out.discs[i] = kr.discs[i];
+    return true;
+}
+
 /// Every disc becomes an unverified estimate (nothing is claimed).
 void unverify_all(RootsResult& out) {
     for (int i = 0; i < out.n_discs; ++i) {
@@ -165,6 +349,7 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
     out.escalation = 0;
     if (n_coeffs < 1) return Status::ZeroPolynomial;
     if (n_coeffs - 1 > kMaxDegree) return Status::TooLarge;
+    if (find_roots_fast(coeffs, n_coeffs, method, out, initial_re, initial_im, coeff_radius)) return Status::Ok;
     for (int k = 0; k < n_coeffs; ++k)
         if (!std::isfinite(coeffs[k])) return Status::NonFinite;
     bool has_radius = false;
@@ -198,43 +383,15 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
     int e = 0;
     if (n >= 1) {
         double scaled[kMaxDegree + 1];
-        e = scale_polynomial(coeffs + low, n, scaled);
+        int f = 0;
+        e = scale_polynomial(coeffs + low, n, scaled, f);
         // The same exact scaling of the radii (rounded up where inexact):
-        // scaled coefficient k is c_{low+k} 2^(e k + f), f read off the
-        // leading coefficient's scaling.
+        // scaled coefficient k is c_{low+k} 2^(e k + f).
         double scaled_radius[kMaxDegree + 1];
-        if (radius_in != nullptr) {
-            const int f = exponent_of(scaled[n]) - exponent_of(coeffs[top]) - e * n;
+        if (radius_in != nullptr)
             for (int k = 0; k <= n; ++k) scaled_radius[k] = scale_radius_up(radius_in[low + k], e * k + f);
-        }
         const double* rad = radius_in != nullptr ? scaled_radius : nullptr;
-        Complex<double> seed[kMaxDegree];
-        const bool use_seed = initial_re != nullptr && initial_im != nullptr;
-        if (use_seed) {
-            for (int i = 0; i < n; ++i) {
-                double sr, si;
-                exact_ldexp(initial_re[i], -e, sr);
-                exact_ldexp(initial_im[i], -e, si);
-                seed[i] = Complex<double>(sr, si);
-                if (!is_finite(seed[i])) seed[i] = Complex<double>(0.5 + 0.1 * i, 0.3 + 0.05 * i);
-            }
-        }
-        if (method == Method::Paper && rad == nullptr) {
-            detail::solve_paper(scaled, n, kr);
-        } else {
-            // (With coefficient radii the paper's per-root Krawczyk test is
-            // not extended to the family: Smith's discs, with the paper's
-            // double-double retry, prove the roots instead.)
-            const Method kernel = method == Method::Paper ? Method::Auto : method;
-            detail::solve_smith(scaled, rad, n, kernel, use_seed ? seed : nullptr, kr);
-        }
-        bool enlarged[kMaxDegree];
-        bool any_enlarged = false;
-        for (int i = 0; i < kr.n_discs; ++i) {
-            enlarged[i] = !unscale_disc(kr.discs[i], e);
-            any_enlarged = any_enlarged || enlarged[i];
-        }
-        if (any_enlarged && method != Method::Unverified) reconcile_enlarged(kr, enlarged, n);
+        solve_scaled(scaled, rad, n, e, method, initial_re, initial_im, kr);
     }
     out.escalation = kr.escalation;
     out.wants_exact = kr.wants_exact;

@@ -88,11 +88,16 @@ int smith_discs<double>(const double* c, const double* rad, int n, Complex<doubl
     // smith_members does); if that made two coincide, take the general path.
     const double snap_tol = 64.0 * working_epsilon<double>();
     Complex<double> original[kMaxDegree];
+    bool any_snap = false;
     for (int i = 0; i < n; ++i) {
         original[i] = x[i];
-        if (x[i].im != 0.0 && std::fabs(x[i].im) <= snap_tol * std::fabs(x[i].re)) x[i].im = 0.0;
+        if (x[i].im != 0.0 && std::fabs(x[i].im) <= snap_tol * std::fabs(x[i].re)) {
+            x[i].im = 0.0;
+            any_snap = true;
+        }
     }
-    const bool snapped = has_duplicate(x, n);
+    // (Distinct before, unchanged if nothing snapped: no new duplicates.)
+    const bool snapped = any_snap && has_duplicate(x, n);
     if (snapped)
         for (int i = 0; i < n; ++i) x[i] = original[i];
     if (!snapped) {

@@ -261,8 +261,11 @@ inline int aberth(const double* c, int n, Complex<T>* x, int max_iter, bool* con
     for (; it < max_iter && remaining > 0; ++it) {
         for (int i = 0; i < n; ++i) {
             if (done[i]) continue;
-            Complex<T> p, dp;
-            eval_with_derivative(c, n, x[i], p, dp);
+            // p first (the same Horner values eval_with_derivative gives):
+            // from good starting points most roots stop here, and p' would
+            // be wasted.
+            Complex<T> p{T(c[n])};
+            for (int k = n - 1; k >= 0; --k) p = add_real(p * x[i], T(c[k]));
             const double ax2 = mag2_approx(x[i]);
             const double floor = noise * abs_poly(c, n, std::sqrt(ax2));
             if (mag2_approx(p) <= floor * floor) {
@@ -270,6 +273,8 @@ inline int aberth(const double* c, int n, Complex<T>* x, int max_iter, bool* con
                 --remaining;
                 continue;
             }
+            Complex<T> dp;
+            eval_with_derivative(c, n, x[i], p, dp);
             // Aberth correction w = p / (p' - p * sum_j 1/(x_i - x_j)).
             Complex<T> s(T(0.0));
             for (int j = 0; j < n; ++j)
@@ -397,9 +402,6 @@ inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, d
     const double relative_up = 1.0 + 2.0 * (4.0 * n + 10.0) * u;
     const double den_down = 1.0 - 2.0 * (5.0 * n + 2.0) * u;
     const double pair_down = 1.0 - 8.0 * u;
-    // Underflow slack 8 n eta max(1, ax)^n with ax <= 2^8 (guarded below).
-    // (16 n 2^-1074 2^(8n) <= n 2^max(8n-1070, -1014), a normal power of two.)
-    const double slack = n * pow2(std::max(8 * n - 1070, -1014));
     double dist[kMaxDegree * kMaxDegree];
     for (int i = 0; i < n; ++i)
         for (int j = i + 1; j < n; ++j) {
@@ -413,40 +415,58 @@ inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, d
     // Horner with a running error bound (see eval_bound for the terms), all
     // n evaluations advanced together so their dependency chains overlap.
     double ax[kMaxDegree], yr[kMaxDegree], yi[kMaxDegree], ay[kMaxDegree], e[kMaxDegree];
+    // The family's term sum_k rad_k |x|^k rides in the same recurrence: it is
+    // the Horner sum s <- s ax + rad_k, whose multiplier ax is e's, so adding
+    // rad_k to step k's additive term (and starting e at rad_n) gives e + s.
+    // Each rad_k leaf passes through the roundings of one step (at most 3)
+    // and 3 per later step, plus the n products by ax (>= |x| (1 - u)): at
+    // most 4n, within K; the additions bring no underflow loss, so the slack
+    // stays that of e's products.
+    const double rad_n = rad == nullptr ? 0.0 : rad[n];
+    double ax_max = 1.0;
     for (int i = 0; i < n; ++i) {
         ax[i] = std::fabs(x[i].re) + std::fabs(x[i].im);
-        if (!(ax[i] <= 0x1p8)) return false;  // keeps the slack below tiny
+        if (!(ax[i] <= 0x1p64)) return false;  // (NaN too)
+        ax_max = ax[i] > ax_max ? ax[i] : ax_max;
         yr[i] = c[n];
         yi[i] = 0.0;
         ay[i] = lead;
-        e[i] = 0.0;
+        e[i] = rad_n;
     }
     for (int k = n - 1; k >= 0; --k) {
+        const double constant = 2.0 * E::abs_err + (rad == nullptr ? 0.0 : rad[k]);
         for (int i = 0; i < n; ++i) {
             const double pr = yr[i] * x[i].re - yi[i] * x[i].im;
             const double pi = yr[i] * x[i].im + yi[i] * x[i].re;
             yr[i] = pr + c[k];
             yi[i] = pi;
             const double a_next = std::fabs(yr[i]) + std::fabs(yi[i]);
-            e[i] = ax[i] * (e[i] + E::mul_rel * ay[i]) + (E::add_rel * a_next + 2.0 * E::abs_err);
+            e[i] = ax[i] * (e[i] + E::mul_rel * ay[i]) + (E::add_rel * a_next + constant);
             ay[i] = a_next;
         }
     }
-    // The family's term sum_k rad_k |x|^k, in round-to-nearest on ax >= |x|
-    // (1 - u): the same argument as for e bounds it by relative_up and slack.
-    double fam[kMaxDegree];
+    // Underflow slack 8 n eta max(1, ax)^n with every ax <= 2^L, L >= 8 the
+    // bit length of the largest (a root far out of the unit circle, as the
+    // far root of a ray that starts next to a surface, raises L):
+    // 16 n 2^-1074 2^(nL) <= n 2^max(nL-1070, -1014), a normal power of two
+    // (guard: nL <= 1070, so the slack stays below n).
+    std::uint64_t ax_max_bits;
+    std::memcpy(&ax_max_bits, &ax_max, sizeof ax_max_bits);
+    const int ax_bits = static_cast<int>(ax_max_bits >> 52) - 1022;  // 1 <= ax_max < 2^ax_bits
+    const int L = std::max(8, ax_bits);
+    if (n * L > 1070) return false;
+    const double slack = n * pow2(std::max(n * L - 1070, -1014));
     const double lead_low = lead_down(c, rad, n);
     if (!(lead_low > 0.0)) return false;
     for (int i = 0; i < n; ++i) {
-        fam[i] = 0.0;
-        if (rad == nullptr) continue;
-        double s = rad[n];
-        for (int k = n - 1; k >= 0; --k) s = s * ax[i] + rad[k];
-        fam[i] = add_up(next_up(s * relative_up), slack);
-    }
-    for (int i = 0; i < n; ++i) {
-        const double numerator =
-            add_up(add_up(next_up(ay[i]), next_up(e[i] * relative_up)), add_up(slack, fam[i]));
+        // |p(x)| <= |yr| + |yi| <= ay (1 + u); the error and family terms are
+        // at most e relative_up + slack. The sum S of ay, e relative_up and
+        // slack (nonnegatives, normal: S >= slack >= 2^-1014) is computed
+        // with three roundings: ay (1 + u) + e relative_up + slack <=
+        // (1 + u)^4 S, and RN(S (1 + 8u)) >= S (1 + 8u) / (1 + u) >= that.
+        // (An underflow of e relative_up, at most 2^-1075, is far below the
+        // final step up, an ulp of a number >= 2^-1014.)
+        const double numerator = next_up((ay[i] + e[i] * relative_up + slack) * (1.0 + 8.0 * u));
         double denominator = lead_low;
         for (int j = 0; j < n; ++j)
             if (j != i) denominator *= dist[i * n + j];

@@ -29,11 +29,13 @@ namespace argand {
 /// Smallest double strictly greater than x, for finite x (inf stays inf, NaN
 /// stays NaN). Bit manipulation, no libm call.
 inline double next_up(double x) {
+    x += 0.0;  // -0 becomes +0 (round to nearest), whose successor is bits + 1
     if (!(x < std::numeric_limits<double>::infinity())) return x;  // +inf, NaN
-    if (x == 0.0) return std::numeric_limits<double>::denorm_min();
-    std::uint64_t bits;
+    std::int64_t bits;
     std::memcpy(&bits, &x, sizeof bits);
-    bits += (x > 0.0) ? 1 : -1;
+    // One step towards +inf in the sign-magnitude order: +1 on the bits of a
+    // value >= +0, -1 on those of a negative one ((bits >> 63) is 0 or -1).
+    bits += (bits >> 63) | 1;
     std::memcpy(&x, &bits, sizeof bits);
     return x;
 }
@@ -74,6 +76,10 @@ inline bool exact_ldexp(double v, int e, double& out) {
     if (biased != 0 && biased != 0x7ff && e > -2046 && e < 2046 && biased + e >= 1 && biased + e <= 0x7fe) {
         bits += static_cast<std::uint64_t>(static_cast<std::int64_t>(e)) << 52;
         std::memcpy(&out, &bits, sizeof out);
+        return true;
+    }
+    if (v == 0.0) {  // (a real root's zero imaginary part: no libm calls)
+        out = v;
         return true;
     }
     out = std::ldexp(v, e);
