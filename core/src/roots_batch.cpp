@@ -151,7 +151,7 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
         block.has_radius = radius != nullptr ? 1 : 0;
         for (int k = 0; k <= n; ++k)
             for (int l = 0; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
-        // smith_radii_fast's slack: n 2^max(8n - 1070, -1014).
+        // smith_radii_lanes_reference's slack: n 2^max(8n - 1070, -1014).
         block.slack = n * std::ldexp(1.0, std::max(8 * n - 1070, -1014));
         for (int i = 0; i < n; ++i) {
             const double angle = 2.0 * 3.14159265358979323846 * i / n + 0.4;

@@ -16,7 +16,7 @@ struct alignas(64) BatchBlock {
     int n = 0;                 // degree of every lane
     int max_sweeps_closed = 12;  // Aberth sweeps from closed-form starts (n <= 4)
     int max_sweeps_circle = 40;  // ... from circle starts (n >= 5)
-    double slack = 0.0;        // smith_radii_fast's underflow slack for degree n
+    double slack = 0.0;        // smith_radii_lanes_reference's underflow slack for degree n
     double circle_re[kBatchMaxDegree];  // starts on the unit circle, twisted
     double circle_im[kBatchMaxDegree];
     // In: coefficients, c[k][l] = coefficient k of lane l (finite, c[0] and
@@ -28,7 +28,7 @@ struct alignas(64) BatchBlock {
     alignas(64) double scale_top[kBatchLanes];  // (the factor 2^-top of the scaling)
     // In (when has_radius): coefficient radii rad[k][l] >= 0, finite; the
     // discs are then proven for every real polynomial q of the family
-    // |q_k - c_k| <= rad_k (smith_radii_fast's family term). Scaled in place
+    // |q_k - c_k| <= rad_k (smith_radii_lanes_reference's family term). Scaled in place
     // with the coefficients (rounded up where inexact).
     int has_radius = 0;
     alignas(64) double rad[kBatchMaxDegree + 1][kBatchLanes];

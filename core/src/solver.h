@@ -478,6 +478,99 @@ inline bool smith_radii_fast(const double* c, int n, const Complex<double>* x, d
     return true;
 }
 
+/// The batched kernel's scalar twin (core/src/roots_batch_kernel.h performs
+/// these operations, in this order, lane by lane; core/tests/roots_batch_test
+/// compares the two bit for bit): smith_radii_fast as it was before its cost
+/// pass (which folded the family term into the Horner recurrence and moved
+/// the underflow guard; the lanes keep this form, whose argument follows).
+///
+/// The same bound as smith_radii<double>, an order of magnitude cheaper: the
+/// error terms are computed in round-to-nearest and inflated once at the end
+/// instead of rounding every operation outward. Returns false (and the caller
+/// must use smith_radii) whenever a range guard that the argument below needs
+/// does not hold.
+///
+/// Why the final factors suffice. Every error quantity is built from exact
+/// nonnegative inputs by + and x in round-to-nearest. A sum of nonnegatives
+/// is exact or within a factor (1 +- u); a product too, unless it underflows,
+/// which costs at most eta = 2^-1075 absolutely. Along any path the Horner
+/// error term passes through at most K = 4n + 8 roundings, so
+/// exact <= computed / (1-u)^K + slack <= computed (1 + 2(K+2)u) + slack,
+/// where slack (the underflow losses carried through the later
+/// multiplications by |x| <= ax) is at most 8 n eta max(1, ax)^n. Moduli are
+/// bounded above by |re| + |im| (>= the modulus). A pair distance computed as
+/// sqrt(dr^2 + di^2) from the rounded difference is within (1+u)^3.5 of the
+/// exact distance when nothing underflows (guard: >= 2^-450); a product of n-1
+/// of them and the leading coefficient within (1+u)^(4.5n), covered by the
+/// factor 1 - 2(5n+2)u (guard: product >= 2^-900).
+inline bool smith_radii_lanes_reference(const double* c, int n, const Complex<double>* x, double* r, double* low,
+                             const double* rad = nullptr) {
+    constexpr double u = kUnitRoundoff;
+    using E = ErrorModel<double>;
+    const double relative_up = 1.0 + 2.0 * (4.0 * n + 10.0) * u;
+    const double den_down = 1.0 - 2.0 * (5.0 * n + 2.0) * u;
+    const double pair_down = 1.0 - 8.0 * u;
+    // Underflow slack 8 n eta max(1, ax)^n with ax <= 2^8 (guarded below).
+    // (16 n 2^-1074 2^(8n) <= n 2^max(8n-1070, -1014), a normal power of two.)
+    const double slack = n * pow2(std::max(8 * n - 1070, -1014));
+    double dist[kMaxDegree * kMaxDegree];
+    for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j) {
+            const double dr = x[i].re - x[j].re, di = x[i].im - x[j].im;
+            const double d = std::sqrt(dr * dr + di * di);
+            if (!(d >= 0x1p-450) || !(d <= 0x1p450)) return false;
+            dist[i * n + j] = dist[j * n + i] = d;
+            low[i * n + j] = low[j * n + i] = d * pair_down;
+        }
+    const double lead = std::fabs(c[n]);
+    // Horner with a running error bound (see eval_bound for the terms), all
+    // n evaluations advanced together so their dependency chains overlap.
+    double ax[kMaxDegree], yr[kMaxDegree], yi[kMaxDegree], ay[kMaxDegree], e[kMaxDegree];
+    for (int i = 0; i < n; ++i) {
+        ax[i] = std::fabs(x[i].re) + std::fabs(x[i].im);
+        if (!(ax[i] <= 0x1p8)) return false;  // keeps the slack below tiny
+        yr[i] = c[n];
+        yi[i] = 0.0;
+        ay[i] = lead;
+        e[i] = 0.0;
+    }
+    for (int k = n - 1; k >= 0; --k) {
+        for (int i = 0; i < n; ++i) {
+            const double pr = yr[i] * x[i].re - yi[i] * x[i].im;
+            const double pi = yr[i] * x[i].im + yi[i] * x[i].re;
+            yr[i] = pr + c[k];
+            yi[i] = pi;
+            const double a_next = std::fabs(yr[i]) + std::fabs(yi[i]);
+            e[i] = ax[i] * (e[i] + E::mul_rel * ay[i]) + (E::add_rel * a_next + 2.0 * E::abs_err);
+            ay[i] = a_next;
+        }
+    }
+    // The family's term sum_k rad_k |x|^k, in round-to-nearest on ax >= |x|
+    // (1 - u): the same argument as for e bounds it by relative_up and slack.
+    double fam[kMaxDegree];
+    const double lead_low = lead_down(c, rad, n);
+    if (!(lead_low > 0.0)) return false;
+    for (int i = 0; i < n; ++i) {
+        fam[i] = 0.0;
+        if (rad == nullptr) continue;
+        double s = rad[n];
+        for (int k = n - 1; k >= 0; --k) s = s * ax[i] + rad[k];
+        fam[i] = add_up(next_up(s * relative_up), slack);
+    }
+    for (int i = 0; i < n; ++i) {
+        const double numerator =
+            add_up(add_up(next_up(ay[i]), next_up(e[i] * relative_up)), add_up(slack, fam[i]));
+        double denominator = lead_low;
+        for (int j = 0; j < n; ++j)
+            if (j != i) denominator *= dist[i * n + j];
+        if (!(denominator >= 0x1p-900) || !std::isfinite(denominator) || !std::isfinite(numerator)) return false;
+        denominator *= den_down;
+        r[i] = next_up(n * next_up(numerator / denominator));
+        if (!std::isfinite(r[i])) return false;
+    }
+    return true;
+}
+
 // ---------------------------------------------------------------------------
 // Geometry of discs (binary64, outward rounding)
 // ---------------------------------------------------------------------------

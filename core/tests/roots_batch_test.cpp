@@ -1,6 +1,6 @@
 // roots_batch_test.cpp: the batched root kernels (roots_batch_kernel.h)
 // against the scalar reference, lane by lane:
-//  * every lane a kernel proves has exactly the radii smith_radii_fast
+//  * every lane a kernel proves has exactly the radii smith_radii_lanes_reference
 //    computes for the same scaled polynomial and approximations, bit for
 //    bit, and passes the same separation test (so the scalar rounding
 //    argument is the one that holds in the lanes);
@@ -45,7 +45,7 @@ static bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a)
 using KernelFn = int (*)(BatchBlock&, bool);
 
 // ---------------------------------------------------------------------------
-// The kernel against smith_radii_fast, and the instruction sets against
+// The kernel against smith_radii_lanes_reference, and the instruction sets against
 // each other.
 // ---------------------------------------------------------------------------
 
@@ -132,8 +132,8 @@ static void kernel_matches_scalar_bound() {
                     CHECK(first.rad[k][l] >= std::ldexp(input.rad[k][l], (int)(std::ilogb(first.c[k][l]) - std::ilogb(input.c[k][l]))) || input.c[k][l] == 0.0,
                           "degree %d lane %d: radius %d scaled down", n, l, k);
                 const double* rp = family ? rad : nullptr;
-                const bool ok = detail::smith_radii_fast(c, n, x, r, low, rp);
-                CHECK(ok, "degree %d lane %d: the kernel proved what smith_radii_fast refuses", n, l);
+                const bool ok = detail::smith_radii_lanes_reference(c, n, x, r, low, rp);
+                CHECK(ok, "degree %d lane %d: the kernel proved what smith_radii_lanes_reference refuses", n, l);
                 if (!ok) continue;
                 for (int i = 0; i < n; ++i) {
                     CHECK(same_bits(std::ldexp(r[i], e), first.r[i][l]), "degree %d lane %d root %d: radius %.17g, scalar %.17g",
@@ -153,7 +153,7 @@ static void kernel_matches_scalar_bound() {
                               l, i, first.r[i][l], slow[i]);
             }
         }
-    std::printf("kernel vs smith_radii_fast (a third of the blocks with coefficient radii): %ld lanes, %ld proven, %zu instruction sets\n", lanes, proven,
+    std::printf("kernel vs smith_radii_lanes_reference (a third of the blocks with coefficient radii): %ld lanes, %ld proven, %zu instruction sets\n", lanes, proven,
                 kernels.size());
     CHECK(proven > lanes / 2, "only %ld of %ld lanes proven", proven, lanes);
 }
