@@ -734,11 +734,20 @@ struct PixelAccumulator {
 
     void write(TileAOVs& out, std::size_t i) const {
         const double n = seen;
-        for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = static_cast<float>(rgb[a] / n);
-        out.rgba[4 * i + 3] = static_cast<float>(hits / n);
+        const float rgb_mean[3] = {static_cast<float>(rgb[0] / n), static_cast<float>(rgb[1] / n),
+                                   static_cast<float>(rgb[2] / n)};
+        write_pixel(out, i, rgb_mean, static_cast<float>(hits / n), status, level, static_cast<float>(certified / n),
+                    shown, shown_hit);
+    }
+
+    /// Writes pixel i of the tile's AOVs (the one place that does).
+    static void write_pixel(TileAOVs& out, std::size_t i, const float* rgb, float alpha, std::uint8_t status,
+                            std::uint8_t level, float certified_share, const HitInfo& shown, bool shown_hit) {
+        for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = rgb[a];
+        out.rgba[4 * i + 3] = alpha;
         out.status[i] = status;
         out.escalation[i] = level;
-        out.certified_share[i] = static_cast<float>(certified / n);
+        out.certified_share[i] = certified_share;
         out.count[i] = shown.eligible;
         if (level > kLevelFirst) ++out.escalations;
         if (!shown_hit) return;
@@ -746,6 +755,15 @@ struct PixelAccumulator {
         out.argument[i] = static_cast<float>(std::atan2(shown.disc.im, shown.disc.re));
         out.re[i] = static_cast<float>(shown.disc.re);
         out.im[i] = static_cast<float>(shown.disc.im);
+    }
+
+    /// A pixel of one sample, written as add() then write() would (the
+    /// same values to the bit: a mean of one is the value), without the
+    /// accumulator's copies.
+    static void write_single(TileAOVs& out, std::size_t i, const SampleResult& s) {
+        const bool certified = s.hit.status == kCertified;
+        write_pixel(out, i, s.rgb, s.hit.hit ? 1.0f : 0.0f, s.hit.status, s.hit.level, certified ? 1.0f : 0.0f,
+                    s.hit, s.hit.hit);
     }
 };
 
@@ -790,6 +808,16 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
     // The samples are traced in the order of the (side W) x (side H) frame's
     // pixels: row of samples by row of samples, left to right, the
     // neighbour seeds flowing along each row of samples.
+    if (side == 1) {  // one sample per pixel: straight to the AOVs
+        for (int y = r.y0; y < r.y1; ++y) {
+            for (Seeds& s : seeds) s.valid = false;
+            for (int x = r.x0; x < r.x1; ++x)
+                PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * w + (x - r.x0),
+                                               trace_sample(plan, tracer, x, y, 1, seeds.data(), nullptr));
+        }
+        out.root_calls = tracer.root_calls;
+        return;
+    }
     for (int y = r.y0; y < r.y1; ++y) {
         std::fill(row.begin(), row.end(), PixelAccumulator{});
         for (int j = 0; j < side; ++j) {
