@@ -424,8 +424,10 @@ ARGAND_LANES
         const double lead = std::fabs(b.c[N][l]);
         // lead_down(c, rad, n): |c_n| - rad_n rounded down (must be > 0).
         const double lead_diff = lead - b.rad[N][l];
-        const double lead_low = lead_diff > 0.0 ? from_bits(bits_of(lead_diff) - 1) : 0.0;
-        if constexpr (has_radius) ok = ok & (lead_low > 0.0);
+        // (For lead_diff <= 0 this is negative or NaN: the denominator test
+        // below then fails, as lead_down's "must be > 0" asks; no select, so
+        // that the lane loop vectorises.)
+        const double lead_low = from_bits(bits_of(lead_diff) - 1);
         double r[N];
 #pragma GCC unroll 8
         for (int i = 0; i < N; ++i) {
@@ -552,18 +554,23 @@ ARGAND_LANES
 ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         const double e = b.e[l], top = b.scale_top[l];
-        bool ok = b.active[l] != 0.0;
+        // (The largest scaled radius decides finiteness after the loop, and
+        // the rounding up is a select of doubles: no bool chain, so that
+        // the lane loop vectorises.)
+        double largest = 0.0;
 #pragma GCC unroll 9
         for (int k = 0; k <= N; ++k) {
             const double m = e * k - top;
             const double rv = b.rad[k][l];
             const double rs = rv * pow2_of(exponent_ok(m) ? m : 0.0);
-            const bool exact_r = (rv == 0.0) | (rs >= 0x1p-1022);
-            const double rr = exact_r ? rs : up(rs);
+            // rs below 2^-1022 (subnormal or zero) from rv > 0 is inexact:
+            // its successor bounds the exact product from above.
+            const double bumped = from_bits(bits_of(rs) + 1);
+            const double rr = (rs < 0x1p-1022) & (rv != 0.0) ? bumped : rs;
             b.rad[k][l] = rr;
-            ok = ok & (rr <= kHuge);
+            largest = rr > largest ? rr : largest;
         }
-        b.active[l] = ok ? 1.0 : 0.0;
+        b.active[l] = (b.active[l] != 0.0) & (largest <= kHuge) ? 1.0 : 0.0;
     }
 }
 
