@@ -639,6 +639,9 @@ void init_render(py::module_& m) {
         "and the ladder level.",
         py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("row_start"), py::arg("sample") = 0,
         py::arg("exact") = py::none());
+    m.def("render_kernel", [] { return std::string(render_kernel()); },
+          "The root kernel of the primary rays (ARGAND_KERNEL: auto, scalar, sse2, avx2, avx512): 'scalar' or the "
+          "batched kernel's instruction set.");
     m.attr("MAX_OBJECTS") = kMaxObjects;
     m.attr("MAX_SURFACE_DEGREE") = kMaxSurfaceDegree;
     m.attr("MAX_FRAME_SIDE") = kMaxFrameSide;
