@@ -131,10 +131,12 @@ def test_samples_and_tiles_batched_equals_scalar():
 def test_explain_pixel_replays_the_batched_kernel():
     """explain_pixel gives the pixel render_tile gave it, with either kernel."""
     scene = load_scene("barth-sextic")
-    params = FrameParams(delta=math.pi / 18, width=31, height=23)
+    # 70 x 70 in tiles of 64: pixels in the second row and column of tiles
+    # replay their seeds from that tile's first row and column.
+    params = FrameParams(delta=math.pi / 18, width=70, height=70)
     for kernel in ("scalar", _core.batch_kernel()):
         frame = render_with(kernel, scene, params)
-        for x, y in [(15, 11), (3, 20), (29, 2), (20, 7)]:
+        for x, y in [(15, 11), (3, 50), (29, 2), (20, 37), (5, 66), (66, 66), (40, 65), (67, 30)]:
             e = explain_with(kernel, scene, params, x, y)
             assert e["status"] == frame.aovs["status"][y, x]
             assert e["escalation"] == frame.aovs["escalation"][y, x]

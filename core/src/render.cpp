@@ -34,6 +34,7 @@ using detail::Verdict;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // ---------------------------------------------------------------------------
 // Small vector helpers (shading and the camera: no proof depends on them)
@@ -171,6 +172,12 @@ BatchIsa kernel_from_environment() {
 /// the decisions that follow, per sample, are proven as before. Objects of
 /// degree above kBatchKernelMaxDegree, method "paper" and the scalar kernel
 /// keep the sample-by-sample path (with neighbour seeds).
+///
+/// Seeds (degree 5 to 8, seed_from_neighbour): a lane starts from the roots
+/// of the sample above it (the same cell of the previous row of samples of
+/// the tile), the nearest neighbour that is already solved when a row is
+/// batched; the first row of a tile starts on the circle. Seeds never change
+/// what is proven, only how many Aberth sweeps a block needs.
 class PrimaryBatch {
 public:
     static constexpr int kCells = 32;  // samples per batch (two blocks of 16 lanes)
@@ -191,6 +198,23 @@ public:
             o.radius.resize(static_cast<std::size_t>(kCells) * (n + 1));
             o.res.resize(kCells);
             o.status.resize(kCells);
+            o.seeded = plan.params.seed_from_neighbour && n > 4;
+            if (o.seeded) {
+                o.start_re.resize(static_cast<std::size_t>(kCells) * n);
+                o.start_im.resize(static_cast<std::size_t>(kCells) * n);
+            }
+        }
+    }
+
+    /// Starts a tile whose rows of samples are `cells` wide: no seeds yet.
+    void begin_tile(int cells) {
+        for (std::size_t obj = 0; obj < objects_.size(); ++obj) {
+            Object& o = objects_[obj];
+            if (!o.seeded) continue;
+            const int n = plan_.scene.objects[obj].degree;
+            o.above_re.resize(static_cast<std::size_t>(cells) * n);
+            o.above_im.resize(static_cast<std::size_t>(cells) * n);
+            o.above_ok.assign(static_cast<std::size_t>(cells), 0);
         }
     }
 
@@ -199,8 +223,9 @@ public:
     bool batched(int obj) const { return objects_[obj].batched; }
 
     /// Solves the primary rays along the unit world directions d[3 c ..]
-    /// of cells 0..cells-1 (cells <= kCells).
-    void solve(const double* d, int cells) {
+    /// of cells 0..cells-1 (cells <= kCells), which are cells first..
+    /// first+cells-1 of the tile's row of samples (begin_tile's count).
+    void solve(const double* d, int cells, int first) {
         const int n_obj = static_cast<int>(objects_.size());
         for (int obj = 0; obj < n_obj; ++obj) {
             Object& o = objects_[obj];
@@ -218,6 +243,14 @@ public:
                 o.row[c] = static_cast<int>(rows);
                 std::copy(p.c, p.c + nc, o.coeffs.data() + rows * nc);
                 std::copy(p.r, p.r + nc, o.radius.data() + rows * nc);
+                if (o.seeded) {
+                    const int n = nc - 1;
+                    const std::size_t a = static_cast<std::size_t>(first + c) * n;
+                    for (int i = 0; i < n; ++i) {
+                        o.start_re[rows * n + i] = o.above_ok[first + c] ? o.above_re[a + i] : kNaN;
+                        o.start_im[rows * n + i] = o.above_ok[first + c] ? o.above_im[a + i] : kNaN;
+                    }
+                }
                 ++rows;
             }
             // find_roots_rows stops at a row whose status is not Ok (the ray
@@ -226,14 +259,36 @@ public:
             std::int64_t start = 0;
             while (start < rows) {
                 std::int64_t bad = -1;
+                const int n = nc - 1;
                 const Status st = find_roots_rows(o.coeffs.data() + start * nc, rows - start, nc, plan_.params.method,
                                                   o.res.data() + start, &bad, isa_, nullptr,
-                                                  o.radius.data() + start * nc);
+                                                  o.radius.data() + start * nc,
+                                                  o.seeded ? o.start_re.data() + start * n : nullptr,
+                                                  o.seeded ? o.start_im.data() + start * n : nullptr);
                 const std::int64_t end = st == Status::Ok ? rows : start + bad;
                 for (std::int64_t r = start; r < end; ++r) o.status[r] = Status::Ok;
                 if (st == Status::Ok) break;
                 o.status[end] = st;
                 start = end + 1;
+            }
+            if (!o.seeded) continue;
+            // These samples' roots seed the samples below them (as the
+            // scalar path's seeds: every root, with multiplicity).
+            const int n = nc - 1;
+            for (int c = 0; c < cells; ++c) {
+                const std::size_t a = static_cast<std::size_t>(first + c) * n;
+                const int row = o.row[c];
+                int m = 0;
+                if (row >= 0 && o.status[row] == Status::Ok && o.res[row].n_infinite == 0) {
+                    const RootsResult& res = o.res[row];
+                    for (int i = 0; i < res.n_discs && m < n; ++i)
+                        for (int k = 0; k < std::max(1, static_cast<int>(res.discs[i].count)) && m < n; ++k) {
+                            o.above_re[a + m] = res.discs[i].re;
+                            o.above_im[a + m] = res.discs[i].im;
+                            ++m;
+                        }
+                }
+                o.above_ok[first + c] = m == n;
             }
         }
     }
@@ -270,6 +325,10 @@ public:
 private:
     struct Object {
         bool batched = false;
+        bool seeded = false;   // lanes start from the roots of the sample above
+        std::vector<double> start_re, start_im;  // per batch row, n each
+        std::vector<double> above_re, above_im;  // per cell of the tile's row of samples, n each
+        std::vector<char> above_ok;
         std::vector<RayCoefficients<double>> poly;
         std::vector<ObjectRay> ray;
         std::vector<int> row;  // cell -> row of the batch (-1: not finite, not solved)
@@ -947,6 +1006,7 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
     if (side == 0) throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples));
     Tracer tracer(plan, exact);
     PrimaryBatch batch(plan, kernel_from_environment());
+    batch.begin_tile(side * w);
     std::vector<Seeds> seeds(plan.scene.objects.size());
     std::vector<PixelAccumulator> row(static_cast<std::size_t>(w));
     double dirs[3 * PrimaryBatch::kCells];
@@ -964,7 +1024,7 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
                 const int cells = std::min(PrimaryBatch::kCells, c1 - b0);
                 if (batch.any()) {
                     for (int c = 0; c < cells; ++c) sample_direction(plan, b0 + c, sy, side, dirs + 3 * c);
-                    batch.solve(dirs, cells);
+                    batch.solve(dirs, cells, b0 - c0);
                 }
                 for (int c = 0; c < cells; ++c) {
                     const BatchedCell pre{&batch, c};
@@ -980,12 +1040,13 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
 }
 
 PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample,
-                               const ExactSolver* exact) {
+                               const ExactSolver* exact, int column_start) {
     const FrameParams& fp = plan.params;
     if (x < 0 || x >= fp.width || y < 0 || y >= fp.height)
         throw std::invalid_argument("pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is not inside the " +
                                     std::to_string(fp.width) + "x" + std::to_string(fp.height) + " frame");
     if (row_start < 0 || row_start > x) throw std::invalid_argument("row_start must be in 0..x");
+    if (column_start < 0 || column_start > y) throw std::invalid_argument("column_start must be in 0..y");
     if (sample < 0 || sample >= fp.samples)
         throw std::invalid_argument("sample must be in 0.." + std::to_string(fp.samples - 1));
     // Replay the tile's row of samples from its first sample (the neighbour
@@ -997,17 +1058,26 @@ PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_star
     PrimaryBatch batch(plan, kernel_from_environment());
     std::vector<Seeds> seeds(plan.scene.objects.size());
     PixelExplanation e;
-    // (A batched object's discs depend on its own ray only: the batch of
-    // one sample gives what render_tile's batch gave it.)
+    // A batched object's discs depend on its own ray and its seeds, the
+    // roots of the samples above it in the tile (not on the other lanes):
+    // replay that column from the tile's first row with batches of one,
+    // then the row for the scalar objects' neighbour seeds.
+    batch.begin_tile(1);
+    double dir[3];
+    if (batch.any())
+        for (int sy = side * column_start; sy < sy_cell; ++sy) {
+            sample_direction(plan, sx_cell, sy, side, dir);
+            batch.solve(dir, 1, 0);
+        }
     for (int c = side * row_start; c <= sx_cell; ++c) {
         const BatchedCell pre{&batch, 0};
-        if (batch.any()) {
-            double dir[3];
+        const bool batched = batch.any() && c == sx_cell;
+        if (batched) {
             sample_direction(plan, c, sy_cell, side, dir);
-            batch.solve(dir, 1);
+            batch.solve(dir, 1, 0);
         }
         trace_sample(plan, tracer, c, sy_cell, side, seeds.data(), c == sx_cell ? &e : nullptr,
-                     batch.any() ? &pre : nullptr);
+                     batched ? &pre : nullptr);
     }
     e.reason = e.exact_ran && !e.exact.reason.empty() ? e.exact.reason : status_reason(e.status);
     return e;

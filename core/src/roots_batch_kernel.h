@@ -93,6 +93,13 @@ inline double cbrt_approx(double a) {
     return x == 0.0 ? 0.0 : (a < 0.0 ? -r : r);
 }
 
+/// 2^m for an integer-valued double m, built from bits; valid (and then
+/// exact) for m in [-1022, 1023], which the caller checks.
+inline double pow2_of(double m) {
+    return from_bits((bits_of((m + 1023.0) + 0x1p52) - bits_of(0x1p52)) << 52);
+}
+inline bool exponent_ok(double m) { return (m >= -1022.0) & (m <= 1023.0); }
+
 /// cos(acos(t) / 3) for t in [-1, 1], as h(sqrt((1 + t) / 2)) with
 /// h(s) = cos(2/3 acos s) analytic on [0, 1]: a degree-8 fit, |error| < 4e-9.
 inline double cos_third_acos(double t) {
@@ -295,11 +302,39 @@ ARGAND_LANES
 
 template <int N>
 void circle_starts(BatchBlock& b) {
-    for (int i = 0; i < N; ++i)
-        for (int l = 0; l < L; ++l) {
-            b.xr[i][l] = b.circle_re[i];
-            b.xi[i][l] = b.circle_im[i];
+    if (b.has_start == 0) {
+        for (int i = 0; i < N; ++i)
+            for (int l = 0; l < L; ++l) {
+                b.xr[i][l] = b.circle_re[i];
+                b.xi[i][l] = b.circle_im[i];
+            }
+        return;
+    }
+    // The given starts, scaled by 2^-e like the lane (not necessarily
+    // exactly: they are approximations); the circle where a lane has none.
+    double circle_re[N], circle_im[N];
+    for (int i = 0; i < N; ++i) {
+        circle_re[i] = b.circle_re[i];
+        circle_im[i] = b.circle_im[i];
+    }
+ARGAND_LANES
+    for (int l = 0; l < L; ++l) {
+        const double me = -b.e[l];
+        const double f = pow2_of(exponent_ok(me) ? me : 0.0);
+        double sr[N], si[N], probe = 0.0;
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            sr[i] = b.start_re[i][l] * f;
+            si[i] = b.start_im[i][l] * f;
+            probe += (sr[i] - sr[i]) + (si[i] - si[i]);  // NaN unless all finite
         }
+        const bool good = (b.start_ok[l] != 0.0) & exponent_ok(me) & (probe == 0.0);
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            b.xr[i][l] = good ? sr[i] : circle_re[i];
+            b.xi[i][l] = good ? si[i] : circle_im[i];
+        }
+    }
 }
 
 /// Aberth-Ehrlich sweeps (Gauss-Seidel over the roots, all lanes at once),
@@ -504,12 +539,6 @@ ARGAND_LANES
         }
 }
 
-/// 2^m for an integer-valued double m, built from bits; valid (and then
-/// exact) for m in [-1022, 1023], which the caller checks.
-inline double pow2_of(double m) {
-    return from_bits((bits_of((m + 1023.0) + 0x1p52) - bits_of(0x1p52)) << 52);
-}
-inline bool exponent_ok(double m) { return (m >= -1022.0) & (m <= 1023.0); }
 
 /// Scales every lane exactly, as scale_polynomial does: t = 2^e u with
 /// e = round((E_0 - E_n) / n) from the coefficients' exponents, and the

@@ -336,10 +336,12 @@ struct PixelExplanation {
 };
 
 /// Runs render_tile's code path for sample `sample` of pixel (x, y), as part
-/// of a tile whose rows start at column row_start (the neighbour seeds of
-/// that row of samples are replayed), and records every decision. The exact
-/// tier (when given) runs for that sample only, whatever the tile's budget.
+/// of a tile whose rows start at column row_start and whose first row is
+/// column_start (the neighbour seeds of that row of samples, and the batched
+/// kernel's seeds from the samples above, are replayed), and records every
+/// decision. The exact tier (when given) runs for that sample only, whatever
+/// the tile's budget.
 PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample = 0,
-                               const ExactSolver* exact = nullptr);
+                               const ExactSolver* exact = nullptr, int column_start = 0);
 
 }  // namespace argand
