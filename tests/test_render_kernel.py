@@ -75,10 +75,20 @@ def assert_same_decisions(a, b, what: str, scene=None, params=None, kernels=("sc
     far = np.zeros_like(both)
     for key in ("re", "im"):
         far |= both & (np.abs(np.asarray(a.aovs[key]) - np.asarray(b.aovs[key])) > 1e-6 * scale)
-    spots = np.argwhere(far)
+    # Most such pixels show the conjugate of the other kernel's root (a
+    # member of a conjugate pair of equal modulus); the rest are wide discs
+    # around the same root. Every one of the latter, and a sample of the
+    # former, is checked on its discs.
+    re_a, re_b = np.asarray(a.aovs["re"]), np.asarray(b.aovs["re"])
+    im_a, im_b = np.asarray(a.aovs["im"]), np.asarray(b.aovs["im"])
+    mirrored = (np.abs(re_a - re_b) <= 1e-6 * scale) & (np.abs(im_a + im_b) <= 1e-6 * scale)
+    rest, flips = np.argwhere(far & ~mirrored), np.argwhere(far & mirrored)
+    sample = np.random.default_rng(15).permutation(len(flips))[:12]
+    spots = np.concatenate([rest, flips[sample]]) if len(flips) else rest
     if spots.size:
         assert scene is not None, f"{what}: chosen roots differ at {spots[:10].tolist()}"
-    for y, x in spots[:40]:
+    assert len(rest) <= 60, f"{what}: {len(rest)} chosen roots differ beyond a conjugate"
+    for y, x in spots:
         ea, eb = (explain_with(k, scene, params, int(x), int(y)) for k in kernels)
         da, db = ea["discs"][ea["chosen"]], eb["discs"][eb["chosen"]]
         # The same root, or its conjugate (a hit's root and its mirror twin
@@ -88,7 +98,7 @@ def assert_same_decisions(a, b, what: str, scene=None, params=None, kernels=("sc
         same = abs(da["center"] - db["center"]) <= reach
         twin = abs(da["center"] - db["center"].conjugate()) <= reach
         assert same or twin, (what, x, y, da, db)
-    return len(spots)
+    return int(far.sum())
 
 
 @pytest.mark.parametrize("name", PAPER_PRESETS + CLASSIC_PRESETS)
