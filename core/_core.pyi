@@ -259,5 +259,12 @@ def ray_polynomial(
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def primary_ray(plan: FramePlan, x: int, y: int, sample: int = 0) -> tuple[list[float], list[float]]: ...
 def explain_pixel(
-    plan: FramePlan, x: int, y: int, row_start: int, sample: int = 0, exact: ExactSolver | None = None
+    plan: FramePlan,
+    x: int,
+    y: int,
+    row_start: int,
+    sample: int = 0,
+    exact: ExactSolver | None = None,
+    column_start: int = 0,
 ) -> PixelExplanation: ...
+def render_kernel() -> str: ...

@@ -228,6 +228,20 @@ def test_bench_roots_rejects_a_bad_count(tmp_path):
     assert not (tmp_path / "roots.json").exists()
 
 
+def test_bench_render_kernels_only(tmp_path):
+    """--kernels-only writes its own report and puts its table into an existing render.json / render.md."""
+    (tmp_path / "render.json").write_text(json.dumps({"frames": []}))
+    r = run("bench", "render", "--kernels-only", "--smoke", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    alone = json.loads((tmp_path / "render_kernels.json").read_text())["kernels"]
+    assert [row["scene"] for row in alone["rows"]][:2] == ["bicube", "whitney"]
+    assert all(row["same_status"] and row["same_hit"] for row in alone["rows"])
+    whole = json.loads((tmp_path / "render.json").read_text())
+    assert whole["kernels"]["instruction_set"] == alone["instruction_set"]
+    assert "Root kernel of the primary rays" in (tmp_path / "render.md").read_text()
+    assert "| bicube | 4 | 64×64 |" in (tmp_path / "render_kernels.md").read_text()
+
+
 def test_bench_render_smoke(tmp_path):
     r = run("bench", "render", "--smoke", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
@@ -255,6 +269,12 @@ def test_bench_render_smoke(tmp_path):
     assert [d["degree"] for d in report["per_degree"]] == [3, 4, 5, 6, 7, 8]
     text = (tmp_path / "render.md").read_text()
     assert "| chmutov-octic | 8 | 64×64 |" in text and "Per degree" in text
+    # The primary rays' root kernels, scalar against batched: the same decisions on every pixel.
+    kernels = report["kernels"]
+    assert kernels["instruction_set"] in ("sse2", "avx2", "avx512") and len(kernels["rows"]) == 14
+    for row in kernels["rows"]:
+        assert row["same_status"] and row["same_hit"] and row["scalar_cpu_ms"] > 0 and row["batched_cpu_ms"] > 0
+    assert f"instruction set **{kernels['instruction_set']}**" in text
     assert (tmp_path / "render_contact_classic.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # Where the ladder escalated: the picture, its counts per level, the exact tier's share.
     assert (tmp_path / "render_escalation.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

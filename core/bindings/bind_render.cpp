@@ -569,11 +569,11 @@ void init_render(py::module_& m) {
           py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("sample") = 0);
     m.def(
         "explain_pixel",
-        [](const FramePlan& plan, int x, int y, int row_start, int sample, const py::object& exact) {
+        [](const FramePlan& plan, int x, int y, int row_start, int sample, const py::object& exact, int column_start) {
             PixelExplanation e;
             ExactHook hook(exact);
             try {
-                e = explain_pixel(plan, x, y, row_start, sample, hook.get());
+                e = explain_pixel(plan, x, y, row_start, sample, hook.get(), column_start);
             } catch (const std::invalid_argument& err) {
                 throw py::value_error(err.what());
             }
@@ -635,10 +635,13 @@ void init_render(py::module_& m) {
             return out;
         },
         "Runs render_tile's code path for sample `sample` of pixel (x, y) of a tile whose rows start at column "
-        "row_start, and returns its ray, ray polynomials (with coefficient radii), discs, each decision, the status "
+        "row_start and whose first row is column_start, and returns its ray, ray polynomials (with coefficient radii), discs, each decision, the status "
         "and the ladder level.",
         py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("row_start"), py::arg("sample") = 0,
-        py::arg("exact") = py::none());
+        py::arg("exact") = py::none(), py::arg("column_start") = 0);
+    m.def("render_kernel", [] { return std::string(render_kernel()); },
+          "The root kernel of the primary rays (ARGAND_KERNEL: auto, scalar, sse2, avx2, avx512): 'scalar' or the "
+          "batched kernel's instruction set.");
     m.attr("MAX_OBJECTS") = kMaxObjects;
     m.attr("MAX_SURFACE_DEGREE") = kMaxSurfaceDegree;
     m.attr("MAX_FRAME_SIDE") = kMaxFrameSide;

@@ -15,11 +15,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
 #include "argand/arith.h"
+#include "argand/roots_batch.h"
 #include "pixel_decision.h"
 #include "ray_polynomial.h"
 
@@ -32,6 +34,7 @@ using detail::Verdict;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // ---------------------------------------------------------------------------
 // Small vector helpers (shading and the camera: no proof depends on them)
@@ -142,6 +145,209 @@ bool centre_in_band(const RootDisc& d, double sigma, double delta, bool complex_
     return theta >= sigma && theta <= sigma + delta;
 }
 
+/// The root kernel of the primary rays, from ARGAND_KERNEL: unset, empty or
+/// "auto" (the widest batched kernel this CPU runs), "sse2", "avx2",
+/// "avx512", or "scalar" (find_roots sample by sample with the neighbour
+/// seeds: the reference).
+BatchIsa kernel_from_environment() {
+    const char* v = std::getenv("ARGAND_KERNEL");
+    if (v == nullptr || *v == '\0') return batch_isa_best();
+    BatchIsa isa;
+    if (!batch_isa_from_name(v, isa))
+        throw std::invalid_argument(std::string("ARGAND_KERNEL=") + v +
+                                    " names no root kernel: use auto, scalar, sse2, avx2 or avx512");
+    if (!batch_isa_supported(isa))
+        throw std::invalid_argument(std::string("ARGAND_KERNEL=") + v + ": this CPU does not run it (it runs " +
+                                    batch_isa_name(BatchIsa::Auto) + ")");
+    return isa == BatchIsa::Auto ? batch_isa_best() : isa;
+}
+
+/// The primary rays' root discs of a run of samples (consecutive cells of
+/// one row of samples), solved ahead of their decisions: per object, the
+/// samples' ray polynomials (with their coefficient radii) go into
+/// find_roots_rows as one structure-of-arrays batch. Each row's discs carry
+/// find_roots' contract for the family within the radii (the lanes prove
+/// them with Smith's family term; rows the lanes drop are solved by
+/// find_roots exactly as the scalar path solves them, without seeds), so
+/// the decisions that follow, per sample, are proven as before. Objects of
+/// degree above kBatchKernelMaxDegree, method "paper" and the scalar kernel
+/// keep the sample-by-sample path (with neighbour seeds).
+///
+/// Seeds (degree 5 to 8, seed_from_neighbour): a lane starts from the roots
+/// of the sample above it (the same cell of the previous row of samples of
+/// the tile), the nearest neighbour that is already solved when a row is
+/// batched; the first row of a tile starts on the circle. Seeds never change
+/// what is proven, only how many Aberth sweeps a block needs.
+class PrimaryBatch {
+public:
+    static constexpr int kCells = 32;  // samples per batch (two blocks of 16 lanes)
+
+    PrimaryBatch(const FramePlan& plan, BatchIsa isa) : plan_(plan), isa_(isa) {
+        const int n_obj = static_cast<int>(plan.scene.objects.size());
+        objects_.resize(static_cast<std::size_t>(n_obj));
+        for (int obj = 0; obj < n_obj; ++obj) {
+            const int n = plan.scene.objects[obj].degree;
+            Object& o = objects_[obj];
+            o.batched = isa != BatchIsa::Scalar && plan.params.method != Method::Paper && n <= kBatchKernelMaxDegree;
+            any_ = any_ || o.batched;
+            if (!o.batched) continue;
+            o.poly.resize(kCells);
+            o.ray.resize(kCells);
+            o.row.resize(kCells);
+            o.coeffs.resize(static_cast<std::size_t>(kCells) * (n + 1));
+            o.radius.resize(static_cast<std::size_t>(kCells) * (n + 1));
+            o.res.resize(kCells);
+            o.status.resize(kCells);
+            o.seeded = plan.params.seed_from_neighbour && n > 4;
+            if (o.seeded) {
+                o.start_re.resize(static_cast<std::size_t>(kCells) * n);
+                o.start_im.resize(static_cast<std::size_t>(kCells) * n);
+            }
+        }
+    }
+
+    /// Starts a tile whose rows of samples are `cells` wide: no seeds yet.
+    void begin_tile(int cells) {
+        for (std::size_t obj = 0; obj < objects_.size(); ++obj) {
+            Object& o = objects_[obj];
+            if (!o.seeded) continue;
+            const int n = plan_.scene.objects[obj].degree;
+            o.above_re.resize(static_cast<std::size_t>(cells) * n);
+            o.above_im.resize(static_cast<std::size_t>(cells) * n);
+            o.above_ok.assign(static_cast<std::size_t>(cells), 0);
+        }
+    }
+
+    /// True when some object is solved in batches.
+    bool any() const { return any_; }
+    bool batched(int obj) const { return objects_[obj].batched; }
+
+    /// Solves the primary rays along the unit world directions d[3 c ..]
+    /// of cells 0..cells-1 (cells <= kCells), which are cells first..
+    /// first+cells-1 of the tile's row of samples (begin_tile's count).
+    void solve(const double* d, int cells, int first) {
+        const int n_obj = static_cast<int>(objects_.size());
+        for (int obj = 0; obj < n_obj; ++obj) {
+            Object& o = objects_[obj];
+            if (!o.batched) continue;
+            const SurfaceSpec& s = plan_.scene.objects[obj];
+            const int nc = s.degree + 1;
+            std::int64_t rows = 0;
+            for (int c = 0; c < cells; ++c) {
+                RayCoefficients<double>& p = o.poly[c];
+                detail::primary_ray_polynomial(s, plan_.objects[obj], d + 3 * c, p, o.ray[c]);
+                if (!p.finite) {  // nothing claimed (as solve() does)
+                    o.row[c] = -1;
+                    continue;
+                }
+                o.row[c] = static_cast<int>(rows);
+                std::copy(p.c, p.c + nc, o.coeffs.data() + rows * nc);
+                std::copy(p.r, p.r + nc, o.radius.data() + rows * nc);
+                if (o.seeded) {
+                    const int n = nc - 1;
+                    const std::size_t a = static_cast<std::size_t>(first + c) * n;
+                    for (int i = 0; i < n; ++i) {
+                        o.start_re[rows * n + i] = o.above_ok[first + c] ? o.above_re[a + i] : kNaN;
+                        o.start_im[rows * n + i] = o.above_ok[first + c] ? o.above_im[a + i] : kNaN;
+                    }
+                }
+                ++rows;
+            }
+            // find_roots_rows stops at a row whose status is not Ok (the ray
+            // in the surface: every coefficient zero): keep that status and
+            // go on after it.
+            std::int64_t start = 0;
+            while (start < rows) {
+                std::int64_t bad = -1;
+                const int n = nc - 1;
+                const Status st = find_roots_rows(o.coeffs.data() + start * nc, rows - start, nc, plan_.params.method,
+                                                  o.res.data() + start, &bad, isa_, nullptr,
+                                                  o.radius.data() + start * nc,
+                                                  o.seeded ? o.start_re.data() + start * n : nullptr,
+                                                  o.seeded ? o.start_im.data() + start * n : nullptr);
+                const std::int64_t end = st == Status::Ok ? rows : start + bad;
+                for (std::int64_t r = start; r < end; ++r) o.status[r] = Status::Ok;
+                if (st == Status::Ok) break;
+                o.status[end] = st;
+                start = end + 1;
+            }
+            if (!o.seeded) continue;
+            // These samples' roots seed the samples below them (as the
+            // scalar path's seeds: every root, with multiplicity).
+            const int n = nc - 1;
+            for (int c = 0; c < cells; ++c) {
+                const std::size_t a = static_cast<std::size_t>(first + c) * n;
+                const int row = o.row[c];
+                int m = 0;
+                if (row >= 0 && o.status[row] == Status::Ok && o.res[row].n_infinite == 0) {
+                    const RootsResult& res = o.res[row];
+                    for (int i = 0; i < res.n_discs && m < n; ++i)
+                        for (int k = 0; k < std::max(1, static_cast<int>(res.discs[i].count)) && m < n; ++k) {
+                            o.above_re[a + m] = res.discs[i].re;
+                            o.above_im[a + m] = res.discs[i].im;
+                            ++m;
+                        }
+                }
+                o.above_ok[first + c] = m == n;
+            }
+        }
+    }
+
+    /// Cell c's roots for object obj (batched(obj)), in the tracer's form.
+    void fill(int obj, int c, ObjectRoots& r) const {
+        const Object& o = objects_[obj];
+        const RayCoefficients<double>& p = o.poly[c];
+        const int nc = plan_.scene.objects[obj].degree + 1;
+        r.poly.n = p.n;
+        r.poly.finite = p.finite;
+        std::copy(p.c, p.c + nc, r.poly.c);
+        std::copy(p.r, p.r + nc, r.poly.r);
+        r.ray = o.ray[c];
+        r.seeded = false;
+        const int row = o.row[c];
+        if (row < 0) {
+            r.status = Status::NonFinite;
+            r.res.n_discs = 0;
+            r.complete = false;
+            return;
+        }
+        const RootsResult& res = o.res[row];
+        r.res.n_discs = res.n_discs;
+        r.res.n_infinite = res.n_infinite;
+        r.res.wants_exact = res.wants_exact;
+        r.res.escalation = res.escalation;
+        std::copy(res.discs, res.discs + res.n_discs, r.res.discs);
+        r.status = o.status[row];
+        r.complete = r.status == Status::Ok;
+        for (int i = 0; i < r.res.n_discs && r.complete; ++i) r.complete = r.res.discs[i].verified;
+    }
+
+private:
+    struct Object {
+        bool batched = false;
+        bool seeded = false;   // lanes start from the roots of the sample above
+        std::vector<double> start_re, start_im;  // per batch row, n each
+        std::vector<double> above_re, above_im;  // per cell of the tile's row of samples, n each
+        std::vector<char> above_ok;
+        std::vector<RayCoefficients<double>> poly;
+        std::vector<ObjectRay> ray;
+        std::vector<int> row;  // cell -> row of the batch (-1: not finite, not solved)
+        std::vector<double> coeffs, radius;
+        std::vector<RootsResult> res;
+        std::vector<Status> status;
+    };
+    const FramePlan& plan_;
+    BatchIsa isa_;
+    bool any_ = false;
+    std::vector<Object> objects_;
+};
+
+/// A sample's place in a solved PrimaryBatch.
+struct BatchedCell {
+    const PrimaryBatch* batch;
+    int cell;
+};
+
 class Tracer {
 public:
     explicit Tracer(const FramePlan& plan, const ExactSolver* exact = nullptr) : plan_(plan), exact_(exact) {
@@ -156,7 +362,10 @@ public:
     /// climbing the ladder while the decision is not proven. `primary`: the
     /// ray is a primary ray (the plan's eye, the Taylor plan). `trace`
     /// (optional) receives every decision.
-    HitInfo intersect(const double* o, const double* d, bool primary, Seeds* seeds, int depth, PixelExplanation* trace) {
+    /// `pre` (primary rays only): the sample's roots, solved in a batch, for
+    /// the objects the batch covers.
+    HitInfo intersect(const double* o, const double* d, bool primary, Seeds* seeds, int depth, PixelExplanation* trace,
+                      const BatchedCell* pre = nullptr) {
         const int n_obj = static_cast<int>(plan_.scene.objects.size());
         const int slot = std::min(depth, plan_.params.max_depth + 1);
         ObjectRoots* roots = scratch_.data() + static_cast<std::size_t>(slot) * n_obj;
@@ -167,6 +376,13 @@ public:
         for (int obj = 0; obj < n_obj; ++obj) {
             const SurfaceSpec& s = plan_.scene.objects[obj];
             ObjectRoots& r = roots[obj];
+            if (primary && pre != nullptr && pre->batch->batched(obj)) {
+                ++root_calls;
+                pre->batch->fill(obj, pre->cell, r);
+                r.have_dd = false;
+                if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
+                continue;
+            }
             if (primary) detail::primary_ray_polynomial(s, plan_.objects[obj], d, r.poly, r.ray);
             else detail::general_ray_polynomial(s, o, d, r.poly, r.ray);
             r.have_dd = false;
@@ -672,6 +888,8 @@ Ray primary_ray(const FramePlan& plan, int x, int y, int sample) {
     return sample_ray(plan, side * x + sample % side, side * y + sample / side, side);
 }
 
+const char* render_kernel() { return batch_isa_name(kernel_from_environment()); }
+
 void ray_polynomial(const FramePlan& plan, int object, const double origin[3], const double direction[3], double* coeffs,
                     double* radius) {
     const SurfaceSpec& s = plan.scene.objects.at(object);
@@ -695,13 +913,13 @@ struct SampleResult {
 /// Traces and shades the sample at cell (sx_cell, sy_cell) of the frame's
 /// grid of samples.
 SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell, int side, Seeds* seeds,
-                          PixelExplanation* trace) {
+                          PixelExplanation* trace, const BatchedCell* pre = nullptr) {
     const Ray ray = sample_ray(plan, sx_cell, sy_cell, side);
     for (int a = 0; a < 3; ++a) tracer.current_direction_[a] = ray.direction[a];
     tracer.pixel_x_ = sx_cell / side;  // the pixel holding the sample (for the exact tier)
     tracer.pixel_y_ = sy_cell / side;
     SampleResult s;
-    s.hit = tracer.intersect(ray.origin, ray.direction, true, seeds, 0, trace);
+    s.hit = tracer.intersect(ray.origin, ray.direction, true, seeds, 0, trace, pre);
     if (trace) trace->ray = ray;
     double rgb[3];
     if (s.hit.hit) tracer.shade(ray.origin, ray.direction, s.hit, 0, rgb);
@@ -803,41 +1021,53 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
     const int side = sample_side(fp.samples);
     if (side == 0) throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples));
     Tracer tracer(plan, exact);
+    PrimaryBatch batch(plan, kernel_from_environment());
+    batch.begin_tile(side * w);
     std::vector<Seeds> seeds(plan.scene.objects.size());
     std::vector<PixelAccumulator> row(static_cast<std::size_t>(w));
+    double dirs[3 * PrimaryBatch::kCells];
     // The samples are traced in the order of the (side W) x (side H) frame's
     // pixels: row of samples by row of samples, left to right, the
-    // neighbour seeds flowing along each row of samples.
-    if (side == 1) {  // one sample per pixel: straight to the AOVs
-        for (int y = r.y0; y < r.y1; ++y) {
-            for (Seeds& s : seeds) s.valid = false;
-            for (int x = r.x0; x < r.x1; ++x)
-                PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * w + (x - r.x0),
-                                               trace_sample(plan, tracer, x, y, 1, seeds.data(), nullptr));
-        }
-        out.root_calls = tracer.root_calls;
-        return;
-    }
+    // neighbour seeds flowing along each row of samples. With a batched
+    // kernel, each run of PrimaryBatch::kCells samples of a row of samples
+    // has its primary roots solved together first.
     for (int y = r.y0; y < r.y1; ++y) {
-        std::fill(row.begin(), row.end(), PixelAccumulator{});
+        if (side > 1) std::fill(row.begin(), row.end(), PixelAccumulator{});
         for (int j = 0; j < side; ++j) {
             for (Seeds& s : seeds) s.valid = false;
-            for (int x = r.x0; x < r.x1; ++x)
-                for (int i = 0; i < side; ++i)
-                    row[x - r.x0].add(trace_sample(plan, tracer, side * x + i, side * y + j, side, seeds.data(), nullptr));
+            const int c0 = side * r.x0, c1 = side * r.x1, sy = side * y + j;
+            for (int b0 = c0; b0 < c1; b0 += PrimaryBatch::kCells) {
+                const int cells = std::min(PrimaryBatch::kCells, c1 - b0);
+                if (batch.any()) {
+                    for (int c = 0; c < cells; ++c) sample_direction(plan, b0 + c, sy, side, dirs + 3 * c);
+                    batch.solve(dirs, cells, b0 - c0);
+                }
+                for (int c = 0; c < cells; ++c) {
+                    const BatchedCell pre{&batch, c};
+                    const int sx = b0 + c;
+                    const SampleResult sample = trace_sample(plan, tracer, sx, sy, side, seeds.data(), nullptr,
+                                                             batch.any() ? &pre : nullptr);
+                    // One sample per pixel: straight to the AOVs (the same
+                    // bits as add() then write(), without the copies).
+                    if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * w + (sx - r.x0), sample);
+                    else row[sx / side - r.x0].add(sample);
+                }
+            }
         }
-        for (int x = 0; x < w; ++x) row[x].write(out, static_cast<std::size_t>(y - r.y0) * w + x);
+        if (side > 1)
+            for (int x = 0; x < w; ++x) row[x].write(out, static_cast<std::size_t>(y - r.y0) * w + x);
     }
     out.root_calls = tracer.root_calls;
 }
 
 PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample,
-                               const ExactSolver* exact) {
+                               const ExactSolver* exact, int column_start) {
     const FrameParams& fp = plan.params;
     if (x < 0 || x >= fp.width || y < 0 || y >= fp.height)
         throw std::invalid_argument("pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is not inside the " +
                                     std::to_string(fp.width) + "x" + std::to_string(fp.height) + " frame");
     if (row_start < 0 || row_start > x) throw std::invalid_argument("row_start must be in 0..x");
+    if (column_start < 0 || column_start > y) throw std::invalid_argument("column_start must be in 0..y");
     if (sample < 0 || sample >= fp.samples)
         throw std::invalid_argument("sample must be in 0.." + std::to_string(fp.samples - 1));
     // Replay the tile's row of samples from its first sample (the neighbour
@@ -846,10 +1076,30 @@ PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_star
     const int sx_cell = side * x + sample % side, sy_cell = side * y + sample / side;
     Tracer tracer(plan, exact);
     tracer.explaining_ = true;
+    PrimaryBatch batch(plan, kernel_from_environment());
     std::vector<Seeds> seeds(plan.scene.objects.size());
     PixelExplanation e;
-    for (int c = side * row_start; c <= sx_cell; ++c)
-        trace_sample(plan, tracer, c, sy_cell, side, seeds.data(), c == sx_cell ? &e : nullptr);
+    // A batched object's discs depend on its own ray and its seeds, the
+    // roots of the samples above it in the tile (not on the other lanes):
+    // replay that column from the tile's first row with batches of one,
+    // then the row for the scalar objects' neighbour seeds.
+    batch.begin_tile(1);
+    double dir[3];
+    if (batch.any())
+        for (int sy = side * column_start; sy < sy_cell; ++sy) {
+            sample_direction(plan, sx_cell, sy, side, dir);
+            batch.solve(dir, 1, 0);
+        }
+    for (int c = side * row_start; c <= sx_cell; ++c) {
+        const BatchedCell pre{&batch, 0};
+        const bool batched = batch.any() && c == sx_cell;
+        if (batched) {
+            sample_direction(plan, c, sy_cell, side, dir);
+            batch.solve(dir, 1, 0);
+        }
+        trace_sample(plan, tracer, c, sy_cell, side, seeds.data(), c == sx_cell ? &e : nullptr,
+                     batched ? &pre : nullptr);
+    }
     e.reason = e.exact_ran && !e.exact.reason.empty() ? e.exact.reason : status_reason(e.status);
     return e;
 }

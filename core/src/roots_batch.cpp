@@ -134,7 +134,8 @@ BatchIsa batch_isa_best() {
 }
 
 Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Method method, RootsResult* out,
-                       std::int64_t* bad_row, BatchIsa isa, BatchCounters* counters, const double* radius) {
+                       std::int64_t* bad_row, BatchIsa isa, BatchCounters* counters, const double* radius,
+                       const double* start_re, const double* start_im) {
     BatchCounters local;
     BatchCounters& cnt = counters ? *counters : local;
     if (isa == BatchIsa::Auto) isa = batch_isa_best();
@@ -149,6 +150,7 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
     if (kernel != nullptr) {
         block.n = n;
         block.has_radius = radius != nullptr ? 1 : 0;
+        block.has_start = start_re != nullptr && start_im != nullptr && n >= 5 ? 1 : 0;
         for (int k = 0; k <= n; ++k)
             for (int l = 0; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
         // smith_radii_lanes_reference's slack: n 2^max(8n - 1070, -1014).
@@ -164,11 +166,13 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
         if (used == 0) return;
         for (int l = 0; l < kBatchLanes; ++l) {
             block.active[l] = l < used ? 1.0 : 0.0;
-            if (l >= used)  // padding: a copy of lane 0 (finite, inactive)
+            if (l >= used) {  // padding: a copy of lane 0 (finite, inactive)
                 for (int k = 0; k <= n; ++k) {
                     block.c[k][l] = block.c[k][0];
                     block.rad[k][l] = block.rad[k][0];
                 }
+                block.start_ok[l] = 0.0;
+            }
         }
         cnt.sweeps += kernel(block, verify);
         ++cnt.blocks;
@@ -191,6 +195,16 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
         const double* c = coeffs + r * n_coeffs;
         const double* rad = radius != nullptr ? radius + r * n_coeffs : nullptr;
         if (kernel != nullptr && admit(c, rad, n, block, used)) {
+            if (block.has_start != 0) {
+                bool finite = true;
+                for (int i = 0; i < n; ++i) {
+                    const double re = start_re[r * n + i], im = start_im[r * n + i];
+                    finite = finite && std::isfinite(re) && std::isfinite(im);
+                    block.start_re[i][used] = finite ? re : 0.0;
+                    block.start_im[i][used] = finite ? im : 0.0;
+                }
+                block.start_ok[used] = finite ? 1.0 : 0.0;
+            }
             lanes[used++] = r;
             ++cnt.rows;
             if (used == kBatchLanes) flush();

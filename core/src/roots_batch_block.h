@@ -32,6 +32,15 @@ struct alignas(64) BatchBlock {
     // with the coefficients (rounded up where inexact).
     int has_radius = 0;
     alignas(64) double rad[kBatchMaxDegree + 1][kBatchLanes];
+    // In (when has_start, degree >= 5): starting approximations in the
+    // input's coordinates, start_ok[l] = 1.0 for a lane that has them (the
+    // kernel scales them with the lane; a lane without, or whose scaled
+    // starts are not finite, starts on the circle). Approximations only:
+    // nothing proven depends on them.
+    int has_start = 0;
+    alignas(64) double start_re[kBatchMaxDegree][kBatchLanes];
+    alignas(64) double start_im[kBatchMaxDegree][kBatchLanes];
+    alignas(64) double start_ok[kBatchLanes];
     // In: 1.0 for lanes that hold a polynomial, 0.0 for padding.
     alignas(64) double active[kBatchLanes];
     // Out: centres and radii in the coordinates of the input (mapped back

@@ -93,6 +93,13 @@ inline double cbrt_approx(double a) {
     return x == 0.0 ? 0.0 : (a < 0.0 ? -r : r);
 }
 
+/// 2^m for an integer-valued double m, built from bits; valid (and then
+/// exact) for m in [-1022, 1023], which the caller checks.
+inline double pow2_of(double m) {
+    return from_bits((bits_of((m + 1023.0) + 0x1p52) - bits_of(0x1p52)) << 52);
+}
+inline bool exponent_ok(double m) { return (m >= -1022.0) & (m <= 1023.0); }
+
 /// cos(acos(t) / 3) for t in [-1, 1], as h(sqrt((1 + t) / 2)) with
 /// h(s) = cos(2/3 acos s) analytic on [0, 1]: a degree-8 fit, |error| < 4e-9.
 inline double cos_third_acos(double t) {
@@ -295,11 +302,39 @@ ARGAND_LANES
 
 template <int N>
 void circle_starts(BatchBlock& b) {
-    for (int i = 0; i < N; ++i)
-        for (int l = 0; l < L; ++l) {
-            b.xr[i][l] = b.circle_re[i];
-            b.xi[i][l] = b.circle_im[i];
+    if (b.has_start == 0) {
+        for (int i = 0; i < N; ++i)
+            for (int l = 0; l < L; ++l) {
+                b.xr[i][l] = b.circle_re[i];
+                b.xi[i][l] = b.circle_im[i];
+            }
+        return;
+    }
+    // The given starts, scaled by 2^-e like the lane (not necessarily
+    // exactly: they are approximations); the circle where a lane has none.
+    double circle_re[N], circle_im[N];
+    for (int i = 0; i < N; ++i) {
+        circle_re[i] = b.circle_re[i];
+        circle_im[i] = b.circle_im[i];
+    }
+ARGAND_LANES
+    for (int l = 0; l < L; ++l) {
+        const double me = -b.e[l];
+        const double f = pow2_of(exponent_ok(me) ? me : 0.0);
+        double sr[N], si[N], probe = 0.0;
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            sr[i] = b.start_re[i][l] * f;
+            si[i] = b.start_im[i][l] * f;
+            probe += (sr[i] - sr[i]) + (si[i] - si[i]);  // NaN unless all finite
         }
+        const bool good = (b.start_ok[l] != 0.0) & exponent_ok(me) & (probe == 0.0);
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            b.xr[i][l] = good ? sr[i] : circle_re[i];
+            b.xi[i][l] = good ? si[i] : circle_im[i];
+        }
+    }
 }
 
 /// Aberth-Ehrlich sweeps (Gauss-Seidel over the roots, all lanes at once),
@@ -424,8 +459,10 @@ ARGAND_LANES
         const double lead = std::fabs(b.c[N][l]);
         // lead_down(c, rad, n): |c_n| - rad_n rounded down (must be > 0).
         const double lead_diff = lead - b.rad[N][l];
-        const double lead_low = lead_diff > 0.0 ? from_bits(bits_of(lead_diff) - 1) : 0.0;
-        if constexpr (has_radius) ok = ok & (lead_low > 0.0);
+        // (For lead_diff <= 0 this is negative or NaN: the denominator test
+        // below then fails, as lead_down's "must be > 0" asks; no select, so
+        // that the lane loop vectorises.)
+        const double lead_low = from_bits(bits_of(lead_diff) - 1);
         double r[N];
 #pragma GCC unroll 8
         for (int i = 0; i < N; ++i) {
@@ -502,12 +539,6 @@ ARGAND_LANES
         }
 }
 
-/// 2^m for an integer-valued double m, built from bits; valid (and then
-/// exact) for m in [-1022, 1023], which the caller checks.
-inline double pow2_of(double m) {
-    return from_bits((bits_of((m + 1023.0) + 0x1p52) - bits_of(0x1p52)) << 52);
-}
-inline bool exponent_ok(double m) { return (m >= -1022.0) & (m <= 1023.0); }
 
 /// Scales every lane exactly, as scale_polynomial does: t = 2^e u with
 /// e = round((E_0 - E_n) / n) from the coefficients' exponents, and the
@@ -552,18 +583,23 @@ ARGAND_LANES
 ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         const double e = b.e[l], top = b.scale_top[l];
-        bool ok = b.active[l] != 0.0;
+        // (The largest scaled radius decides finiteness after the loop, and
+        // the rounding up is a select of doubles: no bool chain, so that
+        // the lane loop vectorises.)
+        double largest = 0.0;
 #pragma GCC unroll 9
         for (int k = 0; k <= N; ++k) {
             const double m = e * k - top;
             const double rv = b.rad[k][l];
             const double rs = rv * pow2_of(exponent_ok(m) ? m : 0.0);
-            const bool exact_r = (rv == 0.0) | (rs >= 0x1p-1022);
-            const double rr = exact_r ? rs : up(rs);
+            // rs below 2^-1022 (subnormal or zero) from rv > 0 is inexact:
+            // its successor bounds the exact product from above.
+            const double bumped = from_bits(bits_of(rs) + 1);
+            const double rr = (rs < 0x1p-1022) & (rv != 0.0) ? bumped : rs;
             b.rad[k][l] = rr;
-            ok = ok & (rr <= kHuge);
+            largest = rr > largest ? rr : largest;
         }
-        b.active[l] = ok ? 1.0 : 0.0;
+        b.active[l] = (b.active[l] != 0.0) & (largest <= kHuge) ? 1.0 : 0.0;
     }
 }
 

@@ -334,10 +334,28 @@ def bench_render_cmd(
     smoke: bool = typer.Option(False, "--smoke", help="Small sizes, for CI."),
     samples_only: bool = typer.Option(False, "--samples-only",
                                       help="Only the cost of antialiasing (1, 4, 16 samples per pixel)."),
+    kernels_only: bool = typer.Option(False, "--kernels-only",
+                                      help="Only the primary rays' root kernels, scalar against batched (CPU time); "
+                                           "also updates render.json / render.md's kernel table."),
 ) -> None:
     """Every preset at 512x512 and 1024x1024 for delta in {0, pi/18, pi/9} on one core, and antialiasing's cost."""
-    from argand.bench.render import bench_render, bench_samples_report
+    from argand.bench.render import bench_kernels_report, bench_render, bench_samples_report
 
+    if kernels_only:
+        with console.status("benchmarking the root kernels") as status:
+            report = bench_kernels_report(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+        k = report["kernels"]
+        table = Table(title=f"primary rays' root kernel, one core, CPU time (batched: {k['instruction_set']})",
+                      title_justify="left")
+        for col in ("scene", "size", "delta", "scalar ns/pixel", "batched ns/pixel", "speed-up", "same status"):
+            table.add_column(col)
+        for row in k["rows"]:
+            table.add_row(row["scene"], f"{row['width']}x{row['height']}", f"{row['delta']:.4f}",
+                          f"{row['scalar_ns_per_pixel']:.0f}", f"{row['batched_ns_per_pixel']:.0f}",
+                          f"{row['speedup']:.2f}", "yes" if row["same_status"] and row["same_hit"] else "NO")
+        console.print(table)
+        console.print(f"wrote {out / 'render_kernels.json'}, {out / 'render_kernels.md'}")
+        return
     with console.status("benchmarking render") as status:
         if samples_only:
             report = bench_samples_report(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))

@@ -284,6 +284,16 @@ void render_tile(const FramePlan& plan, const TileRect& rect, TileAOVs& out, con
 /// the very doubles render_tile uses.
 Ray primary_ray(const FramePlan& plan, int x, int y, int sample = 0);
 
+/// The root kernel render_tile and explain_pixel use for primary rays, from
+/// the environment variable ARGAND_KERNEL: unset or "auto", the widest
+/// batched kernel this CPU runs ("avx512", "avx2" or "sse2": each run of 32
+/// samples of a row of samples is solved together by find_roots_rows, per
+/// object of degree <= 8, method other than "paper"); "scalar", find_roots
+/// sample by sample with the neighbour's roots as seeds (the reference).
+/// Both prove the same decisions (docs/rendering.md). Throws
+/// std::invalid_argument for an unknown or unsupported name.
+const char* render_kernel();
+
 /// The ray polynomial p(t) = F(o + t d) of object i for a world ray (exposed
 /// for tests and the reference renderer): coeffs gets degree + 1 entries and,
 /// when radius is given, radius[k] bounds |exact p_k - coeffs[k]|.
@@ -326,10 +336,12 @@ struct PixelExplanation {
 };
 
 /// Runs render_tile's code path for sample `sample` of pixel (x, y), as part
-/// of a tile whose rows start at column row_start (the neighbour seeds of
-/// that row of samples are replayed), and records every decision. The exact
-/// tier (when given) runs for that sample only, whatever the tile's budget.
+/// of a tile whose rows start at column row_start and whose first row is
+/// column_start (the neighbour seeds of that row of samples, and the batched
+/// kernel's seeds from the samples above, are replayed), and records every
+/// decision. The exact tier (when given) runs for that sample only, whatever
+/// the tile's budget.
 PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample = 0,
-                               const ExactSolver* exact = nullptr);
+                               const ExactSolver* exact = nullptr, int column_start = 0);
 
 }  // namespace argand

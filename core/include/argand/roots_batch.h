@@ -57,8 +57,15 @@ struct BatchCounters {
 /// find_roots' coeff_radius row by row: each row's discs then hold for every
 /// real polynomial within those radii of it (Smith's family term in the
 /// lanes too). A row with an invalid radius gets Status::NonFinite.
+///
+/// start_re, start_im (optional, rows x (n_coeffs - 1), row-major): starting
+/// approximations per row for the lanes of degree 5 to 8 (the circle
+/// otherwise; a row with a non-finite start takes the circle). Only speed
+/// depends on them: rows the lanes do not prove are solved by find_roots
+/// without them, and what is proven is the same contract.
 Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Method method, RootsResult* out,
                        std::int64_t* bad_row, BatchIsa isa = BatchIsa::Auto, BatchCounters* counters = nullptr,
-                       const double* radius = nullptr);
+                       const double* radius = nullptr, const double* start_re = nullptr,
+                       const double* start_im = nullptr);
 
 }  // namespace argand

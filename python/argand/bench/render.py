@@ -6,12 +6,16 @@ breakdown, ns per pixel, escalation share, the exact tier's share) and ns
 per pixel per degree; a picture of where escalation happened (the
 escalation AOV: the ladder level each pixel needed) on a few surfaces; and
 the cost of antialiasing: the same frames at 1, 4 and 16 samples per pixel,
-in ns per pixel and ns per sample."""
+in ns per pixel and ns per sample; and the root kernel of the primary rays:
+the same frames with the scalar kernel (find_roots sample by sample) and the
+batched one (find_roots_rows, the widest instruction set this CPU runs), in
+CPU time, against the issue's targets."""
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from pathlib import Path
 from typing import Callable
@@ -55,6 +59,7 @@ def bench_render(out_dir: Path = Path("docs/bench"), smoke: bool = False, progre
                         )
                 frames.append(row)
     classic = bench_classic(64 if smoke else 384, progress)
+    kernels = bench_kernels(smoke, progress)
     sampled = bench_samples_report(out_dir, smoke, progress)["samples"]
     big = [f for f in frames if f["scene"] == "bicube" and f["width"] == sizes[-1] and abs(f["delta"] - math.pi / 9) < 1e-12]
     report = {
@@ -63,6 +68,7 @@ def bench_render(out_dir: Path = Path("docs/bench"), smoke: bool = False, progre
         "threads": 1,
         "frames": frames,
         "classic_frames": classic,
+        "kernels": kernels,
         "per_degree": per_degree(frames + classic),
         "samples": sampled,
         "headline": {
@@ -248,6 +254,146 @@ def bench_samples(size: int, progress: Callable[[str], None]) -> list[dict]:
     return rows
 
 
+#: The kernel table: (scene, size, delta). The issue's targets: the Bicube at
+#: 1024x1024, delta = pi/9 in <= 0.2 s on one core; surfaces of degree 6 to 8
+#: in <= 1 us per pixel at 512x512. (Slow scenes at a smaller size.)
+KERNEL_FRAMES = (
+    ("bicube", 1024, math.pi / 9),
+    ("whitney", 512, math.pi / 9),
+    ("plucker", 512, math.pi / 9),
+    ("steiner", 512, math.pi / 9),
+    ("mitchell", 512, math.pi / 9),
+    ("whitney-in-sphere", 256, math.pi / 9),
+    ("quintic x^5+y^5+z^5+10xyz", 512, math.pi / 9),
+    ("sextic x^6+y^6+z^6", 512, math.pi / 9),
+    ("octic x^8+y^8+z^8+10x^2y^2z^2", 512, math.pi / 9),
+    ("togliatti", 512, math.pi / 9),
+    ("barth-sextic", 512, math.pi / 9),
+    ("chmutov-septic", 512, math.pi / 9),
+    ("chmutov-octic", 512, math.pi / 9),
+    ("endrass-octic", 256, math.pi / 9),
+)
+
+
+def _with_kernel(kernel: str, fn: Callable[[], object]):
+    """Runs fn with ARGAND_KERNEL=kernel (render_tile reads it per tile)."""
+    old = os.environ.get("ARGAND_KERNEL")
+    os.environ["ARGAND_KERNEL"] = kernel
+    try:
+        return fn()
+    finally:
+        if old is None:
+            del os.environ["ARGAND_KERNEL"]
+        else:
+            os.environ["ARGAND_KERNEL"] = old
+
+
+def bench_kernels(smoke: bool, progress: Callable[[str], None], rounds: int = 2) -> dict:
+    """Each KERNEL_FRAMES frame (method auto, one core, in process) with the
+    scalar root kernel and the batched one, in CPU time (the best of
+    ``rounds`` interleaved renders: steadier than wall time on a shared
+    machine); whether the two agree on every pixel's status and hit; the
+    certified share of each."""
+    from argand.core import _core
+    from argand.bench.rays import scenes as ray_scenes
+
+    import numpy as np
+
+    batched = _core.batch_kernel()
+    extra = ray_scenes()
+    rows = []
+    for name, size, delta in KERNEL_FRAMES:
+        size = min(size, 64) if smoke else size
+        scene = extra[name] if name in extra else load_scene(name)
+        params = FrameParams(delta=delta, width=size, height=size)
+        best = {"scalar": math.inf, batched: math.inf}
+        frames = {}
+        for _ in range(1 if smoke else rounds):
+            for kernel in ("scalar", batched):
+                progress(f"kernels: {name} {size}x{size} delta={delta:.4f} {kernel}")
+                cpu = time.process_time()
+                frames[kernel] = _with_kernel(kernel, lambda: render_frame(scene, params, workers=1))
+                best[kernel] = min(best[kernel], time.process_time() - cpu)
+        a, b = frames["scalar"], frames[batched]
+        same_status = bool(np.array_equal(np.asarray(a.aovs["status"]), np.asarray(b.aovs["status"])))
+        same_hit = bool(np.array_equal(a.rgba[..., 3] > 0, b.rgba[..., 3] > 0))
+        pixels = size * size
+        rows.append({
+            "scene": name, "degree": "+".join(str(o.polynomial.degree) for o in scene.objects),
+            "width": size, "height": size, "delta": delta,
+            "scalar_cpu_ms": best["scalar"] * 1000, "batched_cpu_ms": best[batched] * 1000,
+            "scalar_ns_per_pixel": best["scalar"] / pixels * 1e9, "batched_ns_per_pixel": best[batched] / pixels * 1e9,
+            "speedup": best["scalar"] / best[batched],
+            "scalar_certified_share": a.certified_share, "batched_certified_share": b.certified_share,
+            "same_status": same_status, "same_hit": same_hit,
+        })
+    bicube = [r for r in rows if r["scene"] == "bicube"]
+    high = [r for r in rows if max(int(d) for d in r["degree"].split("+")) >= 6 and r["width"] >= 512]
+    return {
+        "instruction_set": batched,
+        "rows": rows,
+        "targets": {
+            "bicube_1024_pi_9_batched_s": bicube[0]["batched_cpu_ms"] / 1000 if bicube and not smoke else None,
+            "bicube_1024_pi_9_target_s": 0.2,
+            "degree_6_to_8_512_batched_ns_per_pixel_max": max((r["batched_ns_per_pixel"] for r in high), default=None),
+            "degree_6_to_8_target_ns_per_pixel": 1000,
+        },
+    }
+
+
+def bench_kernels_report(out_dir: Path = Path("docs/bench"), smoke: bool = False,
+                         progress: Callable[[str], None] = lambda m: None) -> dict:
+    """bench_kernels alone (`argand bench render --kernels-only`): written to
+    render_kernels.{json,md}, and into render.json / render.md (the full
+    benchmark's report, whose other tables stay as they were measured)."""
+    kernels = bench_kernels(smoke, progress)
+    report = {"benchmark": "render kernels", "machine": machine_info(), "threads": 1, "kernels": kernels}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "render_kernels.json").write_text(json.dumps(report, indent=2) + "\n")
+    (out_dir / "render_kernels.md").write_text("\n".join(kernel_section(kernels)).lstrip() + "\n")
+    full = out_dir / "render.json"
+    if full.exists():
+        whole = json.loads(full.read_text())
+        whole["kernels"] = kernels
+        full.write_text(json.dumps(whole, indent=2) + "\n")
+        (out_dir / "render.md").write_text(markdown(whole))
+    return report
+
+
+def kernel_section(kernels: dict | None) -> list[str]:
+    """The table of the primary rays' root kernels (scalar vs batched)."""
+    if not kernels:
+        return []
+    isa = kernels["instruction_set"]
+    lines = [
+        "",
+        f"Root kernel of the primary rays (`ARGAND_KERNEL`): scalar (`find_roots` sample by sample, neighbour seeds) "
+        f"against batched (`find_roots_rows`, runs of 32 samples, instruction set **{isa}**); method auto, one core, "
+        "CPU time, the best of two interleaved renders. Same status / same hit: every pixel of the two frames agrees.",
+        "",
+        f"| scene | degree | size | δ | scalar, ms | {isa}, ms | scalar ns / pixel | {isa} ns / pixel | speed-up "
+        "| certified (scalar / batched) | same status | same hit |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|---|",
+    ]
+    for r in kernels["rows"]:
+        lines.append(
+            f"| {r['scene']} | {r['degree']} | {r['width']}×{r['height']} | {r['delta']:.4f} | {r['scalar_cpu_ms']:.0f} "
+            f"| {r['batched_cpu_ms']:.0f} | {r['scalar_ns_per_pixel']:.0f} | {r['batched_ns_per_pixel']:.0f} "
+            f"| {r['speedup']:.2f}× | {100 * r['scalar_certified_share']:.3f}% / {100 * r['batched_certified_share']:.3f}% "
+            f"| {'yes' if r['same_status'] else 'NO'} | {'yes' if r['same_hit'] else 'NO'} |"
+        )
+    t = kernels["targets"]
+    if t.get("bicube_1024_pi_9_batched_s") is not None:
+        lines += [
+            "",
+            f"Targets (issue 15): Bicube 1024×1024, δ = π/9: {t['bicube_1024_pi_9_batched_s']:.3f} s batched "
+            f"(target {t['bicube_1024_pi_9_target_s']} s); degree 6 to 8 at 512×512: at most "
+            f"{t['degree_6_to_8_512_batched_ns_per_pixel_max']:.0f} ns per pixel batched "
+            f"(target {t['degree_6_to_8_target_ns_per_pixel']} ns).",
+        ]
+    return lines
+
+
 def per_degree(frames: list[dict]) -> list[dict]:
     """ns per pixel and certified share per surface degree (the highest
     degree of a scene's objects), as the median over its frames."""
@@ -289,6 +435,7 @@ def markdown(report: dict) -> str:
             f"| {f['ns_per_pixel']:.0f} | {100 * f['certified_share']:.3f}% | {100 * f.get('escalated_share', 0.0):.3f}% "
             f"| {exact_cell(f)} | {f['unverified_ms']:.0f} | {f['ms'] / f['unverified_ms']:.2f}× |"
         )
+    lines += kernel_section(report.get("kernels"))
     statuses = list(STATUS_NAMES.values())
     lines += [
         "",

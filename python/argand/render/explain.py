@@ -23,7 +23,8 @@ from argand.render.frames import ESCALATION_NAMES, STATUS_NAMES, FrameParams, pl
 def explain_pixel(scene: Any, params: FrameParams, x: int, y: int, tile: int = 64, sample: int = 0) -> dict:
     """The decisions render_tile makes for pixel (x, y) of the frame
     ``params`` when tiles are ``tile`` pixels wide (a tile's rows replay the
-    neighbour seeds from its first column, as render_tile does). With
+    neighbour seeds from its first column, and the batched kernel's seeds
+    from its first row, as render_tile does). With
     ``params.samples`` > 1: for sample ``sample`` of the pixel (its status
     is one of those whose worst is the pixel's)."""
     from argand.render.convert import to_core_scene
@@ -35,7 +36,8 @@ def explain_pixel(scene: Any, params: FrameParams, x: int, y: int, tile: int = 6
     if not 0 <= sample < params.samples:
         raise ValueError(f"sample {sample} is not one of the pixel's {params.samples} samples (0..{params.samples - 1})")
     frame_plan = plan(to_core_scene(scene), params)
-    return _core.explain_pixel(frame_plan, int(x), int(y), int(x) // tile * tile, int(sample), exact=decide_pixel)
+    return _core.explain_pixel(frame_plan, int(x), int(y), int(x) // tile * tile, int(sample), exact=decide_pixel,
+                               column_start=int(y) // tile * tile)
 
 
 def format_explanation(e: dict) -> list[str]:

@@ -1,0 +1,164 @@
+"""The primary rays' batched root kernel against the scalar reference.
+
+render_tile solves runs of 32 samples' ray polynomials together with
+find_roots_rows (ARGAND_KERNEL unset or "auto", or a named instruction set)
+or sample by sample with find_roots and neighbour seeds (ARGAND_KERNEL=
+scalar). Both prove their decisions for the same exact ray polynomials, so
+whole frames of the presets must agree on every pixel's status, hit or miss
+and eligible count; the chosen roots agree to the width of their discs.
+The batched frames' certified pixels are checked against the exact truth
+(tests/pixel_truth.py) too.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from argand.core import _core
+from argand.render import FrameParams, render_frame
+from argand.scene import load_scene
+from argand.scene.presets import CLASSIC_PRESETS, PAPER_PRESETS
+from pixel_truth import check_frame, sample_pixels
+
+KERNELS = ["scalar", "sse2"] + [k for k in ("avx2", "avx512") if k == _core.batch_kernel() or
+                                (k == "avx2" and _core.batch_kernel() == "avx512")]
+
+
+def render_with(kernel: str, scene, params: FrameParams):
+    old = os.environ.get("ARGAND_KERNEL")
+    os.environ["ARGAND_KERNEL"] = kernel
+    try:
+        assert _core.render_kernel() == kernel
+        return render_frame(scene, params, workers=1)
+    finally:
+        if old is None:
+            del os.environ["ARGAND_KERNEL"]
+        else:
+            os.environ["ARGAND_KERNEL"] = old
+
+
+def explain_with(kernel: str, scene, params: FrameParams, x: int, y: int) -> dict:
+    from argand.render.explain import explain_pixel
+
+    os.environ["ARGAND_KERNEL"] = kernel
+    try:
+        return explain_pixel(scene, params, x, y)
+    finally:
+        del os.environ["ARGAND_KERNEL"]
+
+
+def assert_same_decisions(a, b, what: str, scene=None, params=None, kernels=("scalar", "scalar")) -> int:
+    """Same status, hit or miss and eligible count on every pixel; the
+    chosen roots of certified hits the same root (or its conjugate). Returns the certified hits
+    whose shown centres differ by more than 1e-6 relative (each checked:
+    their two chosen discs, from explain_pixel, must meet)."""
+    sa, sb = np.asarray(a.aovs["status"]), np.asarray(b.aovs["status"])
+    diff = np.argwhere(sa != sb)
+    assert diff.size == 0, f"{what}: statuses differ at {diff[:10].tolist()}"
+    ha, hb = a.rgba[..., 3] > 0, b.rgba[..., 3] > 0
+    diff = np.argwhere(ha != hb)
+    assert diff.size == 0, f"{what}: hit/miss differ at {diff[:10].tolist()}"
+    ca, cb = np.asarray(a.aovs["count"]), np.asarray(b.aovs["count"])
+    assert np.array_equal(ca, cb), f"{what}: eligible counts differ at {np.argwhere(ca != cb)[:10].tolist()}"
+    # The chosen root of a certified hit is the same root, but the shown
+    # centre is its disc's centre, and the two kernels' discs differ (a
+    # near-double root's disc may be 1e-5 wide): where the centres differ
+    # by more than 1e-6 relative, the two chosen discs must overlap.
+    both = (sa == 0) & ha
+    scale = np.maximum(1.0, np.abs(np.asarray(a.aovs["Z"])))
+    far = np.zeros_like(both)
+    for key in ("re", "im"):
+        far |= both & (np.abs(np.asarray(a.aovs[key]) - np.asarray(b.aovs[key])) > 1e-6 * scale)
+    # Most such pixels show the conjugate of the other kernel's root (a
+    # member of a conjugate pair of equal modulus); the rest are wide discs
+    # around the same root. Every one of the latter, and a sample of the
+    # former, is checked on its discs.
+    re_a, re_b = np.asarray(a.aovs["re"]), np.asarray(b.aovs["re"])
+    im_a, im_b = np.asarray(a.aovs["im"]), np.asarray(b.aovs["im"])
+    mirrored = (np.abs(re_a - re_b) <= 1e-6 * scale) & (np.abs(im_a + im_b) <= 1e-6 * scale)
+    rest, flips = np.argwhere(far & ~mirrored), np.argwhere(far & mirrored)
+    sample = np.random.default_rng(15).permutation(len(flips))[:12]
+    spots = np.concatenate([rest, flips[sample]]) if len(flips) else rest
+    if spots.size:
+        assert scene is not None, f"{what}: chosen roots differ at {spots[:10].tolist()}"
+    assert len(rest) <= 60, f"{what}: {len(rest)} chosen roots differ beyond a conjugate"
+    for y, x in spots:
+        ea, eb = (explain_with(k, scene, params, int(x), int(y)) for k in kernels)
+        da, db = ea["discs"][ea["chosen"]], eb["discs"][eb["chosen"]]
+        # The same root, or its conjugate (a hit's root and its mirror twin
+        # have the same modulus and are both eligible: which of the two the
+        # pixel shows follows the order of the discs).
+        reach = (da["radius"] + db["radius"]) * (1 + 1e-12)
+        same = abs(da["center"] - db["center"]) <= reach
+        twin = abs(da["center"] - db["center"].conjugate()) <= reach
+        assert same or twin, (what, x, y, da, db)
+    return int(far.sum())
+
+
+@pytest.mark.parametrize("name", PAPER_PRESETS + CLASSIC_PRESETS)
+@pytest.mark.parametrize("delta", [0.0, math.pi / 9])
+def test_presets_batched_equals_scalar(name, delta):
+    scene = load_scene(name)
+    params = FrameParams(delta=delta, width=48, height=40)
+    scalar = render_with("scalar", scene, params)
+    best = _core.batch_kernel()
+    batched = render_with(best, scene, params)
+    assert_same_decisions(scalar, batched, f"{name} delta={delta:.4f} scalar vs {best}", scene, params,
+                          ("scalar", best))
+    # Batched frames prove what they claim: their certified pixels against the truth.
+    check = check_frame(scene, params, batched, sample_pixels(params.width, params.height, 60, seed=15))
+    assert check.wrong == 0, check.disagreements[:3]
+
+
+@pytest.mark.parametrize("kernel", KERNELS[1:])
+def test_every_instruction_set_gives_the_same_frame(kernel):
+    """The batched instruction sets run the same operations lane by lane:
+    identical frames, to the bit."""
+    scene = load_scene("chmutov-octic")
+    params = FrameParams(delta=math.pi / 18, width=40, height=24, samples=4)
+    ref = render_with("sse2", scene, params)
+    other = render_with(kernel, scene, params)
+    for key in ("status", "count", "re", "im", "Z", "escalation"):
+        assert np.array_equal(np.asarray(ref.aovs[key]), np.asarray(other.aovs[key]), equal_nan=True), key
+    assert np.array_equal(ref.rgba, other.rgba)
+
+
+def test_samples_and_tiles_batched_equals_scalar():
+    """Antialiased frames (runs of samples cross pixel boundaries) and a tile
+    size that does not divide the runs of 32."""
+    scene = load_scene("whitney")
+    params = FrameParams(delta=math.pi / 18, width=37, height=21, samples=9)
+    best = _core.batch_kernel()
+    assert_same_decisions(render_with("scalar", scene, params), render_with(best, scene, params), "whitney samples=9")
+
+
+def test_explain_pixel_replays_the_batched_kernel():
+    """explain_pixel gives the pixel render_tile gave it, with either kernel."""
+    scene = load_scene("barth-sextic")
+    # 70 x 70 in tiles of 64: pixels in the second row and column of tiles
+    # replay their seeds from that tile's first row and column.
+    params = FrameParams(delta=math.pi / 18, width=70, height=70)
+    for kernel in ("scalar", _core.batch_kernel()):
+        frame = render_with(kernel, scene, params)
+        for x, y in [(15, 11), (3, 50), (29, 2), (20, 37), (5, 66), (66, 66), (40, 65), (67, 30)]:
+            e = explain_with(kernel, scene, params, x, y)
+            assert e["status"] == frame.aovs["status"][y, x]
+            assert e["escalation"] == frame.aovs["escalation"][y, x]
+            assert e["hit"] == bool(frame.rgba[y, x, 3] > 0)
+            if e["hit"]:
+                assert np.float32(e["root"].real) == frame.aovs["re"][y, x]
+
+
+def test_bad_kernel_name_is_refused():
+    env = dict(os.environ, ARGAND_KERNEL="avx9000")
+    code = ("from argand.render import FrameParams, render_frame; from argand.scene import load_scene; "
+            "render_frame(load_scene('whitney'), FrameParams(width=8, height=8), workers=1)")
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert run.returncode != 0
+    assert "ARGAND_KERNEL=avx9000 names no root kernel" in run.stderr
