@@ -84,6 +84,30 @@ void write_lane(const BatchBlock& b, int l, bool verify, RootsResult& res) {
     res.escalation = 0;
 }
 
+/// The per-call part of a block: degree, flags, zero radii, the slack and
+/// the circle starts.
+void init_block(BatchBlock& block, int n, bool has_radius, bool has_start) {
+    block.n = n;
+    block.has_radius = has_radius ? 1 : 0;
+    block.has_start = has_start && n >= 5 ? 1 : 0;
+    for (int k = 0; k <= n; ++k)
+        for (int l = 0; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
+    // smith_radii_lanes_reference's slack: n 2^max(8n - 1070, -1014).
+    block.slack = n * std::ldexp(1.0, std::max(8 * n - 1070, -1014));
+    for (int i = 0; i < n; ++i) {
+        const double angle = 2.0 * 3.14159265358979323846 * i / n + 0.4;
+        block.circle_re[i] = std::cos(angle);
+        block.circle_im[i] = std::sin(angle);
+    }
+}
+
+Kernel select_kernel(BatchIsa isa, Method method, int n) {
+    if (isa == BatchIsa::Auto) isa = batch_isa_best();
+    Kernel kernel = batch_isa_supported(isa) ? kernel_for(isa) : nullptr;
+    if (method == Method::Paper || n < 1 || n > kBatchMaxDegree || !fp_environment_default()) kernel = nullptr;
+    return kernel;
+}
+
 }  // namespace
 
 const char* batch_isa_name(BatchIsa isa) {
@@ -138,29 +162,14 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
                        const double* start_re, const double* start_im) {
     BatchCounters local;
     BatchCounters& cnt = counters ? *counters : local;
-    if (isa == BatchIsa::Auto) isa = batch_isa_best();
     const int n = n_coeffs - 1;
-    Kernel kernel = batch_isa_supported(isa) ? kernel_for(isa) : nullptr;
-    if (method == Method::Paper || n < 1 || n > kBatchMaxDegree || !fp_environment_default()) kernel = nullptr;
+    const Kernel kernel = select_kernel(isa, method, n);
     const bool verify = method != Method::Unverified;
 
     BatchBlock block;
     std::int64_t lanes[kBatchLanes];
     int used = 0;
-    if (kernel != nullptr) {
-        block.n = n;
-        block.has_radius = radius != nullptr ? 1 : 0;
-        block.has_start = start_re != nullptr && start_im != nullptr && n >= 5 ? 1 : 0;
-        for (int k = 0; k <= n; ++k)
-            for (int l = 0; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
-        // smith_radii_lanes_reference's slack: n 2^max(8n - 1070, -1014).
-        block.slack = n * std::ldexp(1.0, std::max(8 * n - 1070, -1014));
-        for (int i = 0; i < n; ++i) {
-            const double angle = 2.0 * 3.14159265358979323846 * i / n + 0.4;
-            block.circle_re[i] = std::cos(angle);
-            block.circle_im[i] = std::sin(angle);
-        }
-    }
+    if (kernel != nullptr) init_block(block, n, radius != nullptr, start_re != nullptr && start_im != nullptr);
     // Solves the lanes gathered so far; rows whose lane is not kept go to find_roots.
     auto flush = [&]() {
         if (used == 0) return;
@@ -222,6 +231,106 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
     if (kernel != nullptr) flush();
     if (bad_row) *bad_row = -1;
     return Status::Ok;
+}
+
+void find_roots_soa(const SoaRows& in, Method method, RootsResult* out, Status* status, BatchIsa isa,
+                    BatchCounters* counters) {
+    BatchCounters local;
+    BatchCounters& cnt = counters ? *counters : local;
+    const int nc = in.n_coeffs, n = nc - 1;
+    const std::int64_t stride = in.stride;
+    const Kernel kernel = select_kernel(isa, method, n);
+    const bool verify = method != Method::Unverified;
+    const bool has_radius = in.radius != nullptr;
+    // A row the lanes do not answer: find_roots on a gathered copy of it.
+    auto scalar = [&](std::int64_t j) {
+        double c[kMaxDegree + 1], r[kMaxDegree + 1];
+        for (int k = 0; k < nc; ++k) {
+            c[k] = in.coeffs[k * stride + j];
+            if (has_radius) r[k] = in.radius[k * stride + j];
+        }
+        status[j] = find_roots(c, nc, method, out[j], nullptr, nullptr, has_radius ? r : nullptr);
+        ++cnt.rows;
+        ++cnt.scalar;
+    };
+    if (kernel == nullptr || nc > kMaxDegree + 1) {
+        for (std::int64_t j = 0; j < in.rows; ++j)
+            if (in.skip == nullptr || in.skip[j] == 0) scalar(j);
+        return;
+    }
+    BatchBlock block;
+    init_block(block, n, has_radius, in.start_re != nullptr && in.start_im != nullptr);
+    constexpr double kMax = std::numeric_limits<double>::max();
+    for (std::int64_t j0 = 0; j0 < in.rows; j0 += kBatchLanes) {
+        const int m = static_cast<int>(std::min<std::int64_t>(kBatchLanes, in.rows - j0));
+        // Admission, lane by lane (find_roots_rows' admit): not skipped,
+        // c_0 and c_n nonzero, every coefficient finite, every radius
+        // finite and >= 0 (NaN fails every comparison).
+        bool admitted[kBatchLanes];
+        for (int l = 0; l < kBatchLanes; ++l) admitted[l] = l < m && (in.skip == nullptr || in.skip[j0 + l] == 0);
+        for (int l = 0; l < m; ++l)
+            admitted[l] = admitted[l] && in.coeffs[j0 + l] != 0.0 && in.coeffs[n * stride + j0 + l] != 0.0;
+        for (int k = 0; k <= n; ++k) {
+            const double* row = in.coeffs + k * stride + j0;
+            std::memcpy(block.c[k], row, sizeof(double) * m);
+            for (int l = 0; l < m; ++l) admitted[l] = admitted[l] & (std::fabs(row[l]) <= kMax);
+        }
+        if (has_radius)
+            for (int k = 0; k <= n; ++k) {
+                const double* row = in.radius + k * stride + j0;
+                std::memcpy(block.rad[k], row, sizeof(double) * m);
+                for (int l = 0; l < m; ++l) admitted[l] = admitted[l] & (row[l] >= 0.0) & (row[l] <= kMax);
+            }
+        int first = -1, used = 0;
+        for (int l = 0; l < kBatchLanes; ++l) {
+            if (admitted[l]) {
+                if (first < 0) first = l;
+                ++used;
+            } else if (l < m && (in.skip == nullptr || in.skip[j0 + l] == 0)) {
+                scalar(j0 + l);
+            }
+        }
+        if (used == 0) continue;
+        // Lanes without an admitted row: a copy of the first admitted lane
+        // (finite), inactive.
+        for (int l = 0; l < kBatchLanes; ++l) {
+            block.active[l] = admitted[l] ? 1.0 : 0.0;
+            if (admitted[l]) continue;
+            for (int k = 0; k <= n; ++k) {
+                block.c[k][l] = block.c[k][first];
+                block.rad[k][l] = block.rad[k][first];
+            }
+            block.start_ok[l] = 0.0;
+        }
+        if (block.has_start != 0)
+            for (int l = 0; l < kBatchLanes; ++l) {
+                if (!admitted[l]) continue;
+                bool finite = true;
+                for (int i = 0; i < n; ++i) {
+                    const double re = in.start_re[i * stride + j0 + l], im = in.start_im[i * stride + j0 + l];
+                    finite = finite && std::isfinite(re) && std::isfinite(im);
+                    block.start_re[i][l] = finite ? re : 0.0;
+                    block.start_im[i][l] = finite ? im : 0.0;
+                }
+                block.start_ok[l] = finite ? 1.0 : 0.0;
+            }
+        cnt.sweeps += kernel(block, verify);
+        ++cnt.blocks;
+        cnt.lanes += used;
+        cnt.rows += used;
+        for (int l = 0; l < kBatchLanes; ++l) {
+            if (!admitted[l]) continue;
+            const std::int64_t j = j0 + l;
+            if (block.ok[l] != 0.0 && (verify || block.converged[l] != 0.0)) {
+                write_lane(block, l, verify, out[j]);
+                status[j] = Status::Ok;
+                ++cnt.kept;
+            } else {
+                --cnt.rows;  // (scalar() counts it)
+                scalar(j);   // all finite: Ok
+            }
+        }
+    }
 }
 
 }  // namespace argand

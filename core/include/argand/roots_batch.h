@@ -68,4 +68,34 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
                        const double* radius = nullptr, const double* start_re = nullptr,
                        const double* start_im = nullptr);
 
+/// Rows in structure-of-arrays form for find_roots_soa: coefficient k of row
+/// j at coeffs[k * stride + j] (k = 0..n_coeffs-1, j = 0..rows-1), its
+/// radius at radius[k * stride + j] (optional, as find_roots_rows' radius),
+/// starting approximation i at start_re/start_im[i * stride + j] (optional,
+/// both or neither, as find_roots_rows'), and skip[j] != 0 (optional) for a
+/// row to leave alone (out[j], status[j] untouched).
+struct SoaRows {
+    const double* coeffs = nullptr;
+    const double* radius = nullptr;
+    const double* start_re = nullptr;
+    const double* start_im = nullptr;
+    const std::uint8_t* skip = nullptr;
+    std::int64_t rows = 0;
+    std::int64_t stride = 0;
+    int n_coeffs = 0;
+};
+
+/// find_roots_rows for rows in structure-of-arrays form, without stopping:
+/// every row j not skipped gets out[j] and status[j] exactly as
+/// find_roots_rows would answer it (the same admission to the lanes, the
+/// same kernel, the same find_roots call for the rows the lanes do not
+/// keep), and a row whose status is not Ok (its find_roots answer left in
+/// out[j]) does not stop the others. Rows go to the kernel block by block
+/// of kBatch lanes in place (row j in lane j mod 16 of block j / 16; rows
+/// not admitted leave their lane inactive): a lane's answer depends on its
+/// own row only, so the answers are find_roots_rows' to the bit. Counters
+/// as find_roots_rows' (rows counts the rows answered).
+void find_roots_soa(const SoaRows& rows, Method method, RootsResult* out, Status* status,
+                    BatchIsa isa = BatchIsa::Auto, BatchCounters* counters = nullptr);
+
 }  // namespace argand
