@@ -362,6 +362,109 @@ void primary_ray_polynomial(const SurfaceSpec& s, const FramePlan::ObjectPlan& o
     }
 }
 
+namespace {
+
+using SumsFn = void (*)(const PrimaryRunInput&, PrimaryRun&);
+using DirsFn = void (*)(const SampleRowInput&, int, int, double*, double*, double*);
+
+BatchIsa run_isa(BatchIsa isa) {
+    if (isa == BatchIsa::Auto || isa == BatchIsa::Scalar || !batch_isa_supported(isa)) return batch_isa_best();
+    return isa;
+}
+
+SumsFn sums_for(BatchIsa isa) {
+    switch (run_isa(isa)) {
+#if defined(__x86_64__) || defined(_M_X64)
+        case BatchIsa::Avx2: return &ray_avx2::primary_run_sums;
+        case BatchIsa::Avx512: return &ray_avx512::primary_run_sums;
+#endif
+        default: return &ray_generic::primary_run_sums;
+    }
+}
+
+DirsFn dirs_for(BatchIsa isa) {
+    switch (run_isa(isa)) {
+#if defined(__x86_64__) || defined(_M_X64)
+        case BatchIsa::Avx2: return &ray_avx2::sample_direction_run;
+        case BatchIsa::Avx512: return &ray_avx512::sample_direction_run;
+#endif
+        default: return &ray_generic::sample_direction_run;
+    }
+}
+
+}  // namespace
+
+void primary_ray_polynomial_run(const SurfaceSpec& s, const FramePlan::ObjectPlan& op, const double* dx,
+                                const double* dy, const double* dz, int cells, PrimaryRun& out, BatchIsa isa) {
+    if (s.degree > kRunMaxDegree || cells < 1 || cells > kRunCells)
+        throw std::invalid_argument("primary_ray_polynomial_run: degree above 8 or cells outside 1..32");
+    out.n = s.degree;
+    out.cells = cells;
+    // d' and A per cell: object_direction's operations, lane by lane (the
+    // signed permutation's rows as one vectorisable loop; a general linear
+    // part cell by cell with the scalar function). Padding lanes repeat
+    // cell 0 (finite; never read back).
+    if (op.direction_exact) {
+        for (int r = 0; r < 3; ++r) {
+            const double L0 = s.linear[3 * r], L1 = s.linear[3 * r + 1], L2 = s.linear[3 * r + 2];
+            for (int l = 0; l < kRunCells; ++l) {
+                const int c = l < cells ? l : 0;
+                const double v = L0 * dx[c] + L1 * dy[c] + L2 * dz[c];
+                out.dir[r][l] = v;
+                out.mag[r][l] = std::fabs(v);
+                out.dir_rad[r][l] = 0.0;
+            }
+        }
+    } else {
+        for (int l = 0; l < kRunCells; ++l) {
+            const int c = l < cells ? l : 0;
+            const double d[3] = {dx[c], dy[c], dz[c]};
+            double dir[3], mag[3], rad[3];
+            object_direction(s, false, d, dir, mag, rad);
+            for (int r = 0; r < 3; ++r) {
+                out.dir[r][l] = dir[r];
+                out.mag[r][l] = mag[r];
+                out.dir_rad[r][l] = rad[r];
+            }
+        }
+    }
+    const PrimaryRunInput in{s.degree,          op.direction_exact,    op.k_begin.data(),      op.ex.data(),
+                             op.ey.data(),      op.ez.data(),          op.g.data(),            op.g_rad.data(),
+                             op.weight_factor.data(), op.radius_factor.data()};
+    sums_for(isa)(in, out);
+    // Underflow slack, lane by lane as primary_impl (rare: a direction
+    // component below the threshold).
+    const int n = s.degree;
+    for (int l = 0; l < cells; ++l) {
+        double amin = 1.0, amax = 1.0;
+        for (int a = 0; a < 3; ++a) {
+            const double m = out.mag[a][l];
+            if (m > 0.0) {
+                amin = m < amin ? m : amin;
+                amax = m > amax ? m : amax;
+            }
+        }
+        if (!(amin < op.no_underflow_threshold)) continue;
+        bool finite = out.finite[l] != 0;
+        double grow = 1.0;
+        for (int k = 0; k <= n; ++k) {
+            const int terms = op.k_begin[k + 1] - op.k_begin[k];
+            if (terms > 0) {
+                const double slack = mul_up(mul_up(static_cast<double>(k + terms + 6) * kSlackPerOp, op.magnitude[k]), grow);
+                out.r[k][l] = add_up(out.r[k][l], slack);
+                finite = finite && std::isfinite(out.r[k][l]);
+            }
+            grow = mul_up(grow, amax);
+        }
+        out.finite[l] = finite ? 1 : 0;
+    }
+}
+
+void sample_direction_run(const SampleRowInput& in, int first_cell, int cells, double* dx, double* dy, double* dz,
+                          BatchIsa isa) {
+    dirs_for(isa)(in, first_cell, cells, dx, dy, dz);
+}
+
 void primary_ray_polynomial_dd(const SurfaceSpec& s, const FramePlan::ObjectPlan& op, const double d[3],
                                RayCoefficients<DoubleDouble>& out) {
     DoubleDouble dir[3];

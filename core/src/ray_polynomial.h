@@ -11,7 +11,10 @@
 // exact zero). finite == false: something overflowed, nothing is claimed.
 #pragma once
 
+#include <cstdint>
+
 #include "argand/render.h"
+#include "argand/roots_batch.h"
 
 namespace argand::detail {
 
@@ -43,5 +46,64 @@ void primary_ray_polynomial_dd(const SurfaceSpec& s, const FramePlan::ObjectPlan
 /// Any ray (secondary rays), by direct expansion of each term in balls.
 void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const double d[3], RayCoefficients<double>& out,
                             ObjectRay& ray);
+
+/// A run of up to kRunCells primary rays of one object, in structure of
+/// arrays (cells innermost): what primary_ray_polynomial gives for cell l,
+/// bit for bit, at [.][l].
+constexpr int kRunCells = 32;
+constexpr int kRunMaxDegree = 8;
+struct alignas(64) PrimaryRun {
+    int n = 0;      // degree
+    int cells = 0;  // cells 0..cells-1 hold rays (the rest is padding)
+    // RayCoefficients<double>::c and r of each cell (k <= n).
+    alignas(64) double c[kRunMaxDegree + 1][kRunCells];
+    alignas(64) double r[kRunMaxDegree + 1][kRunCells];
+    // The computed object-space direction d' (ObjectRay::direction[a] is
+    // Ball(dir[a][l], dir_rad[a][l]); the origin is the plan's), and the
+    // bound A on |d'| of the rounding argument.
+    alignas(64) double dir[3][kRunCells];
+    alignas(64) double dir_rad[3][kRunCells];
+    alignas(64) double mag[3][kRunCells];
+    alignas(64) std::uint8_t finite[kRunCells];  // RayCoefficients::finite
+};
+
+/// primary_ray_polynomial for the cells 0..cells-1 (cells <= kRunCells) of
+/// a run whose unit world directions are (dx[l], dy[l], dz[l]): out gets,
+/// for every cell, exactly the bits primary_ray_polynomial computes (the
+/// same operations in the same order, lane by lane; see ray_run_kernel.h).
+/// Degree <= kRunMaxDegree. isa: the instruction set of the lane loops
+/// (BatchIsa::Scalar or Auto: the widest this CPU runs).
+void primary_ray_polynomial_run(const SurfaceSpec& s, const FramePlan::ObjectPlan& op, const double* dx,
+                                const double* dy, const double* dz, int cells, PrimaryRun& out,
+                                BatchIsa isa = BatchIsa::Auto);
+
+/// One row of samples of render.cpp's sample_direction: the camera and the
+/// row's sy (computed there).
+struct SampleRowInput {
+    double forward[3], right[3], up[3];
+    double tan_half_fov, aspect, cols, sy;
+};
+/// The unit world directions of the cells first_cell..first_cell+cells-1
+/// of a row (sample_direction's operations, lane by lane).
+void sample_direction_run(const SampleRowInput& in, int first_cell, int cells, double* dx, double* dy, double* dz,
+                          BatchIsa isa = BatchIsa::Auto);
+
+/// The lane-parallel kernels, once per instruction set (ray_run_kernel.h).
+struct PrimaryRunInput {
+    int n;
+    bool exact_direction;
+    const int* k_begin;
+    const int *ex, *ey, *ez;
+    const double *g, *g_rad, *weight_factor, *radius_factor;
+};
+#define ARGAND_RAY_DECLARE(ns)                                                                                   \
+    namespace ns {                                                                                               \
+    void primary_run_sums(const PrimaryRunInput& in, PrimaryRun& out);                                           \
+    void sample_direction_run(const SampleRowInput& in, int first_cell, int cells, double* dx, double* dy, double* dz); \
+    }
+ARGAND_RAY_DECLARE(ray_generic)
+ARGAND_RAY_DECLARE(ray_avx2)
+ARGAND_RAY_DECLARE(ray_avx512)
+#undef ARGAND_RAY_DECLARE
 
 }  // namespace argand::detail

@@ -1,0 +1,6 @@
+// ray_run_avx512.cpp: the lane loops of primary_ray_polynomial_run and
+// sample_direction_run compiled for the avx512 instruction set (flags in
+// core/CMakeLists.txt, as the root kernels'; chosen at run time by
+// ray_polynomial.cpp).
+#define ARGAND_RAY_NS ray_avx512
+#include "ray_run_kernel.h"
