@@ -183,6 +183,8 @@ public:
     static constexpr int kCells = 32;  // samples per batch (two blocks of 16 lanes)
 
     PrimaryBatch(const FramePlan& plan, BatchIsa isa) : plan_(plan), isa_(isa) {
+        static_assert(kCells == detail::kRunCells && kBatchKernelMaxDegree <= detail::kRunMaxDegree,
+                      "PrimaryBatch's runs are primary_ray_polynomial_run's");
         const int n_obj = static_cast<int>(plan.scene.objects.size());
         objects_.resize(static_cast<std::size_t>(n_obj));
         for (int obj = 0; obj < n_obj; ++obj) {
@@ -191,18 +193,7 @@ public:
             o.batched = isa != BatchIsa::Scalar && plan.params.method != Method::Paper && n <= kBatchKernelMaxDegree;
             any_ = any_ || o.batched;
             if (!o.batched) continue;
-            o.poly.resize(kCells);
-            o.ray.resize(kCells);
-            o.row.resize(kCells);
-            o.coeffs.resize(static_cast<std::size_t>(kCells) * (n + 1));
-            o.radius.resize(static_cast<std::size_t>(kCells) * (n + 1));
-            o.res.resize(kCells);
-            o.status.resize(kCells);
             o.seeded = plan.params.seed_from_neighbour && n > 4;
-            if (o.seeded) {
-                o.start_re.resize(static_cast<std::size_t>(kCells) * n);
-                o.start_im.resize(static_cast<std::size_t>(kCells) * n);
-            }
         }
     }
 
@@ -221,66 +212,53 @@ public:
     /// True when some object is solved in batches.
     bool any() const { return any_; }
     bool batched(int obj) const { return objects_[obj].batched; }
+    BatchIsa isa() const { return isa_; }
 
-    /// Solves the primary rays along the unit world directions d[3 c ..]
-    /// of cells 0..cells-1 (cells <= kCells), which are cells first..
-    /// first+cells-1 of the tile's row of samples (begin_tile's count).
-    void solve(const double* d, int cells, int first) {
+    /// Solves the primary rays along the unit world directions (dx[c],
+    /// dy[c], dz[c]) of cells 0..cells-1 (cells <= kCells), which are cells
+    /// first..first+cells-1 of the tile's row of samples (begin_tile's
+    /// count). Per object, the cells' ray polynomials are computed lane by
+    /// lane (primary_ray_polynomial_run: primary_ray_polynomial's bits) in
+    /// structure-of-arrays form and go as they are into find_roots_soa
+    /// (find_roots_rows' answers, row by row; a cell whose coefficients
+    /// overflowed is skipped: nothing claimed, as solve() does; a row whose
+    /// status is not Ok, the ray in the surface, keeps that status).
+    void solve(const double* dx, const double* dy, const double* dz, int cells, int first) {
         const int n_obj = static_cast<int>(objects_.size());
         for (int obj = 0; obj < n_obj; ++obj) {
             Object& o = objects_[obj];
             if (!o.batched) continue;
             const SurfaceSpec& s = plan_.scene.objects[obj];
-            const int nc = s.degree + 1;
-            std::int64_t rows = 0;
-            for (int c = 0; c < cells; ++c) {
-                RayCoefficients<double>& p = o.poly[c];
-                detail::primary_ray_polynomial(s, plan_.objects[obj], d + 3 * c, p, o.ray[c]);
-                if (!p.finite) {  // nothing claimed (as solve() does)
-                    o.row[c] = -1;
-                    continue;
-                }
-                o.row[c] = static_cast<int>(rows);
-                std::copy(p.c, p.c + nc, o.coeffs.data() + rows * nc);
-                std::copy(p.r, p.r + nc, o.radius.data() + rows * nc);
-                if (o.seeded) {
-                    const int n = nc - 1;
+            const int n = s.degree;
+            detail::primary_ray_polynomial_run(s, plan_.objects[obj], dx, dy, dz, cells, o.run, isa_);
+            for (int c = 0; c < cells; ++c) o.skip[c] = o.run.finite[c] == 0;
+            if (o.seeded)
+                for (int c = 0; c < cells; ++c) {
+                    const bool ok = o.above_ok[first + c] != 0;
                     const std::size_t a = static_cast<std::size_t>(first + c) * n;
                     for (int i = 0; i < n; ++i) {
-                        o.start_re[rows * n + i] = o.above_ok[first + c] ? o.above_re[a + i] : kNaN;
-                        o.start_im[rows * n + i] = o.above_ok[first + c] ? o.above_im[a + i] : kNaN;
+                        o.start_re[i][c] = ok ? o.above_re[a + i] : kNaN;
+                        o.start_im[i][c] = ok ? o.above_im[a + i] : kNaN;
                     }
                 }
-                ++rows;
-            }
-            // find_roots_rows stops at a row whose status is not Ok (the ray
-            // in the surface: every coefficient zero): keep that status and
-            // go on after it.
-            std::int64_t start = 0;
-            while (start < rows) {
-                std::int64_t bad = -1;
-                const int n = nc - 1;
-                const Status st = find_roots_rows(o.coeffs.data() + start * nc, rows - start, nc, plan_.params.method,
-                                                  o.res.data() + start, &bad, isa_, nullptr,
-                                                  o.radius.data() + start * nc,
-                                                  o.seeded ? o.start_re.data() + start * n : nullptr,
-                                                  o.seeded ? o.start_im.data() + start * n : nullptr);
-                const std::int64_t end = st == Status::Ok ? rows : start + bad;
-                for (std::int64_t r = start; r < end; ++r) o.status[r] = Status::Ok;
-                if (st == Status::Ok) break;
-                o.status[end] = st;
-                start = end + 1;
-            }
+            SoaRows rows;
+            rows.coeffs = &o.run.c[0][0];
+            rows.radius = &o.run.r[0][0];
+            rows.start_re = o.seeded ? &o.start_re[0][0] : nullptr;
+            rows.start_im = o.seeded ? &o.start_im[0][0] : nullptr;
+            rows.skip = o.skip;
+            rows.rows = cells;
+            rows.stride = kCells;
+            rows.n_coeffs = n + 1;
+            find_roots_soa(rows, plan_.params.method, o.res, o.status, isa_);
             if (!o.seeded) continue;
             // These samples' roots seed the samples below them (as the
             // scalar path's seeds: every root, with multiplicity).
-            const int n = nc - 1;
             for (int c = 0; c < cells; ++c) {
                 const std::size_t a = static_cast<std::size_t>(first + c) * n;
-                const int row = o.row[c];
                 int m = 0;
-                if (row >= 0 && o.status[row] == Status::Ok && o.res[row].n_infinite == 0) {
-                    const RootsResult& res = o.res[row];
+                if (!o.skip[c] && o.status[c] == Status::Ok && o.res[c].n_infinite == 0) {
+                    const RootsResult& res = o.res[c];
                     for (int i = 0; i < res.n_discs && m < n; ++i)
                         for (int k = 0; k < std::max(1, static_cast<int>(res.discs[i].count)) && m < n; ++k) {
                             o.above_re[a + m] = res.discs[i].re;
@@ -293,31 +271,39 @@ public:
         }
     }
 
-    /// Cell c's roots for object obj (batched(obj)), in the tracer's form.
+    /// Cell c's roots for object obj (batched(obj)), in the tracer's form:
+    /// what primary_ray_polynomial and find_roots_rows gave before, read
+    /// from the run's structure of arrays (coefficients and radii up to the
+    /// degree, the discs that exist).
     void fill(int obj, int c, ObjectRoots& r) const {
         const Object& o = objects_[obj];
-        const RayCoefficients<double>& p = o.poly[c];
-        const int nc = plan_.scene.objects[obj].degree + 1;
-        r.poly.n = p.n;
-        r.poly.finite = p.finite;
-        std::copy(p.c, p.c + nc, r.poly.c);
-        std::copy(p.r, p.r + nc, r.poly.r);
-        r.ray = o.ray[c];
+        const detail::PrimaryRun& p = o.run;
+        const int n = p.n;
+        r.poly.n = n;
+        r.poly.finite = p.finite[c] != 0;
+        for (int k = 0; k <= n; ++k) {
+            r.poly.c[k] = p.c[k][c];
+            r.poly.r[k] = p.r[k][c];
+        }
+        const FramePlan::ObjectPlan& op = plan_.objects[obj];
+        for (int a = 0; a < 3; ++a) {
+            r.ray.origin[a] = op.origin[a];
+            r.ray.direction[a] = Ball(p.dir[a][c], p.dir_rad[a][c]);
+        }
         r.seeded = false;
-        const int row = o.row[c];
-        if (row < 0) {
+        if (o.skip[c]) {
             r.status = Status::NonFinite;
             r.res.n_discs = 0;
             r.complete = false;
             return;
         }
-        const RootsResult& res = o.res[row];
+        const RootsResult& res = o.res[c];
         r.res.n_discs = res.n_discs;
         r.res.n_infinite = res.n_infinite;
         r.res.wants_exact = res.wants_exact;
         r.res.escalation = res.escalation;
         std::copy(res.discs, res.discs + res.n_discs, r.res.discs);
-        r.status = o.status[row];
+        r.status = o.status[c];
         r.complete = r.status == Status::Ok;
         for (int i = 0; i < r.res.n_discs && r.complete; ++i) r.complete = r.res.discs[i].verified;
     }
@@ -326,15 +312,13 @@ private:
     struct Object {
         bool batched = false;
         bool seeded = false;   // lanes start from the roots of the sample above
-        std::vector<double> start_re, start_im;  // per batch row, n each
+        detail::PrimaryRun run;  // the cells' ray polynomials (structure of arrays)
+        std::uint8_t skip[kCells] = {};  // cell's coefficients not finite: not solved
+        double start_re[kBatchKernelMaxDegree][kCells], start_im[kBatchKernelMaxDegree][kCells];  // seeds, SoA
         std::vector<double> above_re, above_im;  // per cell of the tile's row of samples, n each
         std::vector<char> above_ok;
-        std::vector<RayCoefficients<double>> poly;
-        std::vector<ObjectRay> ray;
-        std::vector<int> row;  // cell -> row of the batch (-1: not finite, not solved)
-        std::vector<double> coeffs, radius;
-        std::vector<RootsResult> res;
-        std::vector<Status> status;
+        RootsResult res[kCells];
+        Status status[kCells];
     };
     const FramePlan& plan_;
     BatchIsa isa_;
@@ -1025,7 +1009,18 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
     batch.begin_tile(side * w);
     std::vector<Seeds> seeds(plan.scene.objects.size());
     std::vector<PixelAccumulator> row(static_cast<std::size_t>(w));
-    double dirs[3 * PrimaryBatch::kCells];
+    alignas(64) double dx[PrimaryBatch::kCells], dy[PrimaryBatch::kCells], dz[PrimaryBatch::kCells];
+    detail::SampleRowInput row_in;
+    for (int a = 0; a < 3; ++a) {
+        row_in.forward[a] = plan.forward[a];
+        row_in.right[a] = plan.right[a];
+        row_in.up[a] = plan.up[a];
+    }
+    // sample_direction's quantities, computed as there.
+    row_in.tan_half_fov = plan.tan_half_fov;
+    row_in.aspect = static_cast<double>(fp.width) / fp.height;
+    row_in.cols = static_cast<double>(side) * fp.width;
+    const double rows_total = static_cast<double>(side) * fp.height;
     // The samples are traced in the order of the (side W) x (side H) frame's
     // pixels: row of samples by row of samples, left to right, the
     // neighbour seeds flowing along each row of samples. With a batched
@@ -1039,8 +1034,9 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
             for (int b0 = c0; b0 < c1; b0 += PrimaryBatch::kCells) {
                 const int cells = std::min(PrimaryBatch::kCells, c1 - b0);
                 if (batch.any()) {
-                    for (int c = 0; c < cells; ++c) sample_direction(plan, b0 + c, sy, side, dirs + 3 * c);
-                    batch.solve(dirs, cells, b0 - c0);
+                    row_in.sy = (1.0 - 2.0 * (sy + 0.5) / rows_total) * plan.tan_half_fov;
+                    detail::sample_direction_run(row_in, b0, cells, dx, dy, dz, batch.isa());
+                    batch.solve(dx, dy, dz, cells, b0 - c0);
                 }
                 for (int c = 0; c < cells; ++c) {
                     const BatchedCell pre{&batch, c};
@@ -1088,14 +1084,14 @@ PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_star
     if (batch.any())
         for (int sy = side * column_start; sy < sy_cell; ++sy) {
             sample_direction(plan, sx_cell, sy, side, dir);
-            batch.solve(dir, 1, 0);
+            batch.solve(dir, dir + 1, dir + 2, 1, 0);
         }
     for (int c = side * row_start; c <= sx_cell; ++c) {
         const BatchedCell pre{&batch, 0};
         const bool batched = batch.any() && c == sx_cell;
         if (batched) {
             sample_direction(plan, c, sy_cell, side, dir);
-            batch.solve(dir, 1, 0);
+            batch.solve(dir, dir + 1, dir + 2, 1, 0);
         }
         trace_sample(plan, tracer, c, sy_cell, side, seeds.data(), c == sx_cell ? &e : nullptr,
                      batched ? &pre : nullptr);
