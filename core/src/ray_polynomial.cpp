@@ -400,22 +400,11 @@ void primary_ray_polynomial_run(const SurfaceSpec& s, const FramePlan::ObjectPla
         throw std::invalid_argument("primary_ray_polynomial_run: degree above 8 or cells outside 1..32");
     out.n = s.degree;
     out.cells = cells;
-    // d' and A per cell: object_direction's operations, lane by lane (the
-    // signed permutation's rows as one vectorisable loop; a general linear
+    // d' and A per cell: object_direction's operations, lane by lane (a
+    // signed permutation's rows in the kernel's lane loops; a general linear
     // part cell by cell with the scalar function). Padding lanes repeat
     // cell 0 (finite; never read back).
-    if (op.direction_exact) {
-        for (int r = 0; r < 3; ++r) {
-            const double L0 = s.linear[3 * r], L1 = s.linear[3 * r + 1], L2 = s.linear[3 * r + 2];
-            for (int l = 0; l < kRunCells; ++l) {
-                const int c = l < cells ? l : 0;
-                const double v = L0 * dx[c] + L1 * dy[c] + L2 * dz[c];
-                out.dir[r][l] = v;
-                out.mag[r][l] = std::fabs(v);
-                out.dir_rad[r][l] = 0.0;
-            }
-        }
-    } else {
+    if (!op.direction_exact) {
         for (int l = 0; l < kRunCells; ++l) {
             const int c = l < cells ? l : 0;
             const double d[3] = {dx[c], dy[c], dz[c]};
@@ -428,23 +417,29 @@ void primary_ray_polynomial_run(const SurfaceSpec& s, const FramePlan::ObjectPla
             }
         }
     }
-    const PrimaryRunInput in{s.degree,          op.direction_exact,    op.k_begin.data(),      op.ex.data(),
-                             op.ey.data(),      op.ez.data(),          op.g.data(),            op.g_rad.data(),
-                             op.weight_factor.data(), op.radius_factor.data()};
+    PrimaryRunInput in;
+    in.n = s.degree;
+    in.exact_direction = op.direction_exact;
+    in.linear = s.linear;
+    in.dx = dx;
+    in.dy = dy;
+    in.dz = dz;
+    in.no_underflow_threshold = op.no_underflow_threshold;
+    in.k_begin = op.k_begin.data();
+    in.ex = op.ex.data();
+    in.ey = op.ey.data();
+    in.ez = op.ez.data();
+    in.g = op.g.data();
+    in.g_rad = op.g_rad.data();
+    in.weight_factor = op.weight_factor.data();
+    in.radius_factor = op.radius_factor.data();
     sums_for(isa)(in, out);
-    // Underflow slack, lane by lane as primary_impl (rare: a direction
-    // component below the threshold).
+    // Underflow slack, lane by lane as primary_impl, for the lanes whose
+    // smallest nonzero A is below the threshold (rare).
     const int n = s.degree;
     for (int l = 0; l < cells; ++l) {
-        double amin = 1.0, amax = 1.0;
-        for (int a = 0; a < 3; ++a) {
-            const double m = out.mag[a][l];
-            if (m > 0.0) {
-                amin = m < amin ? m : amin;
-                amax = m > amax ? m : amax;
-            }
-        }
-        if (!(amin < op.no_underflow_threshold)) continue;
+        if (out.slack[l] == 0) continue;
+        const double amax = out.amax[l];
         bool finite = out.finite[l] != 0;
         double grow = 1.0;
         for (int k = 0; k <= n; ++k) {

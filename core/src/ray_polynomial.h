@@ -65,6 +65,10 @@ struct alignas(64) PrimaryRun {
     alignas(64) double dir_rad[3][kRunCells];
     alignas(64) double mag[3][kRunCells];
     alignas(64) std::uint8_t finite[kRunCells];  // RayCoefficients::finite
+    // (Internal: the lanes that take primary_impl's underflow slack, and
+    // their largest A, 1 at least.)
+    alignas(64) std::uint8_t slack[kRunCells];
+    alignas(64) double amax[kRunCells];
 };
 
 /// primary_ray_polynomial for the cells 0..cells-1 (cells <= kRunCells) of
@@ -91,7 +95,10 @@ void sample_direction_run(const SampleRowInput& in, int first_cell, int cells, d
 /// The lane-parallel kernels, once per instruction set (ray_run_kernel.h).
 struct PrimaryRunInput {
     int n;
-    bool exact_direction;
+    bool exact_direction;  // (then the kernel computes dir, mag and dir_rad from dx, dy, dz)
+    const double* linear;
+    const double *dx, *dy, *dz;
+    double no_underflow_threshold;
     const int* k_begin;
     const int *ex, *ey, *ez;
     const double *g, *g_rad, *weight_factor, *radius_factor;

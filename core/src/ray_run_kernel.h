@@ -95,6 +95,45 @@ void primary_run_sums(const PrimaryRunInput& in, PrimaryRun& out) {
     alignas(64) double ax[kRunMaxDegree + 1][kRunCells], ay[kRunMaxDegree + 1][kRunCells],
         az[kRunMaxDegree + 1][kRunCells];
     const int lanes = (out.cells + W - 1) / W * W;
+    if (exact) {
+        // d' = linear d for a signed permutation, object_direction's
+        // operations: (L0 d0 + L1 d1) + L2 d2, exact; A = |d'|. Padding
+        // lanes repeat cell 0 (finite; never read back).
+        alignas(64) double wx[kRunCells], wy[kRunCells], wz[kRunCells];
+        for (int l = 0; l < out.cells; ++l) {
+            wx[l] = in.dx[l];
+            wy[l] = in.dy[l];
+            wz[l] = in.dz[l];
+        }
+        for (int l = out.cells; l < kRunCells; ++l) {
+            wx[l] = in.dx[0];
+            wy[l] = in.dy[0];
+            wz[l] = in.dz[0];
+        }
+        for (int r = 0; r < 3; ++r) {
+            const double L0 = in.linear[3 * r], L1 = in.linear[3 * r + 1], L2 = in.linear[3 * r + 2];
+            ARGAND_RAY_LANES
+            for (int l = 0; l < kRunCells; ++l) {
+                const double v = L0 * wx[l] + L1 * wy[l] + L2 * wz[l];
+                out.dir[r][l] = v;
+                out.mag[r][l] = std::fabs(v);
+                out.dir_rad[r][l] = 0.0;
+            }
+        }
+    }
+    // The underflow test of primary_impl per lane: amin, amax over the
+    // nonzero A_a (1 when none is smaller / larger).
+    ARGAND_RAY_LANES
+    for (int l = 0; l < kRunCells; ++l) {
+        double amin = 1.0, amax = 1.0;
+        for (int a = 0; a < 3; ++a) {
+            const double m = out.mag[a][l];
+            amin = (m > 0.0) & (m < amin) ? m : amin;
+            amax = (m > 0.0) & (m > amax) ? m : amax;
+        }
+        out.slack[l] = amin < in.no_underflow_threshold ? 1 : 0;
+        out.amax[l] = amax;
+    }
     ARGAND_RAY_LANES
     for (int l = 0; l < kRunCells; ++l) {
         px[0][l] = py[0][l] = pz[0][l] = 1.0;

@@ -87,17 +87,30 @@ void write_lane(const BatchBlock& b, int l, bool verify, RootsResult& res) {
 /// The per-call part of a block: degree, flags, zero radii, the slack and
 /// the circle starts.
 void init_block(BatchBlock& block, int n, bool has_radius, bool has_start) {
+    // The circle starts of every degree, computed once.
+    struct Circles {
+        double re[kBatchMaxDegree + 1][kBatchMaxDegree], im[kBatchMaxDegree + 1][kBatchMaxDegree];
+        Circles() {
+            for (int d = 1; d <= kBatchMaxDegree; ++d)
+                for (int i = 0; i < d; ++i) {
+                    const double angle = 2.0 * 3.14159265358979323846 * i / d + 0.4;
+                    re[d][i] = std::cos(angle);
+                    im[d][i] = std::sin(angle);
+                }
+        }
+    };
+    static const Circles circles;
     block.n = n;
     block.has_radius = has_radius ? 1 : 0;
     block.has_start = has_start && n >= 5 ? 1 : 0;
-    for (int k = 0; k <= n; ++k)
-        for (int l = 0; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
+    if (!has_radius)  // (with radii, every lane's are written before each block)
+        for (int k = 0; k <= n; ++k)
+            for (int l = 0; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
     // smith_radii_lanes_reference's slack: n 2^max(8n - 1070, -1014).
     block.slack = n * std::ldexp(1.0, std::max(8 * n - 1070, -1014));
     for (int i = 0; i < n; ++i) {
-        const double angle = 2.0 * 3.14159265358979323846 * i / n + 0.4;
-        block.circle_re[i] = std::cos(angle);
-        block.circle_im[i] = std::sin(angle);
+        block.circle_re[i] = circles.re[n][i];
+        block.circle_im[i] = circles.im[n][i];
     }
 }
 
@@ -260,27 +273,43 @@ void find_roots_soa(const SoaRows& in, Method method, RootsResult* out, Status* 
     }
     BatchBlock block;
     init_block(block, n, has_radius, in.start_re != nullptr && in.start_im != nullptr);
-    constexpr double kMax = std::numeric_limits<double>::max();
     for (std::int64_t j0 = 0; j0 < in.rows; j0 += kBatchLanes) {
         const int m = static_cast<int>(std::min<std::int64_t>(kBatchLanes, in.rows - j0));
         // Admission, lane by lane (find_roots_rows' admit): not skipped,
         // c_0 and c_n nonzero, every coefficient finite, every radius
-        // finite and >= 0 (NaN fails every comparison).
-        bool admitted[kBatchLanes];
-        for (int l = 0; l < kBatchLanes; ++l) admitted[l] = l < m && (in.skip == nullptr || in.skip[j0 + l] == 0);
-        for (int l = 0; l < m; ++l)
-            admitted[l] = admitted[l] && in.coeffs[j0 + l] != 0.0 && in.coeffs[n * stride + j0 + l] != 0.0;
+        // finite and >= 0 (NaN fails every comparison). The rows go into
+        // the block as they are (lanes past the last row hold 1.0: finite,
+        // never admitted); the tests are loops over all 16 lanes.
         for (int k = 0; k <= n; ++k) {
-            const double* row = in.coeffs + k * stride + j0;
-            std::memcpy(block.c[k], row, sizeof(double) * m);
-            for (int l = 0; l < m; ++l) admitted[l] = admitted[l] & (std::fabs(row[l]) <= kMax);
+            std::memcpy(block.c[k], in.coeffs + k * stride + j0, sizeof(double) * m);
+            for (int l = m; l < kBatchLanes; ++l) block.c[k][l] = 1.0;
         }
         if (has_radius)
             for (int k = 0; k <= n; ++k) {
-                const double* row = in.radius + k * stride + j0;
-                std::memcpy(block.rad[k], row, sizeof(double) * m);
-                for (int l = 0; l < m; ++l) admitted[l] = admitted[l] & (row[l] >= 0.0) & (row[l] <= kMax);
+                std::memcpy(block.rad[k], in.radius + k * stride + j0, sizeof(double) * m);
+                for (int l = m; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
             }
+        // z[l] = sum_k 0 c_k (+ sum_k 0 rad_k) is 0 iff every one is finite
+        // (0 inf and 0 NaN are NaN, and NaN stays); low[l] = min_k rad_k
+        // (a NaN radius already makes z NaN).
+        double z[kBatchLanes], low[kBatchLanes];
+        for (int l = 0; l < kBatchLanes; ++l) {
+            z[l] = 0.0;
+            low[l] = 0.0;
+        }
+        for (int k = 0; k <= n; ++k)
+            for (int l = 0; l < kBatchLanes; ++l) z[l] += 0.0 * block.c[k][l];
+        if (has_radius)
+            for (int k = 0; k <= n; ++k)
+                for (int l = 0; l < kBatchLanes; ++l) {
+                    const double v = block.rad[k][l];
+                    z[l] += 0.0 * v;
+                    low[l] = v < low[l] ? v : low[l];
+                }
+        bool admitted[kBatchLanes];
+        for (int l = 0; l < kBatchLanes; ++l)
+            admitted[l] = l < m && (in.skip == nullptr || in.skip[j0 + l] == 0) && z[l] == 0.0 && low[l] >= 0.0 &&
+                          block.c[0][l] != 0.0 && block.c[n][l] != 0.0;
         int first = -1, used = 0;
         for (int l = 0; l < kBatchLanes; ++l) {
             if (admitted[l]) {
