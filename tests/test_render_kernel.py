@@ -168,8 +168,8 @@ def test_lane_parallel_ray_polynomials_are_the_scalar_ones(tmp_path):
     """The batched path's ray polynomials come from
     primary_ray_polynomial_run (runs of 32 cells, lane by lane), the scalar
     path's from primary_ray_polynomial: explain_pixel reports each, and they
-    agree to the bit, for an object with a general (rotated, scaled) linear
-    part, a signed permutation and the identity; and the pixels render_tile
+    agree to the bit, for objects with a general (rotated, scaled) linear
+    part, another rotation and the identity; and the pixels render_tile
     gave in runs of 32 are those explain_pixel replays in runs of one."""
     path = tmp_path / "rotated.yaml"
     path.write_text(
