@@ -199,13 +199,13 @@ public:
 
     /// Starts a tile whose rows of samples are `cells` wide: no seeds yet.
     void begin_tile(int cells) {
+        row_cells_ = cells;
         for (std::size_t obj = 0; obj < objects_.size(); ++obj) {
             Object& o = objects_[obj];
             if (!o.seeded) continue;
             const int n = plan_.scene.objects[obj].degree;
-            o.above_re.resize(static_cast<std::size_t>(cells) * n);
-            o.above_im.resize(static_cast<std::size_t>(cells) * n);
-            o.above_ok.assign(static_cast<std::size_t>(cells), 0);
+            o.above_re.assign(static_cast<std::size_t>(cells) * n, kNaN);
+            o.above_im.assign(static_cast<std::size_t>(cells) * n, kNaN);
         }
     }
 
@@ -232,20 +232,16 @@ public:
             const int n = s.degree;
             detail::primary_ray_polynomial_run(s, plan_.objects[obj], dx, dy, dz, cells, o.run, isa_);
             for (int c = 0; c < cells; ++c) o.skip[c] = o.run.finite[c] == 0;
-            if (o.seeded)
-                for (int c = 0; c < cells; ++c) {
-                    const bool ok = o.above_ok[first + c] != 0;
-                    const std::size_t a = static_cast<std::size_t>(first + c) * n;
-                    for (int i = 0; i < n; ++i) {
-                        o.start_re[i][c] = ok ? o.above_re[a + i] : kNaN;
-                        o.start_im[i][c] = ok ? o.above_im[a + i] : kNaN;
-                    }
-                }
+            // The seeds are the above arrays themselves (structure of
+            // arrays along the tile's row of samples; a NaN in root 0 marks
+            // a cell without seeds, which find_roots_soa starts on the
+            // circle as before).
             SoaRows rows;
             rows.coeffs = &o.run.c[0][0];
             rows.radius = &o.run.r[0][0];
-            rows.start_re = o.seeded ? &o.start_re[0][0] : nullptr;
-            rows.start_im = o.seeded ? &o.start_im[0][0] : nullptr;
+            rows.start_re = o.seeded ? o.above_re.data() + first : nullptr;
+            rows.start_im = o.seeded ? o.above_im.data() + first : nullptr;
+            rows.start_stride = row_cells_;
             rows.skip = o.skip;
             rows.rows = cells;
             rows.stride = kCells;
@@ -253,20 +249,22 @@ public:
             find_roots_soa(rows, plan_.params.method, o.res, o.status, isa_);
             if (!o.seeded) continue;
             // These samples' roots seed the samples below them (as the
-            // scalar path's seeds: every root, with multiplicity).
+            // scalar path's seeds: every root, with multiplicity; NaN in
+            // root 0 where there are not n).
+            const std::size_t w = static_cast<std::size_t>(row_cells_);
             for (int c = 0; c < cells; ++c) {
-                const std::size_t a = static_cast<std::size_t>(first + c) * n;
+                const std::size_t a = static_cast<std::size_t>(first + c);
                 int m = 0;
                 if (!o.skip[c] && o.status[c] == Status::Ok && o.res[c].n_infinite == 0) {
                     const RootsResult& res = o.res[c];
                     for (int i = 0; i < res.n_discs && m < n; ++i)
                         for (int k = 0; k < std::max(1, static_cast<int>(res.discs[i].count)) && m < n; ++k) {
-                            o.above_re[a + m] = res.discs[i].re;
-                            o.above_im[a + m] = res.discs[i].im;
+                            o.above_re[m * w + a] = res.discs[i].re;
+                            o.above_im[m * w + a] = res.discs[i].im;
                             ++m;
                         }
                 }
-                o.above_ok[first + c] = m == n;
+                if (m != n) o.above_re[a] = kNaN;
             }
         }
     }
@@ -314,15 +312,16 @@ private:
         bool seeded = false;   // lanes start from the roots of the sample above
         detail::PrimaryRun run;  // the cells' ray polynomials (structure of arrays)
         std::uint8_t skip[kCells] = {};  // cell's coefficients not finite: not solved
-        double start_re[kBatchKernelMaxDegree][kCells], start_im[kBatchKernelMaxDegree][kCells];  // seeds, SoA
-        std::vector<double> above_re, above_im;  // per cell of the tile's row of samples, n each
-        std::vector<char> above_ok;
+        // Seeds: root i of the sample above cell c of the tile's row of
+        // samples at [i * row_cells_ + c] (NaN at i = 0: none).
+        std::vector<double> above_re, above_im;
         RootsResult res[kCells];
         Status status[kCells];
     };
     const FramePlan& plan_;
     BatchIsa isa_;
     bool any_ = false;
+    int row_cells_ = 0;
     std::vector<Object> objects_;
 };
 

@@ -252,6 +252,7 @@ void find_roots_soa(const SoaRows& in, Method method, RootsResult* out, Status* 
     BatchCounters& cnt = counters ? *counters : local;
     const int nc = in.n_coeffs, n = nc - 1;
     const std::int64_t stride = in.stride;
+    const std::int64_t start_stride = in.start_stride != 0 ? in.start_stride : in.stride;
     const Kernel kernel = select_kernel(isa, method, n);
     const bool verify = method != Method::Unverified;
     const bool has_radius = in.radius != nullptr;
@@ -336,7 +337,7 @@ void find_roots_soa(const SoaRows& in, Method method, RootsResult* out, Status* 
                 if (!admitted[l]) continue;
                 bool finite = true;
                 for (int i = 0; i < n; ++i) {
-                    const double re = in.start_re[i * stride + j0 + l], im = in.start_im[i * stride + j0 + l];
+                    const double re = in.start_re[i * start_stride + j0 + l], im = in.start_im[i * start_stride + j0 + l];
                     finite = finite && std::isfinite(re) && std::isfinite(im);
                     block.start_re[i][l] = finite ? re : 0.0;
                     block.start_im[i][l] = finite ? im : 0.0;

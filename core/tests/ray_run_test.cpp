@@ -239,15 +239,17 @@ static void test_soa_driver() {
             }
         }
         std::vector<double> soa(static_cast<std::size_t>(stride) * nc, 7.0), soa_rad(soa.size(), 7.0);
-        std::vector<double> soa_sre(static_cast<std::size_t>(stride) * n, 7.0), soa_sim(soa_sre.size(), 7.0);
+        // (the starts with their own stride on every third trial)
+        const std::int64_t sstride = trial % 3 == 1 ? rows + 5 : stride;
+        std::vector<double> soa_sre(static_cast<std::size_t>(sstride) * n, 7.0), soa_sim(soa_sre.size(), 7.0);
         for (int j = 0; j < rows; ++j) {
             for (int k = 0; k < nc; ++k) {
                 soa[k * stride + j] = aos[j * nc + k];
                 soa_rad[k * stride + j] = aos_rad[j * nc + k];
             }
             for (int i = 0; i < n; ++i) {
-                soa_sre[i * stride + j] = aos_sre[j * n + i];
-                soa_sim[i * stride + j] = aos_sim[j * n + i];
+                soa_sre[i * sstride + j] = aos_sre[j * n + i];
+                soa_sim[i * sstride + j] = aos_sim[j * n + i];
             }
         }
         for (BatchIsa isa : {BatchIsa::Scalar, BatchIsa::Generic, BatchIsa::Avx2, BatchIsa::Avx512}) {
@@ -285,6 +287,7 @@ static void test_soa_driver() {
             in.skip = skip.data();
             in.rows = rows;
             in.stride = stride;
+            in.start_stride = sstride == stride && trial % 2 ? 0 : sstride;
             in.n_coeffs = nc;
             std::vector<RootsResult> got(rows);
             std::vector<Status> got_status(rows, Status::TooLarge);

@@ -71,9 +71,10 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
 /// Rows in structure-of-arrays form for find_roots_soa: coefficient k of row
 /// j at coeffs[k * stride + j] (k = 0..n_coeffs-1, j = 0..rows-1), its
 /// radius at radius[k * stride + j] (optional, as find_roots_rows' radius),
-/// starting approximation i at start_re/start_im[i * stride + j] (optional,
-/// both or neither, as find_roots_rows'), and skip[j] != 0 (optional) for a
-/// row to leave alone (out[j], status[j] untouched).
+/// starting approximation i at start_re/start_im[i * start_stride + j]
+/// (optional, both or neither, as find_roots_rows'; start_stride 0 means
+/// stride), and skip[j] != 0 (optional) for a row to leave alone (out[j],
+/// status[j] untouched).
 struct SoaRows {
     const double* coeffs = nullptr;
     const double* radius = nullptr;
@@ -82,6 +83,7 @@ struct SoaRows {
     const std::uint8_t* skip = nullptr;
     std::int64_t rows = 0;
     std::int64_t stride = 0;
+    std::int64_t start_stride = 0;
     int n_coeffs = 0;
 };
 
