@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "argand/arith.h"
 #include "argand/render.h"
 #include "ray_polynomial.h"
 
@@ -56,6 +57,169 @@ Verdict inside_clip(const ObjectRay& ray, double mod_lo, double mod_hi, double r
 /// all[0..n_all), all verified) holds exactly the conjugate of the root in
 /// disc b: it is the only disc that may meet b's mirror image.
 bool is_mirror_twin(const RootDisc& b, const RootDisc& j, const RootDisc* all, int n_all, bool all_verified);
+
+// ---------------------------------------------------------------------------
+// The fast decisions (Tracer::decide's fast path). Each returns EXACTLY what
+// its reference above returns (band_fast == band_membership, modulus_fast ==
+// modulus_bounds, clip_fast == inside_clip), for every input: either the
+// reference's own floating-point operations in the same order (so the same
+// roundings under -ffp-contract=off), or a cheaper sufficient test proven to
+// imply the reference's outcome, falling back to the reference when it does
+// not decide. core/tests/render_test.cpp compares them on random and edge
+// discs; ARGAND_DECIDE=full renders with the reference path only.
+// ---------------------------------------------------------------------------
+
+/// Bounds of s(z) = Im(z e^{-i alpha}) = y cos(alpha) - x sin(alpha) over
+/// the disc D((x, y), r), for the edge alpha enclosed by e (band_membership's
+/// edge test; the error bound's argument is in pixel_decision.cpp).
+__attribute__((always_inline)) inline void edge_range(const FramePlan::BandEdge& e, double x, double y, double r,
+                                                      double& lo, double& hi) {
+    constexpr double kU = kUnitRoundoff;
+    const double s = y * e.cos_mid - x * e.sin_mid;
+    const double mag = std::fabs(y) * std::fabs(e.cos_mid) + std::fabs(x) * std::fabs(e.sin_mid);
+    const double err = next_up((mag * (4.0 * kU) + e.err * (std::fabs(x) + std::fabs(y))) * (1.0 + 8.0 * kU) +
+                               8.0 * kDenormMin);
+    const double reach = add_up(err, r);  // >= err + r
+    lo = next_down(s - reach);
+    hi = next_up(s + reach);
+}
+
+/// A band edge with the factor of edge_range_fast's quick test.
+struct FastEdge {
+    FramePlan::BandEdge e;
+    double k = 0.0;  // >= (4u max(|cos_mid|, |sin_mid|) + err) (1 + 61u)
+};
+FastEdge fast_edge(const FramePlan::BandEdge& e);
+
+/// edge_range for the sign tests band_membership makes (lo >= 0, lo > 0,
+/// hi <= 0, hi < 0): when the disc is far from the edge, lo = hi = s (the
+/// same computed s), whose four signs are those of edge_range's lo and hi;
+/// otherwise edge_range itself.
+///
+/// Proof. Let a = |x| + |y|, M = max(|C|, |S|), E = e.err, u = 2^-53, eta =
+/// 2^-1074. Every round-to-nearest operation on nonnegative operands returns
+/// within a factor (1 +- u) of the exact result, or within eta / 2 of it
+/// below the normal range (where sums are exact); next_up(v) <= v (1 + 2u) +
+/// eta. Following edge_range's operations: mag <= a M (1 + u)^2 + eta, its
+/// error term err <= a (4uM + E) (1 + 15u) + 12 eta, and reach = next_up(err
+/// + r) <= a (4uM + E) (1 + 19u) + r (1 + 4u) + 14 eta. Here T = fl(fl(fl(fl(a)
+/// k) + r) (1 + 16u)) + 64 eta (rounded) is at least (a k + r) (1 + 16u)
+/// (1 - u)^6 + 60 eta >= a (4uM + E) (1 + 19u) + r (1 + 4u) + 60 eta >= reach
+/// + 2 eta. If s > T, then s - reach >= 2 eta exactly, so fl(s - reach) >= 2
+/// eta (rounding is monotone, 2 eta is a double) and lo = next_down(..) >= eta
+/// > 0, and hi >= lo: both positive, as s. If -s > T, symmetrically hi <=
+/// -eta < 0 and lo <= hi: both negative, as s. T = inf (overflow) or NaN
+/// never passes the strict comparisons; s = +-inf with T finite gives the
+/// reference's lo, hi = +-DBL_MAX or +-inf, of the same signs.
+__attribute__((always_inline)) inline void edge_range_fast(const FastEdge& f, double x, double y, double r,
+                                                           double& lo, double& hi) {
+    constexpr double kU = kUnitRoundoff;
+    const double s = y * f.e.cos_mid - x * f.e.sin_mid;
+    const double t = ((std::fabs(x) + std::fabs(y)) * f.k + r) * (1.0 + 16.0 * kU) + 64.0 * kDenormMin;
+    if (s > t || -s > t) {
+        lo = hi = s;
+        return;
+    }
+    edge_range(f.e, x, y, r, lo, hi);
+}
+
+/// The frame's band for one kind of object (band_membership's constants).
+struct BandPlan {
+    bool axis = true;        // the band is the positive real axis
+    bool sigma_zero = true;  // sigma == 0
+    bool lower = false;      // sigma > 0: the lower edge is tested
+    FastEdge lower_edge, upper_edge;
+};
+BandPlan band_plan(const FramePlan& plan, bool complex_space);
+
+/// band_membership(d, real, plan, complex_space) for bp = band_plan(plan,
+/// complex_space): the same branches, with edge_range_fast.
+__attribute__((always_inline)) inline Verdict band_fast(const RootDisc& d, bool real, const BandPlan& bp) {
+    const double r = d.radius;
+    const bool misses_zero = std::fabs(d.re) > r || std::fabs(d.im) > r || modulus_down(d) > 0.0;
+    if (bp.axis) {
+        if (real && misses_zero) return d.re > 0.0 ? Verdict::Yes : Verdict::No;
+        if (add_down(std::fabs(d.im), -r) > 0.0 || add_up(d.re, r) < 0.0) return Verdict::No;
+        return Verdict::Unknown;
+    }
+    if (!misses_zero) return Verdict::Unknown;
+    if (real) {
+        if (d.re > 0.0) return bp.sigma_zero ? Verdict::Yes : Verdict::No;
+        return Verdict::No;
+    }
+    const double x = d.re, y = std::fabs(d.im);
+    bool above_lower = true, below_lower = false;
+    if (bp.lower) {
+        double lo, hi;
+        edge_range_fast(bp.lower_edge, x, y, r, lo, hi);
+        above_lower = lo >= 0.0;
+        below_lower = hi < 0.0;
+    }
+    double lo, hi;
+    edge_range_fast(bp.upper_edge, x, y, r, lo, hi);
+    const bool below_upper = hi <= 0.0, above_upper = lo > 0.0;
+    if (above_lower && below_upper) return Verdict::Yes;
+    if (below_lower || above_upper) return Verdict::No;
+    return Verdict::Unknown;
+}
+
+/// band_membership(all[self], proven_real(all, n_all, self, true), ..) for a
+/// polynomial whose discs are all verified: realness (the mirror test) is
+/// decided only when the verdict depends on it.
+__attribute__((always_inline)) inline Verdict band_fast_verified(const RootDisc* all, int n_all, int self,
+                                                                 const BandPlan& bp) {
+    const RootDisc& d = all[self];
+    // proven_real: false unless count 1; true if d.real; else it needs
+    // |im| <= radius and the mirror test.
+    if (d.count != 1) return band_fast(d, false, bp);
+    if (d.real) return band_fast(d, true, bp);
+    const Verdict v0 = band_fast(d, false, bp);
+    if (!(std::fabs(d.im) <= d.radius)) return v0;
+    const Verdict v1 = band_fast(d, true, bp);
+    if (v1 == v0) return v0;
+    return real_by_mirror(all, n_all, self) ? v1 : v0;
+}
+
+/// modulus_bounds(d, lo, hi), its operations inline.
+__attribute__((always_inline)) inline void modulus_fast(const RootDisc& d, double& lo, double& hi) {
+    constexpr double kU = kUnitRoundoff;
+    const double m = std::sqrt(d.re * d.re + d.im * d.im);
+    if (!(m >= 0x1p-500 && m <= 0x1p500)) {
+        modulus_bounds(d, lo, hi);
+        return;
+    }
+    const double l = next_down(next_down(m * (1.0 - 4.0 * kU)) - d.radius);
+    lo = l > 0.0 ? l : 0.0;
+    hi = next_up(next_up(m * (1.0 + 4.0 * kU)) + d.radius);
+}
+
+/// inside_clip's exact test alone (inside_clip when its first test is
+/// Unknown).
+Verdict inside_clip_exact(const ObjectRay& ray, double mod_lo, double mod_hi, double radius);
+
+/// inside_clip(ray, mod_lo, mod_hi, radius): its first test's operations
+/// inline (same order, same roundings), then the exact test.
+__attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, double mod_lo, double mod_hi,
+                                                        double radius) {
+    constexpr double kU = kUnitRoundoff;
+    const double m = 0.5 * (mod_lo + mod_hi);
+    const double w = (mod_hi - m > m - mod_lo ? mod_hi - m : m - mod_lo) * (1.0 + 4.0 * kU);
+    double q = 0.0, spread = 0.0, size = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        const double om = ray.origin[a].mid, dm = ray.direction[a].mid;
+        const double p = om + m * dm;
+        q += p * p;
+        const double dabs = std::fabs(dm) + ray.direction[a].rad;
+        spread += w * dabs + ray.origin[a].rad + mod_hi * ray.direction[a].rad;
+        size += std::fabs(om) + mod_hi * dabs;
+    }
+    const double e = next_up((spread + 8.0 * kU * size) * (1.0 + 16.0 * kU) + 64.0 * kDenormMin);
+    const double norm = std::sqrt(q);
+    if (!(e < INFINITY) || !(norm < INFINITY)) return Verdict::Unknown;
+    if (next_up(norm * (1.0 + 4.0 * kU) + e) <= radius * (1.0 - 2.0 * kU)) return Verdict::Yes;
+    if (next_down(norm * (1.0 - 4.0 * kU) - e) > radius * (1.0 + 2.0 * kU)) return Verdict::No;
+    return inside_clip_exact(ray, mod_lo, mod_hi, radius);
+}
 
 /// Shrinks a verified count-1 disc d of p with the double-double
 /// coefficients p (|p_k - c_k| <= r_k): Newton steps in double-double, then

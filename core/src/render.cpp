@@ -354,6 +354,9 @@ public:
         const int levels = plan.params.max_depth + 2;
         scratch_.resize(static_cast<std::size_t>(levels) * plan.scene.objects.size());
         infos_.resize(static_cast<std::size_t>(levels));
+        const char* mode = std::getenv("ARGAND_DECIDE");
+        full_only_ = mode != nullptr && std::string(mode) == "full";
+        for (const SurfaceSpec& s : plan.scene.objects) bands_.push_back(detail::band_plan(plan, s.complex_space));
     }
 
     std::int64_t root_calls = 0;
@@ -623,8 +626,99 @@ private:
         return changed;
     }
 
-    /// The pixel's decision from the current discs (see PixelStatus).
+    /// The pixel's decision from the current discs (see PixelStatus): the
+    /// fast path when it decides, else the full one.
     HitInfo decide(ObjectRoots* roots, std::vector<DiscInfo>& infos) {
+        HitInfo h;
+        if (!recording_ && !full_only_ && decide_fast(roots, h)) return h;
+        return decide_full(roots, infos);
+    }
+
+    /// The fast path of decide, for the common pixel: every object's roots
+    /// complete (status Ok, every disc verified) and the result certified.
+    /// It makes decide_full's decisions with the same predicates (the
+    /// *_fast forms of pixel_decision.h, which return exactly what
+    /// decide_full's references return), in the same order over the discs,
+    /// but keeps only the live discs (in a fixed array), decides realness
+    /// only where the band verdict depends on it, and computes moduli and
+    /// the sphere only for discs not proven out of the band (as decide_full).
+    /// True, with h exactly decide_full's result, when the pixel is
+    /// certified; false (h unspecified) for any other outcome (a blocked
+    /// choice, a cluster chosen, more live discs than the array holds, an
+    /// incomplete or degenerate object), which decide_full then decides
+    /// (and fills `infos` for refine / record). (chosen_ is left alone: only
+    /// record reads it, and record's pixels take the full path.)
+    bool decide_fast(const ObjectRoots* roots, HitInfo& h) const {
+        struct Live {
+            double lo, hi;
+            int object, index;
+            bool eligible;
+        };
+        constexpr int kLive = 2 * kMaxDegree;
+        Live live[kLive];
+        int n_live = 0, eligible = 0, best = -1;
+        const int n_obj = static_cast<int>(plan_.scene.objects.size());
+        for (int obj = 0; obj < n_obj; ++obj) {
+            const ObjectRoots& r = roots[obj];
+            if (r.status != Status::Ok || !r.complete) return false;  // (degenerate or incomplete)
+            const detail::BandPlan& bp = bands_[obj];
+            const double clip_radius = plan_.scene.objects[obj].clip_radius;
+            const RootDisc* discs = r.res.discs;
+            const int n = r.res.n_discs;
+            for (int i = 0; i < n; ++i) {
+                const RootDisc& disc = discs[i];
+                if (disc.count <= 0) continue;
+                // decide_full: band (with proven_real, every disc verified).
+                const Verdict band = detail::band_fast_verified(discs, n, i, bp);
+                if (band == Verdict::No) continue;  // not live
+                if (disc.re == 0.0 && disc.im == 0.0 && disc.radius == 0.0) continue;  // at the origin: not live
+                double lo, hi;
+                detail::modulus_fast(disc, lo, hi);
+                const Verdict clip = clip_radius <= 0.0 ? Verdict::Yes : detail::clip_fast(r.ray, lo, hi, clip_radius);
+                if (clip == Verdict::No) continue;  // not live
+                if (n_live == kLive) return false;
+                const bool e = clip == Verdict::Yes && band == Verdict::Yes;
+                live[n_live] = Live{lo, hi, obj, i, e};
+                if (e) {
+                    eligible += disc.count;
+                    if (best < 0 || hi < live[best].hi) best = n_live;
+                }
+                ++n_live;
+            }
+        }
+        // decide_full's proof of the choice; any blocking disc: not certified.
+        if (best < 0) {
+            if (n_live > 0) return false;
+        } else {
+            const Live& b = live[best];
+            const ObjectRoots& rb = roots[b.object];
+            if (rb.res.discs[b.index].count > 1) return false;  // a cluster chosen
+            for (int i = 0; i < n_live; ++i) {
+                if (i == best) continue;
+                const Live& j = live[i];
+                if (b.hi < j.lo) continue;
+                if (j.object == b.object &&
+                    detail::is_mirror_twin(rb.res.discs[b.index], rb.res.discs[j.index], rb.res.discs, rb.res.n_discs,
+                                           rb.complete))
+                    continue;
+                return false;
+            }
+        }
+        h = HitInfo{};
+        h.eligible = eligible;
+        h.status = kCertified;
+        if (best >= 0) {
+            const Live& c = live[best];
+            h.hit = true;
+            h.object = c.object;
+            h.disc = roots[c.object].res.discs[c.index];
+            h.modulus = std::hypot(h.disc.re, h.disc.im);
+        }
+        return true;
+    }
+
+    /// The full decision, every disc's verdicts in `infos`.
+    HitInfo decide_full(ObjectRoots* roots, std::vector<DiscInfo>& infos) {
         const FrameParams& fp = plan_.params;
         const int n_obj = static_cast<int>(plan_.scene.objects.size());
         infos.clear();
@@ -791,6 +885,8 @@ private:
     std::vector<std::vector<DiscInfo>> infos_;
     int chosen_ = -1;
     bool recording_ = false;  // keep every disc's decisions (explain_pixel)
+    bool full_only_ = false;  // ARGAND_DECIDE=full: decide_full for every pixel (the reference)
+    std::vector<detail::BandPlan> bands_;  // per object: band_fast's constants
 };
 
 }  // namespace
