@@ -89,21 +89,10 @@ void modulus_bounds(const RootDisc& d, double& lo, double& hi) {
     hi = next_up(next_up(m * kModulusHigh) + d.radius);
 }
 
-namespace {
-/// True unless D(a) and D(b)'s mirror image are proven disjoint.
-bool may_meet_mirror(const RootDisc& a, const RootDisc& b) {
-    const double reach = add_up(a.radius, b.radius);
-    // A cheap sufficient test first: the distance is at least the larger
-    // component difference. A difference of doubles is correctly rounded
-    // (exact where subnormal), so the exact one is at least the computed one
-    // times (1 - u); (1 - 2u) and a step down cover that and the product's
-    // rounding. (NaN and inf fail the comparison: the full test decides.)
-    if (next_down(std::fabs(a.re - b.re) * (1.0 - 2.0 * kU)) > reach ||
-        next_down(std::fabs(a.im + b.im) * (1.0 - 2.0 * kU)) > reach)
-        return false;
+
+bool mirror_within(const RootDisc& a, const RootDisc& b, double reach) {
     return !(dist_down(a.re, a.im, b.re, -b.im) > reach);
 }
-}  // namespace
 
 bool real_by_mirror(const RootDisc* all, int n_all, int self) {
     const RootDisc& d = all[self];
@@ -224,10 +213,6 @@ Verdict clip_verdict_fast(const ObjectRay& ray, double mod_lo, double mod_hi, do
 }
 
 }  // namespace
-
-Verdict inside_clip_exact(const ObjectRay& ray, double mod_lo, double mod_hi, double radius) {
-    return clip_verdict_exact(ray, mod_lo, mod_hi, radius);
-}
 
 Verdict inside_clip(const ObjectRay& ray, double mod_lo, double mod_hi, double radius) {
     const Verdict v = clip_verdict_fast(ray, mod_lo, mod_hi, radius);

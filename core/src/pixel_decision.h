@@ -26,6 +26,24 @@ double modulus_up(const RootDisc& d);
 /// Both at once (lo = modulus_down(d), hi = modulus_up(d)).
 void modulus_bounds(const RootDisc& d, double& lo, double& hi);
 
+/// may_meet_mirror's final test: !(dist_down(a, conj b) > reach).
+bool mirror_within(const RootDisc& a, const RootDisc& b, double reach);
+
+/// True unless D(a) and D(b)'s mirror image are proven disjoint.
+inline bool may_meet_mirror(const RootDisc& a, const RootDisc& b) {
+    constexpr double kU = kUnitRoundoff;
+    const double reach = add_up(a.radius, b.radius);
+    // A cheap sufficient test first: the distance is at least the larger
+    // component difference. A difference of doubles is correctly rounded
+    // (exact where subnormal), so the exact one is at least the computed one
+    // times (1 - u); (1 - 2u) and a step down cover that and the product's
+    // rounding. (NaN and inf fail the comparison: the full test decides.)
+    if (next_down(std::fabs(a.re - b.re) * (1.0 - 2.0 * kU)) > reach ||
+        next_down(std::fabs(a.im + b.im) * (1.0 - 2.0 * kU)) > reach)
+        return false;
+    return mirror_within(a, b, reach);
+}
+
 /// proven_real's mirror test alone (d verified, count 1, meeting its mirror).
 bool real_by_mirror(const RootDisc* all, int n_all, int self);
 
@@ -177,7 +195,21 @@ __attribute__((always_inline)) inline Verdict band_fast_verified(const RootDisc*
     if (!(std::fabs(d.im) <= d.radius)) return v0;
     const Verdict v1 = band_fast(d, true, bp);
     if (v1 == v0) return v0;
-    return real_by_mirror(all, n_all, self) ? v1 : v0;
+    for (int j = 0; j < n_all; ++j)  // real_by_mirror, inline
+        if (j != self && may_meet_mirror(all[j], d)) return v0;
+    return v1;
+}
+
+/// is_mirror_twin(all[b], all[j], all, n_all, true) for discs all verified
+/// (b != j): j meets b's mirror image, so "exactly one disc meets it" is
+/// "no disc but j meets it".
+__attribute__((always_inline)) inline bool is_mirror_twin_fast(const RootDisc* all, int n_all, int b, int j) {
+    const RootDisc& db = all[b];
+    if (db.count != 1 || all[j].count != 1) return false;
+    if (!may_meet_mirror(all[j], db)) return false;
+    for (int k = 0; k < n_all; ++k)
+        if (k != j && may_meet_mirror(all[k], db)) return false;
+    return true;
 }
 
 /// modulus_bounds(d, lo, hi), its operations inline.
@@ -193,32 +225,61 @@ __attribute__((always_inline)) inline void modulus_fast(const RootDisc& d, doubl
     hi = next_up(next_up(m * (1.0 + 4.0 * kU)) + d.radius);
 }
 
-/// inside_clip's exact test alone (inside_clip when its first test is
-/// Unknown).
-Verdict inside_clip_exact(const ObjectRay& ray, double mod_lo, double mod_hi, double radius);
+/// A ray's sums for clip_fast, over the axes a (round-to-nearest, in this
+/// order): dabs = sum (|d'_a.mid| + d'_a.rad), orad = sum o'_a.rad, drad =
+/// sum d'_a.rad, omid = sum |o'_a.mid|.
+struct ClipSums {
+    double dabs, orad, drad, omid;
+};
+inline ClipSums clip_sums(const ObjectRay& ray) {
+    ClipSums c{0.0, 0.0, 0.0, 0.0};
+    for (int a = 0; a < 3; ++a) {
+        c.dabs += std::fabs(ray.direction[a].mid) + ray.direction[a].rad;
+        c.orad += ray.origin[a].rad;
+        c.drad += ray.direction[a].rad;
+        c.omid += std::fabs(ray.origin[a].mid);
+    }
+    return c;
+}
 
-/// inside_clip(ray, mod_lo, mod_hi, radius): its first test's operations
-/// inline (same order, same roundings), then the exact test.
-__attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, double mod_lo, double mod_hi,
-                                                        double radius) {
+/// inside_clip(ray, mod_lo, mod_hi, radius) (sums = clip_sums(ray)).
+///
+/// inside_clip's first test (clip_verdict_fast) says Yes iff next_up(fl(norm
+/// (1 + 4u)) + e) <= fl(radius (1 - 2u)) and No iff next_down(fl(norm (1 -
+/// 4u)) - e) > fl(radius (1 + 2u)), with norm = sqrt(q), q the rounded sum of
+/// the rounded squares of p_a = fl(o'_a.mid + fl(m d'_a.mid)) (computed here
+/// with the same operations in the same order, so the same norm), and e its
+/// rounded bound on the spread. Here e1 >= e: with X = w sum dabs_a + sum
+/// orad_a + mod_hi sum drad_a + 8u (sum |o'_a.mid| + mod_hi sum dabs_a)
+/// (exact, dabs_a = |d'_a.mid| + d'_a.rad; every term nonnegative), each
+/// round-to-nearest operation on nonnegatives is within a factor (1 +- u)
+/// of its exact result, or within eta / 2 (eta = 2^-1074) for a product
+/// below the normal range (sums there are exact), and next_up(v) <= v (1 +
+/// 2u) + eta. The reference's terms pass through at most ten roundings and
+/// the final next_up: e <= X (1 + u)^10 (1 + 16u) (1 + 2u) + 80 eta <= X (1 +
+/// 29u) + 80 eta. Ours pass through at most nine (three in the sums, six
+/// below): e1 >= X (1 - u)^9 (1 + 64u) + 256 eta (1 - u) - 8 eta >= X (1 +
+/// 54u) + 240 eta >= e. Rounding and next_up are monotone, so a Yes (No) of
+/// the test with e1 is a Yes (No) of the test with e, which the reference
+/// returns (before its exact test). Neither: the reference itself. (e1 inf
+/// or NaN passes neither test.)
+__attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, const ClipSums& sums, double mod_lo,
+                                                        double mod_hi, double radius) {
     constexpr double kU = kUnitRoundoff;
     const double m = 0.5 * (mod_lo + mod_hi);
     const double w = (mod_hi - m > m - mod_lo ? mod_hi - m : m - mod_lo) * (1.0 + 4.0 * kU);
-    double q = 0.0, spread = 0.0, size = 0.0;
+    double q = 0.0;
     for (int a = 0; a < 3; ++a) {
-        const double om = ray.origin[a].mid, dm = ray.direction[a].mid;
-        const double p = om + m * dm;
+        const double p = ray.origin[a].mid + m * ray.direction[a].mid;
         q += p * p;
-        const double dabs = std::fabs(dm) + ray.direction[a].rad;
-        spread += w * dabs + ray.origin[a].rad + mod_hi * ray.direction[a].rad;
-        size += std::fabs(om) + mod_hi * dabs;
     }
-    const double e = next_up((spread + 8.0 * kU * size) * (1.0 + 16.0 * kU) + 64.0 * kDenormMin);
+    const double e1 = (w * sums.dabs + sums.orad + mod_hi * sums.drad + 8.0 * kU * (sums.omid + mod_hi * sums.dabs)) *
+                          (1.0 + 64.0 * kU) +
+                      256.0 * kDenormMin;
     const double norm = std::sqrt(q);
-    if (!(e < INFINITY) || !(norm < INFINITY)) return Verdict::Unknown;
-    if (next_up(norm * (1.0 + 4.0 * kU) + e) <= radius * (1.0 - 2.0 * kU)) return Verdict::Yes;
-    if (next_down(norm * (1.0 - 4.0 * kU) - e) > radius * (1.0 + 2.0 * kU)) return Verdict::No;
-    return inside_clip_exact(ray, mod_lo, mod_hi, radius);
+    if (next_up(norm * (1.0 + 4.0 * kU) + e1) <= radius * (1.0 - 2.0 * kU)) return Verdict::Yes;
+    if (next_down(norm * (1.0 - 4.0 * kU) - e1) > radius * (1.0 + 2.0 * kU)) return Verdict::No;
+    return inside_clip(ray, mod_lo, mod_hi, radius);
 }
 
 /// Shrinks a verified count-1 disc d of p with the double-double

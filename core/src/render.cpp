@@ -663,6 +663,7 @@ private:
             if (r.status != Status::Ok || !r.complete) return false;  // (degenerate or incomplete)
             const detail::BandPlan& bp = bands_[obj];
             const double clip_radius = plan_.scene.objects[obj].clip_radius;
+            const detail::ClipSums sums = clip_radius > 0.0 ? detail::clip_sums(r.ray) : detail::ClipSums{};
             const RootDisc* discs = r.res.discs;
             const int n = r.res.n_discs;
             for (int i = 0; i < n; ++i) {
@@ -674,7 +675,7 @@ private:
                 if (disc.re == 0.0 && disc.im == 0.0 && disc.radius == 0.0) continue;  // at the origin: not live
                 double lo, hi;
                 detail::modulus_fast(disc, lo, hi);
-                const Verdict clip = clip_radius <= 0.0 ? Verdict::Yes : detail::clip_fast(r.ray, lo, hi, clip_radius);
+                const Verdict clip = clip_radius <= 0.0 ? Verdict::Yes : detail::clip_fast(r.ray, sums, lo, hi, clip_radius);
                 if (clip == Verdict::No) continue;  // not live
                 if (n_live == kLive) return false;
                 const bool e = clip == Verdict::Yes && band == Verdict::Yes;
@@ -697,9 +698,7 @@ private:
                 if (i == best) continue;
                 const Live& j = live[i];
                 if (b.hi < j.lo) continue;
-                if (j.object == b.object &&
-                    detail::is_mirror_twin(rb.res.discs[b.index], rb.res.discs[j.index], rb.res.discs, rb.res.n_discs,
-                                           rb.complete))
+                if (j.object == b.object && detail::is_mirror_twin_fast(rb.res.discs, rb.res.n_discs, b.index, j.index))
                     continue;
                 return false;
             }
