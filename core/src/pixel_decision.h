@@ -232,13 +232,12 @@ struct ClipSums {
     double dabs, orad, drad, omid;
 };
 inline ClipSums clip_sums(const ObjectRay& ray) {
-    ClipSums c{0.0, 0.0, 0.0, 0.0};
-    for (int a = 0; a < 3; ++a) {
-        c.dabs += std::fabs(ray.direction[a].mid) + ray.direction[a].rad;
-        c.orad += ray.origin[a].rad;
-        c.drad += ray.direction[a].rad;
-        c.omid += std::fabs(ray.origin[a].mid);
-    }
+    const Ball *o = ray.origin, *d = ray.direction;
+    ClipSums c;
+    c.dabs = ((std::fabs(d[0].mid) + d[0].rad) + (std::fabs(d[1].mid) + d[1].rad)) + (std::fabs(d[2].mid) + d[2].rad);
+    c.orad = (o[0].rad + o[1].rad) + o[2].rad;
+    c.drad = (d[0].rad + d[1].rad) + d[2].rad;
+    c.omid = (std::fabs(o[0].mid) + std::fabs(o[1].mid)) + std::fabs(o[2].mid);
     return c;
 }
 
@@ -268,17 +267,19 @@ __attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, co
     constexpr double kU = kUnitRoundoff;
     const double m = 0.5 * (mod_lo + mod_hi);
     const double w = (mod_hi - m > m - mod_lo ? mod_hi - m : m - mod_lo) * (1.0 + 4.0 * kU);
-    double q = 0.0;
-    for (int a = 0; a < 3; ++a) {
-        const double p = ray.origin[a].mid + m * ray.direction[a].mid;
-        q += p * p;
-    }
+    // (q: the reference's sum, 0 + p_0^2 + p_1^2 + p_2^2 in this order.)
+    const double p0 = ray.origin[0].mid + m * ray.direction[0].mid;
+    const double p1 = ray.origin[1].mid + m * ray.direction[1].mid;
+    const double p2 = ray.origin[2].mid + m * ray.direction[2].mid;
+    const double q = ((0.0 + p0 * p0) + p1 * p1) + p2 * p2;
     const double e1 = (w * sums.dabs + sums.orad + mod_hi * sums.drad + 8.0 * kU * (sums.omid + mod_hi * sums.dabs)) *
                           (1.0 + 64.0 * kU) +
                       256.0 * kDenormMin;
     const double norm = std::sqrt(q);
-    if (next_up(norm * (1.0 + 4.0 * kU) + e1) <= radius * (1.0 - 2.0 * kU)) return Verdict::Yes;
-    if (next_down(norm * (1.0 - 4.0 * kU) - e1) > radius * (1.0 + 2.0 * kU)) return Verdict::No;
+    // next_up(v) <= c iff v < c, and next_down(v) > c iff v > c, for
+    // doubles v and c (NaN: both false; v = +-inf alike).
+    if (norm * (1.0 + 4.0 * kU) + e1 < radius * (1.0 - 2.0 * kU)) return Verdict::Yes;
+    if (norm * (1.0 - 4.0 * kU) - e1 > radius * (1.0 + 2.0 * kU)) return Verdict::No;
     return inside_clip(ray, mod_lo, mod_hi, radius);
 }
 
