@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
 #include "argand/arith.h"
 #include "argand/render.h"
@@ -212,7 +213,25 @@ __attribute__((always_inline)) inline bool is_mirror_twin_fast(const RootDisc* a
     return true;
 }
 
-/// modulus_bounds(d, lo, hi), its operations inline.
+/// The double next to x > 0 (finite) upward / downward: its bits + 1 / - 1
+/// (next_up / next_down there; next_down(2^-1074) = +0 both ways).
+inline double successor_of_positive(double x) {
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    ++b;
+    std::memcpy(&x, &b, sizeof b);
+    return x;
+}
+inline double predecessor_of_positive(double x) {
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    --b;
+    std::memcpy(&x, &b, sizeof b);
+    return x;
+}
+
+/// modulus_bounds(d, lo, hi): the same operations, with next_up / next_down
+/// of values known positive and finite as a step of their bits.
 __attribute__((always_inline)) inline void modulus_fast(const RootDisc& d, double& lo, double& hi) {
     constexpr double kU = kUnitRoundoff;
     const double m = std::sqrt(d.re * d.re + d.im * d.im);
@@ -220,9 +239,16 @@ __attribute__((always_inline)) inline void modulus_fast(const RootDisc& d, doubl
         modulus_bounds(d, lo, hi);
         return;
     }
-    const double l = next_down(next_down(m * (1.0 - 4.0 * kU)) - d.radius);
-    lo = l > 0.0 ? l : 0.0;
-    hi = next_up(next_up(m * (1.0 + 4.0 * kU)) + d.radius);
+    // m (1 -+ 4u) is a positive normal double (m in [2^-500, 2^500]).
+    // Reference: l = next_down(next_down(m (1 - 4u)) - r), lo = l > 0 ? l : 0.
+    // With a = next_down(m (1 - 4u)) - r: a > 0 (finite, <= m) gives l =
+    // a's predecessor (0 for a = 2^-1074, then lo = 0 both ways); a <= 0
+    // or NaN gives l <= -2^-1074 or NaN, lo = 0.
+    const double a = predecessor_of_positive(m * (1.0 - 4.0 * kU)) - d.radius;
+    lo = a > 0.0 ? predecessor_of_positive(a) : 0.0;
+    // Reference: hi = next_up(next_up(m (1 + 4u)) + r).
+    const double b = successor_of_positive(m * (1.0 + 4.0 * kU)) + d.radius;
+    hi = b > 0.0 && b < INFINITY ? successor_of_positive(b) : next_up(b);
 }
 
 /// A ray's sums for clip_fast, over the axes a (round-to-nearest, in this

@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -666,17 +667,45 @@ private:
             const detail::ClipSums sums = clip_radius > 0.0 ? detail::clip_sums(r.ray) : detail::ClipSums{};
             const RootDisc* discs = r.res.discs;
             const int n = r.res.n_discs;
+            // The previous disc's verdicts, for its exact mirror image when
+            // that comes next (the closed-form starts of degree <= 4 list
+            // conjugate pairs so): band, moduli and sphere are functions of
+            // (re, |im|, radius, count, real) and the ray alone but for
+            // realness by the mirror test, which proves neither of the two
+            // real (each meets the other's mirror image: distance 0), so the
+            // mirror's verdicts are the previous disc's, bit for bit.
+            bool have_prev = false;
+            Verdict prev_band = Verdict::No, prev_clip = Verdict::No;
+            double prev_lo = 0.0, prev_hi = 0.0;
             for (int i = 0; i < n; ++i) {
                 const RootDisc& disc = discs[i];
-                if (disc.count <= 0) continue;
-                // decide_full: band (with proven_real, every disc verified).
-                const Verdict band = detail::band_fast_verified(discs, n, i, bp);
-                if (band == Verdict::No) continue;  // not live
-                if (disc.re == 0.0 && disc.im == 0.0 && disc.radius == 0.0) continue;  // at the origin: not live
-                double lo, hi;
-                detail::modulus_fast(disc, lo, hi);
-                const Verdict clip = clip_radius <= 0.0 ? Verdict::Yes : detail::clip_fast(r.ray, sums, lo, hi, clip_radius);
-                if (clip == Verdict::No) continue;  // not live
+                if (disc.count <= 0 || (disc.re == 0.0 && disc.im == 0.0 && disc.radius == 0.0)) {
+                    have_prev = false;  // (at the origin: not live)
+                    continue;
+                }
+                Verdict band, clip = Verdict::Yes;
+                double lo = 0.0, hi = 0.0;
+                if (have_prev && exact_mirrors(discs[i - 1], disc)) {
+                    band = prev_band;
+                    clip = prev_clip;
+                    lo = prev_lo;
+                    hi = prev_hi;
+                    have_prev = false;
+                } else {
+                    // decide_full: band (with proven_real, every disc verified),
+                    // then (not proven out of the band) moduli and sphere.
+                    band = detail::band_fast_verified(discs, n, i, bp);
+                    if (band != Verdict::No) {
+                        detail::modulus_fast(disc, lo, hi);
+                        if (clip_radius > 0.0) clip = detail::clip_fast(r.ray, sums, lo, hi, clip_radius);
+                    }
+                    have_prev = true;
+                    prev_band = band;
+                    prev_clip = clip;
+                    prev_lo = lo;
+                    prev_hi = hi;
+                }
+                if (band == Verdict::No || clip == Verdict::No) continue;  // not live
                 if (n_live == kLive) return false;
                 const bool e = clip == Verdict::Yes && band == Verdict::Yes;
                 live[n_live] = Live{lo, hi, obj, i, e};
@@ -714,6 +743,20 @@ private:
             h.modulus = std::hypot(h.disc.re, h.disc.im);
         }
         return true;
+    }
+
+    /// b is a's mirror image to the bit (centre conjugated, same radius,
+    /// count and flag).
+    static bool exact_mirrors(const RootDisc& a, const RootDisc& b) {
+        std::uint64_t ar, ai, aq, br, bi, bq;
+        std::memcpy(&ar, &a.re, 8);
+        std::memcpy(&br, &b.re, 8);
+        if (ar != br) return false;
+        std::memcpy(&ai, &a.im, 8);
+        std::memcpy(&bi, &b.im, 8);
+        std::memcpy(&aq, &a.radius, 8);
+        std::memcpy(&bq, &b.radius, 8);
+        return bi == (ai ^ (std::uint64_t{1} << 63)) && aq == bq && a.count == b.count && a.real == b.real;
     }
 
     /// The full decision, every disc's verdicts in `infos`.

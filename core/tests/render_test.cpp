@@ -571,6 +571,22 @@ static void test_fast_decisions() {
             }
         }
     }
+    // Moduli at the edges of modulus_fast's shortcuts: the lower bound at
+    // and around 0, radii up to infinity, moduli at the safe range's ends.
+    for (double re : {1.0, 3.7, 1e-300, 0x1p-500, 0x1.0000000000001p-500, 0x1p500, 1e200, 0x1p-1074}) {
+        for (double im : {0.0, 0.5 * re, -re}) {
+            const double m = std::sqrt(re * re + im * im);
+            const double a1 = std::nextafter(m * (1.0 - 4.0 * 0x1p-53), 0.0);
+            for (double r : {0.0, a1, std::nextafter(a1, 0.0), std::nextafter(a1, 1e308), a1 - 0x1p-1074, 0.5 * m, 1e308,
+                             1.7976931348623157e308, static_cast<double>(INFINITY)}) {
+                const RootDisc d{re, im, r, 1, true, false};
+                double lo, hi, lo2, hi2;
+                modulus_bounds(d, lo, hi);
+                modulus_fast(d, lo2, hi2);
+                CHECK(std::memcmp(&lo, &lo2, sizeof lo) == 0 && std::memcmp(&hi, &hi2, sizeof hi) == 0);
+            }
+        }
+    }
     CHECK(compared > 100000);
     CHECK(mirror_real > 100);  // realness by the mirror test was exercised
     CHECK(twins > 100);
