@@ -302,10 +302,11 @@ __attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, co
                           (1.0 + 64.0 * kU) +
                       256.0 * kDenormMin;
     const double norm = std::sqrt(q);
-    // next_up(v) <= c iff v < c, and next_down(v) > c iff v > c, for
-    // doubles v and c (NaN: both false; v = +-inf alike).
+    // (next_up(v) <= c iff v < c for doubles v, c: next_up(v) is the least
+    // double above v; NaN fails both. No such rewriting for next_down(v) > c,
+    // which may fail where v > c holds.)
     if (norm * (1.0 + 4.0 * kU) + e1 < radius * (1.0 - 2.0 * kU)) return Verdict::Yes;
-    if (norm * (1.0 - 4.0 * kU) - e1 > radius * (1.0 + 2.0 * kU)) return Verdict::No;
+    if (next_down(norm * (1.0 - 4.0 * kU) - e1) > radius * (1.0 + 2.0 * kU)) return Verdict::No;
     return inside_clip(ray, mod_lo, mod_hi, radius);
 }
 

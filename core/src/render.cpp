@@ -643,7 +643,8 @@ private:
     /// but keeps only the live discs (in a fixed array), decides realness
     /// only where the band verdict depends on it, and computes moduli and
     /// the sphere only for discs not proven out of the band (as decide_full).
-    /// True, with h exactly decide_full's result, when the pixel is
+    /// True, with h (default-constructed by the caller) exactly
+    /// decide_full's result, when the pixel is
     /// certified; false (h unspecified) for any other outcome (a blocked
     /// choice, a cluster chosen, more live discs than the array holds, an
     /// incomplete or degenerate object), which decide_full then decides
@@ -732,7 +733,7 @@ private:
                 return false;
             }
         }
-        h = HitInfo{};
+        // (h is decide's default HitInfo: no hit, certified, level first.)
         h.eligible = eligible;
         h.status = kCertified;
         if (best >= 0) {
