@@ -16,24 +16,34 @@ constexpr double kU = kUnitRoundoff;
 /// core/tests/render_test.cpp checks the assumption against long double).
 constexpr double kTrigAbsError = 0x1p-50;
 
-/// Bounds of s(z) = Im(z e^{-i alpha}) = y cos(alpha) - x sin(alpha) over
-/// the disc D((x, y), r), for the edge alpha enclosed by e.
-__attribute__((always_inline)) inline void edge_range(const FramePlan::BandEdge& e, double x, double y, double r,
-                                                      double& lo, double& hi) {
-    const double s = y * e.cos_mid - x * e.sin_mid;
-    // |y C - x S - s| <= err (|x| + |y|) + 2u (|y C'| + |x S'|) (two roundings
-    // and the products'), plus underflow. The bound itself is computed in
-    // round-to-nearest from nonnegative terms (at most six roundings, each
-    // within a factor 1 + u) and inflated by 1 + 8u, then rounded up.
-    const double mag = std::fabs(y) * std::fabs(e.cos_mid) + std::fabs(x) * std::fabs(e.sin_mid);
-    const double err = next_up((mag * (4.0 * kU) + e.err * (std::fabs(x) + std::fabs(y))) * (1.0 + 8.0 * kU) +
-                               8.0 * kDenormMin);
-    const double reach = add_up(err, r);  // >= err + r
-    lo = next_down(s - reach);
-    hi = next_up(s + reach);
+// edge_range (pixel_decision.h), its error bound: |y C - x S - s| <= err
+// (|x| + |y|) + 2u (|y C'| + |x S'|) (two roundings and the products'), plus
+// underflow. The bound itself is computed in round-to-nearest from
+// nonnegative terms (at most six roundings, each within a factor 1 + u) and
+// inflated by 1 + 8u, then rounded up.
+}  // namespace
+
+FastEdge fast_edge(const FramePlan::BandEdge& e) {
+    FastEdge f;
+    f.e = e;
+    // fl(4u M) is exact (a power-of-two scaling of a normal M >= 2^-1/2);
+    // the sum and the product each lose at most a factor (1 - u):
+    // k >= (4u M + E) (1 + 64u) (1 - u)^2 >= (4u M + E) (1 + 61u).
+    const double m = std::fabs(e.cos_mid) > std::fabs(e.sin_mid) ? std::fabs(e.cos_mid) : std::fabs(e.sin_mid);
+    f.k = (4.0 * kU * m + e.err) * (1.0 + 64.0 * kU);
+    if (!(m >= 0.5)) f.k = INFINITY;  // (never for a real angle: then no quick test)
+    return f;
 }
 
-}  // namespace
+BandPlan band_plan(const FramePlan& plan, bool complex_space) {
+    BandPlan bp;
+    bp.axis = !complex_space || (plan.params.sigma == 0.0 && plan.params.delta == 0.0);
+    bp.sigma_zero = plan.params.sigma == 0.0;
+    bp.lower = plan.params.sigma > 0.0;
+    bp.lower_edge = fast_edge(plan.lower_edge);
+    bp.upper_edge = fast_edge(plan.upper_edge);
+    return bp;
+}
 
 FramePlan::BandEdge band_edge(double a, double b) {
     FramePlan::BandEdge e;
@@ -79,21 +89,10 @@ void modulus_bounds(const RootDisc& d, double& lo, double& hi) {
     hi = next_up(next_up(m * kModulusHigh) + d.radius);
 }
 
-namespace {
-/// True unless D(a) and D(b)'s mirror image are proven disjoint.
-bool may_meet_mirror(const RootDisc& a, const RootDisc& b) {
-    const double reach = add_up(a.radius, b.radius);
-    // A cheap sufficient test first: the distance is at least the larger
-    // component difference. A difference of doubles is correctly rounded
-    // (exact where subnormal), so the exact one is at least the computed one
-    // times (1 - u); (1 - 2u) and a step down cover that and the product's
-    // rounding. (NaN and inf fail the comparison: the full test decides.)
-    if (next_down(std::fabs(a.re - b.re) * (1.0 - 2.0 * kU)) > reach ||
-        next_down(std::fabs(a.im + b.im) * (1.0 - 2.0 * kU)) > reach)
-        return false;
+
+bool mirror_within(const RootDisc& a, const RootDisc& b, double reach) {
     return !(dist_down(a.re, a.im, b.re, -b.im) > reach);
 }
-}  // namespace
 
 bool real_by_mirror(const RootDisc* all, int n_all, int self) {
     const RootDisc& d = all[self];

@@ -7,7 +7,9 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
+#include "argand/arith.h"
 #include "argand/render.h"
 #include "ray_polynomial.h"
 
@@ -24,6 +26,24 @@ double modulus_down(const RootDisc& d);
 double modulus_up(const RootDisc& d);
 /// Both at once (lo = modulus_down(d), hi = modulus_up(d)).
 void modulus_bounds(const RootDisc& d, double& lo, double& hi);
+
+/// may_meet_mirror's final test: !(dist_down(a, conj b) > reach).
+bool mirror_within(const RootDisc& a, const RootDisc& b, double reach);
+
+/// True unless D(a) and D(b)'s mirror image are proven disjoint.
+inline bool may_meet_mirror(const RootDisc& a, const RootDisc& b) {
+    constexpr double kU = kUnitRoundoff;
+    const double reach = add_up(a.radius, b.radius);
+    // A cheap sufficient test first: the distance is at least the larger
+    // component difference. A difference of doubles is correctly rounded
+    // (exact where subnormal), so the exact one is at least the computed one
+    // times (1 - u); (1 - 2u) and a step down cover that and the product's
+    // rounding. (NaN and inf fail the comparison: the full test decides.)
+    if (next_down(std::fabs(a.re - b.re) * (1.0 - 2.0 * kU)) > reach ||
+        next_down(std::fabs(a.im + b.im) * (1.0 - 2.0 * kU)) > reach)
+        return false;
+    return mirror_within(a, b, reach);
+}
 
 /// proven_real's mirror test alone (d verified, count 1, meeting its mirror).
 bool real_by_mirror(const RootDisc* all, int n_all, int self);
@@ -56,6 +76,239 @@ Verdict inside_clip(const ObjectRay& ray, double mod_lo, double mod_hi, double r
 /// all[0..n_all), all verified) holds exactly the conjugate of the root in
 /// disc b: it is the only disc that may meet b's mirror image.
 bool is_mirror_twin(const RootDisc& b, const RootDisc& j, const RootDisc* all, int n_all, bool all_verified);
+
+// ---------------------------------------------------------------------------
+// The fast decisions (Tracer::decide's fast path). Each returns EXACTLY what
+// its reference above returns (band_fast == band_membership, modulus_fast ==
+// modulus_bounds, clip_fast == inside_clip), for every input: either the
+// reference's own floating-point operations in the same order (so the same
+// roundings under -ffp-contract=off), or a cheaper sufficient test proven to
+// imply the reference's outcome, falling back to the reference when it does
+// not decide. core/tests/render_test.cpp compares them on random and edge
+// discs; ARGAND_DECIDE=full renders with the reference path only.
+// ---------------------------------------------------------------------------
+
+/// Bounds of s(z) = Im(z e^{-i alpha}) = y cos(alpha) - x sin(alpha) over
+/// the disc D((x, y), r), for the edge alpha enclosed by e (band_membership's
+/// edge test; the error bound's argument is in pixel_decision.cpp).
+__attribute__((always_inline)) inline void edge_range(const FramePlan::BandEdge& e, double x, double y, double r,
+                                                      double& lo, double& hi) {
+    constexpr double kU = kUnitRoundoff;
+    const double s = y * e.cos_mid - x * e.sin_mid;
+    const double mag = std::fabs(y) * std::fabs(e.cos_mid) + std::fabs(x) * std::fabs(e.sin_mid);
+    const double err = next_up((mag * (4.0 * kU) + e.err * (std::fabs(x) + std::fabs(y))) * (1.0 + 8.0 * kU) +
+                               8.0 * kDenormMin);
+    const double reach = add_up(err, r);  // >= err + r
+    lo = next_down(s - reach);
+    hi = next_up(s + reach);
+}
+
+/// A band edge with the factor of edge_range_fast's quick test.
+struct FastEdge {
+    FramePlan::BandEdge e;
+    double k = 0.0;  // >= (4u max(|cos_mid|, |sin_mid|) + err) (1 + 61u)
+};
+FastEdge fast_edge(const FramePlan::BandEdge& e);
+
+/// edge_range for the sign tests band_membership makes (lo >= 0, lo > 0,
+/// hi <= 0, hi < 0): when the disc is far from the edge, lo = hi = s (the
+/// same computed s), whose four signs are those of edge_range's lo and hi;
+/// otherwise edge_range itself.
+///
+/// Proof. Let a = |x| + |y|, M = max(|C|, |S|), E = e.err, u = 2^-53, eta =
+/// 2^-1074. Every round-to-nearest operation on nonnegative operands returns
+/// within a factor (1 +- u) of the exact result, or within eta / 2 of it
+/// below the normal range (where sums are exact); next_up(v) <= v (1 + 2u) +
+/// eta. Following edge_range's operations: mag <= a M (1 + u)^2 + eta, its
+/// error term err <= a (4uM + E) (1 + 15u) + 12 eta, and reach = next_up(err
+/// + r) <= a (4uM + E) (1 + 19u) + r (1 + 4u) + 14 eta. Here T = fl(fl(fl(fl(a)
+/// k) + r) (1 + 16u)) + 64 eta (rounded) is at least (a k + r) (1 + 16u)
+/// (1 - u)^6 + 60 eta >= a (4uM + E) (1 + 19u) + r (1 + 4u) + 60 eta >= reach
+/// + 2 eta. If s > T, then s - reach >= 2 eta exactly, so fl(s - reach) >= 2
+/// eta (rounding is monotone, 2 eta is a double) and lo = next_down(..) >= eta
+/// > 0, and hi >= lo: both positive, as s. If -s > T, symmetrically hi <=
+/// -eta < 0 and lo <= hi: both negative, as s. T = inf (overflow) or NaN
+/// never passes the strict comparisons; s = +-inf with T finite gives the
+/// reference's lo, hi = +-DBL_MAX or +-inf, of the same signs.
+__attribute__((always_inline)) inline void edge_range_fast(const FastEdge& f, double x, double y, double r,
+                                                           double& lo, double& hi) {
+    constexpr double kU = kUnitRoundoff;
+    const double s = y * f.e.cos_mid - x * f.e.sin_mid;
+    const double t = ((std::fabs(x) + std::fabs(y)) * f.k + r) * (1.0 + 16.0 * kU) + 64.0 * kDenormMin;
+    if (s > t || -s > t) {
+        lo = hi = s;
+        return;
+    }
+    edge_range(f.e, x, y, r, lo, hi);
+}
+
+/// The frame's band for one kind of object (band_membership's constants).
+struct BandPlan {
+    bool axis = true;        // the band is the positive real axis
+    bool sigma_zero = true;  // sigma == 0
+    bool lower = false;      // sigma > 0: the lower edge is tested
+    FastEdge lower_edge, upper_edge;
+};
+BandPlan band_plan(const FramePlan& plan, bool complex_space);
+
+/// band_membership(d, real, plan, complex_space) for bp = band_plan(plan,
+/// complex_space): the same branches, with edge_range_fast.
+__attribute__((always_inline)) inline Verdict band_fast(const RootDisc& d, bool real, const BandPlan& bp) {
+    const double r = d.radius;
+    const bool misses_zero = std::fabs(d.re) > r || std::fabs(d.im) > r || modulus_down(d) > 0.0;
+    if (bp.axis) {
+        if (real && misses_zero) return d.re > 0.0 ? Verdict::Yes : Verdict::No;
+        if (add_down(std::fabs(d.im), -r) > 0.0 || add_up(d.re, r) < 0.0) return Verdict::No;
+        return Verdict::Unknown;
+    }
+    if (!misses_zero) return Verdict::Unknown;
+    if (real) {
+        if (d.re > 0.0) return bp.sigma_zero ? Verdict::Yes : Verdict::No;
+        return Verdict::No;
+    }
+    const double x = d.re, y = std::fabs(d.im);
+    bool above_lower = true, below_lower = false;
+    if (bp.lower) {
+        double lo, hi;
+        edge_range_fast(bp.lower_edge, x, y, r, lo, hi);
+        above_lower = lo >= 0.0;
+        below_lower = hi < 0.0;
+    }
+    double lo, hi;
+    edge_range_fast(bp.upper_edge, x, y, r, lo, hi);
+    const bool below_upper = hi <= 0.0, above_upper = lo > 0.0;
+    if (above_lower && below_upper) return Verdict::Yes;
+    if (below_lower || above_upper) return Verdict::No;
+    return Verdict::Unknown;
+}
+
+/// band_membership(all[self], proven_real(all, n_all, self, true), ..) for a
+/// polynomial whose discs are all verified: realness (the mirror test) is
+/// decided only when the verdict depends on it.
+__attribute__((always_inline)) inline Verdict band_fast_verified(const RootDisc* all, int n_all, int self,
+                                                                 const BandPlan& bp) {
+    const RootDisc& d = all[self];
+    // proven_real: false unless count 1; true if d.real; else it needs
+    // |im| <= radius and the mirror test.
+    if (d.count != 1) return band_fast(d, false, bp);
+    if (d.real) return band_fast(d, true, bp);
+    const Verdict v0 = band_fast(d, false, bp);
+    if (!(std::fabs(d.im) <= d.radius)) return v0;
+    const Verdict v1 = band_fast(d, true, bp);
+    if (v1 == v0) return v0;
+    for (int j = 0; j < n_all; ++j)  // real_by_mirror, inline
+        if (j != self && may_meet_mirror(all[j], d)) return v0;
+    return v1;
+}
+
+/// is_mirror_twin(all[b], all[j], all, n_all, true) for discs all verified
+/// (b != j): j meets b's mirror image, so "exactly one disc meets it" is
+/// "no disc but j meets it".
+__attribute__((always_inline)) inline bool is_mirror_twin_fast(const RootDisc* all, int n_all, int b, int j) {
+    const RootDisc& db = all[b];
+    if (db.count != 1 || all[j].count != 1) return false;
+    if (!may_meet_mirror(all[j], db)) return false;
+    for (int k = 0; k < n_all; ++k)
+        if (k != j && may_meet_mirror(all[k], db)) return false;
+    return true;
+}
+
+/// The double next to x > 0 (finite) upward / downward: its bits + 1 / - 1
+/// (next_up / next_down there; next_down(2^-1074) = +0 both ways).
+inline double successor_of_positive(double x) {
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    ++b;
+    std::memcpy(&x, &b, sizeof b);
+    return x;
+}
+inline double predecessor_of_positive(double x) {
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    --b;
+    std::memcpy(&x, &b, sizeof b);
+    return x;
+}
+
+/// modulus_bounds(d, lo, hi): the same operations, with next_up / next_down
+/// of values known positive and finite as a step of their bits.
+__attribute__((always_inline)) inline void modulus_fast(const RootDisc& d, double& lo, double& hi) {
+    constexpr double kU = kUnitRoundoff;
+    const double m = std::sqrt(d.re * d.re + d.im * d.im);
+    if (!(m >= 0x1p-500 && m <= 0x1p500)) {
+        modulus_bounds(d, lo, hi);
+        return;
+    }
+    // m (1 -+ 4u) is a positive normal double (m in [2^-500, 2^500]).
+    // Reference: l = next_down(next_down(m (1 - 4u)) - r), lo = l > 0 ? l : 0.
+    // With a = next_down(m (1 - 4u)) - r: a > 0 (finite, <= m) gives l =
+    // a's predecessor (0 for a = 2^-1074, then lo = 0 both ways); a <= 0
+    // or NaN gives l <= -2^-1074 or NaN, lo = 0.
+    const double a = predecessor_of_positive(m * (1.0 - 4.0 * kU)) - d.radius;
+    lo = a > 0.0 ? predecessor_of_positive(a) : 0.0;
+    // Reference: hi = next_up(next_up(m (1 + 4u)) + r).
+    const double b = successor_of_positive(m * (1.0 + 4.0 * kU)) + d.radius;
+    hi = b > 0.0 && b < INFINITY ? successor_of_positive(b) : next_up(b);
+}
+
+/// A ray's sums for clip_fast, over the axes a (round-to-nearest, in this
+/// order): dabs = sum (|d'_a.mid| + d'_a.rad), orad = sum o'_a.rad, drad =
+/// sum d'_a.rad, omid = sum |o'_a.mid|.
+struct ClipSums {
+    double dabs, orad, drad, omid;
+};
+inline ClipSums clip_sums(const ObjectRay& ray) {
+    const Ball *o = ray.origin, *d = ray.direction;
+    ClipSums c;
+    c.dabs = ((std::fabs(d[0].mid) + d[0].rad) + (std::fabs(d[1].mid) + d[1].rad)) + (std::fabs(d[2].mid) + d[2].rad);
+    c.orad = (o[0].rad + o[1].rad) + o[2].rad;
+    c.drad = (d[0].rad + d[1].rad) + d[2].rad;
+    c.omid = (std::fabs(o[0].mid) + std::fabs(o[1].mid)) + std::fabs(o[2].mid);
+    return c;
+}
+
+/// inside_clip(ray, mod_lo, mod_hi, radius) (sums = clip_sums(ray)).
+///
+/// inside_clip's first test (clip_verdict_fast) says Yes iff next_up(fl(norm
+/// (1 + 4u)) + e) <= fl(radius (1 - 2u)) and No iff next_down(fl(norm (1 -
+/// 4u)) - e) > fl(radius (1 + 2u)), with norm = sqrt(q), q the rounded sum of
+/// the rounded squares of p_a = fl(o'_a.mid + fl(m d'_a.mid)) (computed here
+/// with the same operations in the same order, so the same norm), and e its
+/// rounded bound on the spread. Here e1 >= e: with X = w sum dabs_a + sum
+/// orad_a + mod_hi sum drad_a + 8u (sum |o'_a.mid| + mod_hi sum dabs_a)
+/// (exact, dabs_a = |d'_a.mid| + d'_a.rad; every term nonnegative), each
+/// round-to-nearest operation on nonnegatives is within a factor (1 +- u)
+/// of its exact result, or within eta / 2 (eta = 2^-1074) for a product
+/// below the normal range (sums there are exact), and next_up(v) <= v (1 +
+/// 2u) + eta. The reference's terms pass through at most ten roundings and
+/// the final next_up: e <= X (1 + u)^10 (1 + 16u) (1 + 2u) + 80 eta <= X (1 +
+/// 29u) + 80 eta. Ours pass through at most nine (three in the sums, six
+/// below): e1 >= X (1 - u)^9 (1 + 64u) + 256 eta (1 - u) - 8 eta >= X (1 +
+/// 54u) + 240 eta >= e. Rounding and next_up are monotone, so a Yes (No) of
+/// the test with e1 is a Yes (No) of the test with e, which the reference
+/// returns (before its exact test). Neither: the reference itself. (e1 inf
+/// or NaN passes neither test.)
+__attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, const ClipSums& sums, double mod_lo,
+                                                        double mod_hi, double radius) {
+    constexpr double kU = kUnitRoundoff;
+    const double m = 0.5 * (mod_lo + mod_hi);
+    const double w = (mod_hi - m > m - mod_lo ? mod_hi - m : m - mod_lo) * (1.0 + 4.0 * kU);
+    // (q: the reference's sum, 0 + p_0^2 + p_1^2 + p_2^2 in this order.)
+    const double p0 = ray.origin[0].mid + m * ray.direction[0].mid;
+    const double p1 = ray.origin[1].mid + m * ray.direction[1].mid;
+    const double p2 = ray.origin[2].mid + m * ray.direction[2].mid;
+    const double q = ((0.0 + p0 * p0) + p1 * p1) + p2 * p2;
+    const double e1 = (w * sums.dabs + sums.orad + mod_hi * sums.drad + 8.0 * kU * (sums.omid + mod_hi * sums.dabs)) *
+                          (1.0 + 64.0 * kU) +
+                      256.0 * kDenormMin;
+    const double norm = std::sqrt(q);
+    // (next_up(v) <= c iff v < c for doubles v, c: next_up(v) is the least
+    // double above v; NaN fails both. No such rewriting for next_down(v) > c,
+    // which may fail where v > c holds.)
+    if (norm * (1.0 + 4.0 * kU) + e1 < radius * (1.0 - 2.0 * kU)) return Verdict::Yes;
+    if (next_down(norm * (1.0 - 4.0 * kU) - e1) > radius * (1.0 + 2.0 * kU)) return Verdict::No;
+    return inside_clip(ray, mod_lo, mod_hi, radius);
+}
 
 /// Shrinks a verified count-1 disc d of p with the double-double
 /// coefficients p (|p_k - c_k| <= r_k): Newton steps in double-double, then

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -482,12 +483,164 @@ static void test_samples() {
     CHECK(refused);
 }
 
+/// Tracer::decide's fast predicates (pixel_decision.h, *_fast) against their
+/// references, on random discs and on discs placed at every edge on purpose:
+/// each must return exactly what the reference returns.
+static RootDisc random_disc(std::mt19937_64& g, double edge_a, double edge_b) {
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    auto pick = [&](int n) { return static_cast<int>(u01(g) * n) % n; };
+    const double rho = std::pow(10.0, -3.0 + 6.0 * u01(g)) * (pick(20) == 0 ? 1e-300 : 1.0);
+    const double radii[] = {0.0, 0x1p-1074, 1e-300, 1e-17, 1e-16, 1e-14, 1e-12, 1e-9, 1e-6, 1e-3, 0.1, 0.7};
+    double radius = radii[pick(12)] * (pick(3) == 0 ? 1.0 : rho);
+    double angle;
+    switch (pick(6)) {
+        case 0: angle = kPiDouble * (2.0 * u01(g) - 1.0); break;                 // anywhere
+        case 1: angle = edge_a + (pick(2) ? 1 : -1) * std::ldexp(u01(g), -pick(60)); break;  // at the lower edge
+        case 2: angle = edge_b + (pick(2) ? 1 : -1) * std::ldexp(u01(g), -pick(60)); break;  // at the upper edge
+        case 3: angle = pick(2) ? edge_a : edge_b; break;                          // exactly on an edge
+        case 4: angle = std::ldexp(u01(g), -pick(60)) * (pick(2) ? 1 : -1); break;  // near the positive axis
+        default: angle = kPiDouble - std::ldexp(u01(g), -pick(60)); break;        // near the negative axis
+    }
+    if (pick(2)) angle = -angle;  // the conjugate side
+    RootDisc d{rho * std::cos(angle), rho * std::sin(angle), radius, 1, true, false};
+    switch (pick(8)) {
+        case 0: d.im = 0.0; d.real = true; break;                                 // a real root (solver's flag)
+        case 1: d.im = std::ldexp(d.radius, -pick(4)) * (pick(2) ? 1 : -1); break;  // meets its mirror
+        case 2: d.count = 2 + pick(3); break;                                    // a cluster
+        case 3: if (pick(4) == 0) d = RootDisc{0.0, 0.0, 0.0, 1, true, false}; break;  // the exact root 0
+        case 4: d.radius = std::fabs(d.re) * (1.0 + 1e-3 * u01(g)); break;        // holds or nearly holds 0
+        default: break;
+    }
+    return d;
+}
+
+static void test_fast_decisions() {
+    std::mt19937_64 g(20261202);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    const double bands[][2] = {{0.0, 0.0},  {0.0, kPiDouble / 9}, {0.0, kPiDouble / 18}, {0.3, kPiDouble / 4},
+                               {0.1, 0.2},  {0.0, kPiDouble},     {1.0, 0.0},            {0.5, kPiDouble - 0.5},
+                               {1e-300, 0.3}};
+    long compared = 0, mirror_real = 0, twins = 0;
+    for (const auto& b : bands) {
+        const FramePlan plan = plan_with(b[0], b[1]);
+        for (int cs = 0; cs < 2; ++cs) {
+            const BandPlan bp = band_plan(plan, cs == 1);
+            for (int trial = 0; trial < 4000; ++trial) {
+                // One polynomial's discs (all verified), with conjugate pairs.
+                RootDisc all[12];
+                int n = 1 + static_cast<int>(u01(g) * 8);
+                for (int i = 0; i < n; ++i) all[i] = random_disc(g, b[0], b[0] + b[1]);
+                for (int i = 0; i < n && n < 12; ++i)
+                    if (u01(g) < 0.3) {  // its mirror image, exact or slightly off
+                        RootDisc m = all[i];
+                        m.im = -m.im;
+                        if (u01(g) < 0.5) m.re += m.radius * 0.25;
+                        all[n++] = m;
+                    }
+                for (int i = 0; i < n; ++i) {
+                    const bool real = proven_real(all, n, i, true);
+                    if (real && !all[i].real) ++mirror_real;
+                    CHECK(band_fast_verified(all, n, i, bp) == band_membership(all[i], real, plan, cs == 1));
+                    CHECK(band_fast(all[i], false, bp) == band_membership(all[i], false, plan, cs == 1));
+                    CHECK(band_fast(all[i], true, bp) == band_membership(all[i], true, plan, cs == 1));
+                    double lo, hi, lo2, hi2;
+                    modulus_bounds(all[i], lo, hi);
+                    modulus_fast(all[i], lo2, hi2);
+                    CHECK(std::memcmp(&lo, &lo2, sizeof lo) == 0 && std::memcmp(&hi, &hi2, sizeof hi) == 0);
+                    for (int j = 0; j < n; ++j) {
+                        if (j == i) continue;
+                        const bool t = is_mirror_twin(all[i], all[j], all, n, true);
+                        twins += t;
+                        CHECK(is_mirror_twin_fast(all, n, i, j) == t);
+                    }
+                    ++compared;
+                }
+            }
+        }
+        // The edges themselves: edge_range_fast's signs are edge_range's.
+        for (const FramePlan::BandEdge& e : {plan.lower_edge, plan.upper_edge}) {
+            const FastEdge f = fast_edge(e);
+            for (int trial = 0; trial < 20000; ++trial) {
+                const RootDisc d = random_disc(g, b[0], b[0] + b[1]);
+                const double x = d.re, y = std::fabs(d.im);
+                double lo, hi, lo2, hi2;
+                edge_range(e, x, y, d.radius, lo, hi);
+                edge_range_fast(f, x, y, d.radius, lo2, hi2);
+                CHECK((lo >= 0.0) == (lo2 >= 0.0) && (lo > 0.0) == (lo2 > 0.0));
+                CHECK((hi <= 0.0) == (hi2 <= 0.0) && (hi < 0.0) == (hi2 < 0.0));
+            }
+        }
+    }
+    // Moduli at the edges of modulus_fast's shortcuts: the lower bound at
+    // and around 0, radii up to infinity, moduli at the safe range's ends.
+    for (double re : {1.0, 3.7, 1e-300, 0x1p-500, 0x1.0000000000001p-500, 0x1p500, 1e200, 0x1p-1074}) {
+        for (double im : {0.0, 0.5 * re, -re}) {
+            const double m = std::sqrt(re * re + im * im);
+            const double a1 = std::nextafter(m * (1.0 - 4.0 * 0x1p-53), 0.0);
+            for (double r : {0.0, a1, std::nextafter(a1, 0.0), std::nextafter(a1, 1e308), a1 - 0x1p-1074, 0.5 * m, 1e308,
+                             1.7976931348623157e308, static_cast<double>(INFINITY)}) {
+                const RootDisc d{re, im, r, 1, true, false};
+                double lo, hi, lo2, hi2;
+                modulus_bounds(d, lo, hi);
+                modulus_fast(d, lo2, hi2);
+                CHECK(std::memcmp(&lo, &lo2, sizeof lo) == 0 && std::memcmp(&hi, &hi2, sizeof hi) == 0);
+            }
+        }
+    }
+    CHECK(compared > 100000);
+    CHECK(mirror_real > 100);  // realness by the mirror test was exercised
+    CHECK(twins > 100);
+    // The sphere: random rays and modulus ranges, many straddling the sphere.
+    long yes = 0, no = 0, unknown = 0;
+    for (int trial = 0; trial < 200000; ++trial) {
+        ObjectRay ray;
+        const double scale = std::pow(10.0, -2.0 + 4.0 * u01(g));
+        for (int a = 0; a < 3; ++a) {
+            ray.origin[a] = Ball(scale * (2.0 * u01(g) - 1.0) * 10.0, u01(g) < 0.5 ? 0.0 : std::ldexp(u01(g), -40 - trial % 20));
+            ray.direction[a] = Ball(2.0 * u01(g) - 1.0, u01(g) < 0.5 ? 0.0 : std::ldexp(u01(g), -45 - trial % 15));
+        }
+        if (trial % 7 == 0) ray.direction[trial % 3] = Ball(0.0);
+        // A modulus range around a point s0 of the ray; the sphere through
+        // that point (to a relative 2^-k), or anywhere.
+        const double s0 = scale * 20.0 * u01(g);
+        double p2 = 0.0;
+        for (int a = 0; a < 3; ++a) {
+            const double v = ray.origin[a].mid + s0 * ray.direction[a].mid;
+            p2 += v * v;
+        }
+        double radius = std::sqrt(p2) * (1.0 + (2.0 * u01(g) - 1.0) * std::ldexp(1.0, -static_cast<int>(u01(g) * 60)));
+        if (trial % 5 == 0) radius = scale * std::pow(10.0, -1.0 + 2.0 * u01(g));
+        if (trial % 97 == 0) radius *= 1e-300;
+        double width = std::ldexp(u01(g), -static_cast<int>(u01(g) * 50)) * scale;
+        if (trial % 11 == 0) width = 0.0;
+        double lo = std::max(0.0, s0 - width * u01(g));
+        if (trial % 13 == 0) lo = 0.0;
+        const double hi = lo + width;
+        const Verdict v = inside_clip(ray, lo, hi, radius);
+        CHECK(clip_fast(ray, clip_sums(ray), lo, hi, radius) == v);
+        yes += v == Verdict::Yes;
+        no += v == Verdict::No;
+        unknown += v == Verdict::Unknown;
+    }
+    std::printf("clip cases: %ld yes, %ld no, %ld unknown\n", yes, no, unknown);
+    CHECK(yes > 1000 && no > 1000 && unknown > 100);
+    // The x-axis ray of test_clip: every case, fast and full alike.
+    ObjectRay ray;
+    for (int a = 0; a < 3; ++a) {
+        ray.origin[a] = Ball(a == 0 ? -5.0 : 0.0);
+        ray.direction[a] = Ball(a == 0 ? 1.0 : 0.0);
+    }
+    const double ranges[][2] = {{4.0, 6.0}, {7.5, 8.0}, {6.9, 7.1}, {7.0, 7.0}, {2.0, 2.9999999}, {3.0, 3.0}};
+    for (const auto& r : ranges) CHECK(clip_fast(ray, clip_sums(ray), r[0], r[1], 2.0) == inside_clip(ray, r[0], r[1], 2.0));
+}
+
 int main() {
     test_band_rule();
     test_balls();
     test_band_membership();
     test_trig_assumption();
     test_clip();
+    test_fast_decisions();
     test_ray_coefficients();
     test_refinement();
     test_isolation();
