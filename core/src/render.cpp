@@ -110,6 +110,18 @@ inline double argument_of(double y, double x) {
     return std::atan2(y, x);
 }
 
+/// The exponent e of a finite normal double, 2^e <= |x| < 2^(e + 1) (its
+/// ilogb), read from the bits; false for a zero, a subnormal, an infinity
+/// or a NaN.
+inline bool normal_exponent(double x, int& e) {
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    const int f = static_cast<int>((b >> 52) & 0x7ff);
+    if (f == 0 || f == 0x7ff) return false;
+    e = f - 1023;
+    return true;
+}
+
 /// One term of the gradient, flattened: d/d axis of coeff x^ex y^ey z^ez is
 /// ce x^k[0] y^k[1] z^k[2] with ce = coeff * e[axis] (the same double
 /// product as gradient()'s) and k = the exponents, axis's lowered by one.
@@ -220,8 +232,8 @@ bool gradient_real(const ShadePlan::Object& ob, int degree, const double* x, dou
     if (!ob.real_ok) return false;
     int lo = 0, hi = 0;
     for (int a = 0; a < 3; ++a) {
-        if (!std::isfinite(x[a]) || x[a] == 0.0) return false;
-        const int l = std::ilogb(x[a]);
+        int l;
+        if (!normal_exponent(x[a], l)) return false;  // (a zero, subnormal or non-finite x_a: the complex path)
         lo = std::min(lo, l);
         hi = std::max(hi, l + 1);
     }
@@ -1102,9 +1114,19 @@ struct SampleResult {
 
 /// Traces and shades the sample at cell (sx_cell, sy_cell) of the frame's
 /// grid of samples.
+/// `dir` (optional): the sample's direction, already made by
+/// sample_direction for these cells (render_tile's batch): not made again.
 SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell, int side, Seeds* seeds,
-                          PixelExplanation* trace, const BatchedCell* pre = nullptr) {
-    const Ray ray = sample_ray(plan, sx_cell, sy_cell, side);
+                          PixelExplanation* trace, const BatchedCell* pre = nullptr, const double* dir = nullptr) {
+    Ray ray;
+    if (dir) {
+        for (int a = 0; a < 3; ++a) {
+            ray.origin[a] = plan.eye[a];
+            ray.direction[a] = dir[a];
+        }
+    } else {
+        ray = sample_ray(plan, sx_cell, sy_cell, side);
+    }
     for (int a = 0; a < 3; ++a) tracer.current_direction_[a] = ray.direction[a];
     tracer.pixel_x_ = sx_cell / side;  // the pixel holding the sample (for the exact tier)
     tracer.pixel_y_ = sy_cell / side;
@@ -1236,7 +1258,8 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
                     const BatchedCell pre{&batch, c};
                     const int sx = b0 + c;
                     const SampleResult sample = trace_sample(plan, tracer, sx, sy, side, seeds.data(), nullptr,
-                                                             batch.any() ? &pre : nullptr);
+                                                             batch.any() ? &pre : nullptr,
+                                                             batch.any() ? dirs + 3 * c : nullptr);
                     // One sample per pixel: straight to the AOVs (the same
                     // bits as add() then write(), without the copies).
                     if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * w + (sx - r.x0), sample);
