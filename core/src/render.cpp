@@ -1180,7 +1180,13 @@ struct PixelAccumulator {
         out.certified_share[i] = certified_share;
         out.count[i] = shown.eligible;
         if (level > kLevelFirst) ++out.escalations;
-        if (!shown_hit) return;
+        if (!shown_hit) {  // a miss (allocate() leaves the AOVs unset: every one is written here)
+            out.modulus[i] = std::numeric_limits<float>::infinity();
+            out.argument[i] = 0.0f;
+            out.re[i] = 0.0f;
+            out.im[i] = 0.0f;
+            return;
+        }
         out.modulus[i] = static_cast<float>(shown.modulus);
         out.argument[i] = static_cast<float>(argument_of(shown.disc.im, shown.disc.re));
         out.re[i] = static_cast<float>(shown.disc.re);
@@ -1197,19 +1203,23 @@ struct PixelAccumulator {
     }
 };
 
+/// Sizes the tile's AOVs. Their values are not set here: render_tile
+/// writes every pixel through write_pixel, which writes every AOV (a miss
+/// included), so one fill pass of nine (resize: a zeroing memset on fresh
+/// vectors) is all the setup costs.
 void allocate(TileAOVs& out, int w, int h) {
     out.width = w;
     out.height = h;
     const std::size_t np = static_cast<std::size_t>(w) * h;
-    out.rgba.assign(4 * np, 0.0f);
-    out.modulus.assign(np, std::numeric_limits<float>::infinity());
-    out.argument.assign(np, 0.0f);
-    out.re.assign(np, 0.0f);
-    out.im.assign(np, 0.0f);
-    out.count.assign(np, 0);
-    out.status.assign(np, kCertified);
-    out.escalation.assign(np, kLevelFirst);
-    out.certified_share.assign(np, 1.0f);
+    out.rgba.resize(4 * np);
+    out.modulus.resize(np);
+    out.argument.resize(np);
+    out.re.resize(np);
+    out.im.resize(np);
+    out.count.resize(np);
+    out.status.resize(np);
+    out.escalation.resize(np);
+    out.certified_share.resize(np);
     out.escalations = 0;
     out.root_calls = 0;
 }
