@@ -80,6 +80,11 @@ def test_argument_of_real_roots_is_the_librarys_atan2():
     want = np.arctan2(im[real].astype(np.float64), re[real].astype(np.float64)).astype(np.float32)
     assert want.tobytes() == arg[real].tobytes()
     assert set(np.unique(np.abs(arg[real]))) <= {np.float32(0.0), np.float32(math.pi)}
+    # The other branch (t < 0, not chosen in these frames) returns
+    # copysign(pi, y) for the double nearest pi, as atan2 does.
+    for x in (-1e-300, -0.5, -3.0, -1e300, -math.inf):
+        assert np.arctan2(0.0, x) == math.pi and np.arctan2(-0.0, x) == -math.pi
+        assert np.arctan2(0.0, -x) == 0.0 and math.copysign(1.0, np.arctan2(-0.0, -x)) == -1.0
 
 
 def test_reflective_transparent_point_lit_and_axis_hits_equal_the_reference():
