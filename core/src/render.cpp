@@ -14,6 +14,7 @@
 #include "argand/render.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -95,6 +96,165 @@ void gradient(const SurfaceSpec& s, const Complex<double>* z, Complex<double>* g
             grad[a] = grad[a] + v;
         }
     }
+}
+
+/// std::atan2(y, x), without the call when y is a zero and x is not
+/// (a real root): C11 F.10.1.4 fixes atan2(+-0, x > 0) = +-0 and
+/// atan2(+-0, x < 0) = +-pi (the double nearest pi), so the value is the
+/// same to the bit (tests/test_render.py checks it against the library).
+inline double argument_of(double y, double x) {
+    if (y == 0.0) {
+        if (x > 0) return y;
+        if (x < 0) return std::copysign(kPi, y);
+    }
+    return std::atan2(y, x);
+}
+
+/// The exponent e of a finite normal double, 2^e <= |x| < 2^(e + 1) (its
+/// ilogb), read from the bits; false for a zero, a subnormal, an infinity
+/// or a NaN.
+inline bool normal_exponent(double x, int& e) {
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    const int f = static_cast<int>((b >> 52) & 0x7ff);
+    if (f == 0 || f == 0x7ff) return false;
+    e = f - 1023;
+    return true;
+}
+
+/// One term of the gradient, flattened: d/d axis of coeff x^ex y^ey z^ez is
+/// ce x^k[0] y^k[1] z^k[2] with ce = coeff * e[axis] (the same double
+/// product as gradient()'s) and k = the exponents, axis's lowered by one.
+struct GradientTerm {
+    double ce;
+    int axis;
+    int k[3];
+};
+
+/// What shading needs that depends only on the frame (built once per
+/// Tracer). Every value is made by the same operations as the per-pixel
+/// code it replaces, so the pixels keep their bits.
+struct ShadePlan {
+    struct Object {
+        std::vector<GradientTerm> terms;  // gradient()'s order: term by term, axis 0..2 within a term
+        int k_max[3] = {0, 0, 0};         // highest power of each coordinate the terms use
+        bool real_ok = false;             // every ce finite and nonzero (gradient_real may run)
+        int ce_lo = 0, ce_hi = 0;         // ilogb range of the ce
+        double eye_object[3];             // to_object(eye): the primary rays' origin in object space
+    };
+    std::vector<Object> objects;
+    std::vector<std::array<double, 3>> light_dir;  // directional lights: normalize3(vector)
+    // ARGAND_SHADE=reference: shade() runs its plain per-pixel code
+    // (gradient(), std::pow, std::exp, std::atan2 always), the reference
+    // the fast paths are tested against to the bit (tests/test_render.py).
+    bool reference = false;
+
+    void build(const FramePlan& plan) {
+        const char* env = std::getenv("ARGAND_SHADE");
+        reference = env != nullptr && std::string(env) == "reference";
+        const SceneSpec& sc = plan.scene;
+        objects.assign(sc.objects.size(), Object{});
+        for (std::size_t i = 0; i < sc.objects.size(); ++i) {
+            const SurfaceSpec& s = sc.objects[i];
+            Object& ob = objects[i];
+            ob.real_ok = true;
+            bool first = true;
+            for (const Term& t : s.terms) {
+                const int e[3] = {t.ex, t.ey, t.ez};
+                for (int a = 0; a < 3; ++a) {
+                    if (e[a] == 0) continue;
+                    GradientTerm g{t.coeff * e[a], a, {e[0], e[1], e[2]}};
+                    g.k[a] -= 1;
+                    for (int b = 0; b < 3; ++b) ob.k_max[b] = std::max(ob.k_max[b], g.k[b]);
+                    ob.terms.push_back(g);
+                    if (!std::isfinite(g.ce) || g.ce == 0.0) {
+                        ob.real_ok = false;
+                        continue;
+                    }
+                    const int l = std::ilogb(g.ce);
+                    ob.ce_lo = first ? l : std::min(ob.ce_lo, l);
+                    ob.ce_hi = first ? l : std::max(ob.ce_hi, l);
+                    first = false;
+                }
+            }
+            to_object(s, plan.eye, ob.eye_object);
+        }
+        light_dir.assign(sc.lights.size(), {0.0, 0.0, 0.0});
+        for (std::size_t i = 0; i < sc.lights.size(); ++i) {
+            for (int a = 0; a < 3; ++a) light_dir[i][a] = sc.lights[i].vector[a];
+            normalize3(light_dir[i].data());
+        }
+    }
+};
+
+/// gradient() from the flattened terms: the same complex operations in the
+/// same order (a product by pw[b][0] = 1 included: it is not always exact
+/// in complex arithmetic, e.g. for a signed zero or an infinity), only the
+/// powers no term uses are not formed. The real parts, to the bit.
+void gradient_flat(const ShadePlan::Object& ob, const Complex<double>* z, double* grad_re) {
+    Complex<double> pw[3][kMaxDegree + 1];
+    for (int a = 0; a < 3; ++a) {
+        pw[a][0] = Complex<double>(1.0, 0.0);
+        for (int k = 1; k <= ob.k_max[a]; ++k) pw[a][k] = pw[a][k - 1] * z[a];
+    }
+    Complex<double> grad[3] = {Complex<double>(0.0, 0.0), Complex<double>(0.0, 0.0), Complex<double>(0.0, 0.0)};
+    for (const GradientTerm& g : ob.terms) {
+        Complex<double> v(g.ce, 0.0);
+        for (int b = 0; b < 3; ++b) v = v * pw[b][g.k[b]];
+        grad[g.axis] = grad[g.axis] + v;
+    }
+    for (int a = 0; a < 3; ++a) grad_re[a] = grad[a].re;
+}
+
+/// The real parts of gradient() at a real point z = x + 0i (a real root:
+/// t.im = 0, so z.im = 0 + t.im od = +0), in real arithmetic; false (and
+/// nothing written) where that is not proven to give the same bits.
+///
+/// Contract: gradient()'s complex products are (a.re b.re - a.im b.im,
+/// a.re b.im + a.im b.re). If every imaginary part is a zero and every
+/// a.re b.re is a finite nonzero double, the real part is
+/// a.re b.re - (+-0) = a.re b.re exactly and the imaginary part is again a
+/// zero (finite * zero + zero * finite); the sums grad + v are the same
+/// double additions in both. So the real parts agree to the bit as soon as
+/// every real product formed (powers of x_a, ce times powers) is finite and
+/// nonzero, and a product by 1 may then be skipped (x * 1 = x). The check:
+/// with 2^lo_a <= |x_a| < 2^(lo_a + 1), L = min(0, min lo_a), H = max(0,
+/// max lo_a + 1), D = degree, every exact product of ce (2^ce_lo <= |ce| <
+/// 2^(ce_hi + 1)) and at most D coordinates lies in [2^(ce_lo + D L),
+/// 2^(ce_hi + 1 + D H)); each of its at most D + 3 roundings (normal range,
+/// round to nearest) changes it by a factor within (1 -+ 2^-53), and
+/// (1 - 2^-53)^67 > 1/2, (1 + 2^-53)^67 < 2. So ce_lo + D L - 1 >= -1021
+/// and ce_hi + D H + 2 <= 1023 keep every product normal and finite (by
+/// induction over the chain: each partial product has a subset of the
+/// factors, inside the same range since L <= 0 <= H), and likewise
+/// D L - 1 >= -1021, D H + 1 <= 1023 for the powers alone.
+bool gradient_real(const ShadePlan::Object& ob, int degree, const double* x, double* grad_re) {
+    if (!ob.real_ok) return false;
+    int lo = 0, hi = 0;
+    for (int a = 0; a < 3; ++a) {
+        int l;
+        if (!normal_exponent(x[a], l)) return false;  // (a zero, subnormal or non-finite x_a: the complex path)
+        lo = std::min(lo, l);
+        hi = std::max(hi, l + 1);
+    }
+    const long D = degree;
+    if (ob.ce_lo + D * lo - 1 < -1021 || ob.ce_hi + D * hi + 2 > 1023 || D * lo - 1 < -1021 || D * hi + 1 > 1023)
+        return false;
+    double pw[3][kMaxDegree + 1];
+    for (int a = 0; a < 3; ++a) {
+        pw[a][0] = 1.0;
+        for (int k = 1; k <= ob.k_max[a]; ++k) pw[a][k] = pw[a][k - 1] * x[a];
+    }
+    double g[3] = {0.0, 0.0, 0.0};
+    for (const GradientTerm& t : ob.terms) {
+        double v = t.ce;
+        if (t.k[0]) v = v * pw[0][t.k[0]];
+        if (t.k[1]) v = v * pw[1][t.k[1]];
+        if (t.k[2]) v = v * pw[2][t.k[2]];
+        g[t.axis] = g[t.axis] + v;
+    }
+    for (int a = 0; a < 3; ++a) grad_re[a] = g[a];
+    return true;
 }
 
 // ---------------------------------------------------------------------------
@@ -458,20 +618,49 @@ public:
             for (int a = 0; a < 3; ++a) rgb[a] = sc.background[a];
             return;
         }
+        if (!shading_ready_) {
+            shading_.build(plan_);
+            shading_ready_ = true;
+        }
         const SurfaceSpec& s = sc.objects[hit.object];
+        const ShadePlan::Object& sob = shading_.objects[hit.object];
         const Material& m = s.material;
         // Hit point: distance |t| along the ray (a real point for every root).
         double p[3];
         for (int a = 0; a < 3; ++a) p[a] = o[a] + hit.modulus * d[a];
         // Normal: real part of grad F at the complex point o' + t d'.
+        // (The primary rays' origin, the eye, is in object space once per
+        // frame: the same to_object, the same bits.)
+        const bool ref = shading_.reference;
         double oo[3], od[3];
-        to_object(s, o, oo);
+        if (!ref && std::memcmp(o, plan_.eye, sizeof oo) == 0) {
+            for (int a = 0; a < 3; ++a) oo[a] = sob.eye_object[a];
+        } else {
+            to_object(s, o, oo);
+        }
         mat_vec(s.linear, d, od);
-        const Complex<double> t(hit.disc.re, hit.disc.im);
-        Complex<double> z[3], g[3];
-        for (int a = 0; a < 3; ++a) z[a] = Complex<double>(oo[a], 0.0) + mul_real(t, od[a]);
-        gradient(s, z, g);
-        const double gobj[3] = {g[0].re, g[1].re, g[2].re};
+        double gobj[3];
+        bool real_done = false;
+        if (ref) {
+            const Complex<double> t(hit.disc.re, hit.disc.im);
+            Complex<double> z[3], g[3];
+            for (int a = 0; a < 3; ++a) z[a] = Complex<double>(oo[a], 0.0) + mul_real(t, od[a]);
+            gradient(s, z, g);
+            for (int a = 0; a < 3; ++a) gobj[a] = g[a].re;
+            real_done = true;
+        } else if (hit.disc.im == 0.0) {
+            // A real root: z = oo + t.re od (+0 i), in real arithmetic
+            // where gradient_real proves the bits are gradient()'s.
+            double x[3];
+            for (int a = 0; a < 3; ++a) x[a] = oo[a] + hit.disc.re * od[a];
+            real_done = gradient_real(sob, s.degree, x, gobj);
+        }
+        if (!real_done) {
+            const Complex<double> t(hit.disc.re, hit.disc.im);
+            Complex<double> z[3];
+            for (int a = 0; a < 3; ++a) z[a] = Complex<double>(oo[a], 0.0) + mul_real(t, od[a]);
+            gradient_flat(sob, z, gobj);
+        }
         double n[3];
         mat_t_vec(s.linear, gobj, n);
         normalize3(n);
@@ -479,7 +668,8 @@ public:
         // Base colour, or hue by argument.
         double base[3] = {m.color[0], m.color[1], m.color[2]};
         if (plan_.params.hue_by_argument && s.complex_space) {
-            const double theta = std::fabs(std::atan2(hit.disc.im, hit.disc.re));
+            const double theta =
+                std::fabs(ref ? std::atan2(hit.disc.im, hit.disc.re) : argument_of(hit.disc.im, hit.disc.re));
             const double h = std::fmod(theta / kPi * 6.0 * 2.0, 6.0);  // hue sweep over [0, pi/2]
             const double x = 1 - std::fabs(std::fmod(h, 2.0) - 1);
             const double hues[6][3] = {{1, x, 0}, {x, 1, 0}, {0, 1, x}, {0, x, 1}, {x, 0, 1}, {1, 0, x}};
@@ -489,26 +679,34 @@ public:
         double local[3] = {0, 0, 0};
         const double ambient = 0.12;
         for (int a = 0; a < 3; ++a) local[a] = ambient * base[a];
-        for (const Light& l : sc.lights) {
+        for (std::size_t li = 0; li < sc.lights.size(); ++li) {
+            const Light& l = sc.lights[li];
             double L[3];
-            if (l.directional) {
+            if (l.directional && !ref) {
+                for (int a = 0; a < 3; ++a) L[a] = shading_.light_dir[li][a];  // normalize3(vector), once
+            } else if (l.directional) {
                 for (int a = 0; a < 3; ++a) L[a] = l.vector[a];
+                normalize3(L);
             } else {
                 for (int a = 0; a < 3; ++a) L[a] = l.vector[a] - p[a];
+                normalize3(L);
             }
-            normalize3(L);
             const double ndl = dot3(n, L);
             if (ndl <= 0) continue;
             double R[3];
             for (int a = 0; a < 3; ++a) R[a] = 2 * ndl * n[a] - L[a];
             const double rv = std::max(0.0, -dot3(R, d));
-            const double spec = m.specular * std::pow(rv, m.shininess);
+            // pow(+0, y) = +0 for every y > 0 (C11 F.10.4.4): no call.
+            const double spec =
+                m.specular * (!ref && rv == 0.0 && m.shininess > 0 ? 0.0 : std::pow(rv, m.shininess));
             for (int a = 0; a < 3; ++a)
                 local[a] += l.intensity * l.color[a] * (m.diffuse * ndl * base[a] + spec);
         }
         // Depth cue from the modulus (the paper colours by the minimum
         // modulus): roots nearer than the scene's centre are brighter.
-        const double cue = std::exp(-std::max(0.0, hit.modulus / plan_.scene_distance - 0.6));
+        // (exp(-0) = 1 exactly: no call for the near roots.)
+        const double cue_arg = std::max(0.0, hit.modulus / plan_.scene_distance - 0.6);
+        const double cue = !ref && cue_arg == 0.0 ? 1.0 : std::exp(-cue_arg);
         for (double& v : local) v *= 0.55 + 0.45 * cue;
         const bool bounces = !s.complex_space && depth < plan_.params.max_depth &&
                              (m.reflectivity > 0 || m.transparency > 0);
@@ -549,6 +747,9 @@ public:
             for (int a = 0; a < 3; ++a) rgb[a] += m.transparency * col[a] * (0.6 + 0.4 * base[a]);
         }
     }
+
+    ShadePlan shading_;           // shade()'s per-frame data, built on its first hit
+    bool shading_ready_ = false;
 
 
 private:
@@ -1034,9 +1235,19 @@ struct SampleResult {
 
 /// Traces and shades the sample at cell (sx_cell, sy_cell) of the frame's
 /// grid of samples.
+/// `dir` (optional): the sample's direction, already made by
+/// sample_direction for these cells (render_tile's batch): not made again.
 SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell, int side, Seeds* seeds,
-                          PixelExplanation* trace, const BatchedCell* pre = nullptr) {
-    const Ray ray = sample_ray(plan, sx_cell, sy_cell, side);
+                          PixelExplanation* trace, const BatchedCell* pre = nullptr, const double* dir = nullptr) {
+    Ray ray;
+    if (dir) {
+        for (int a = 0; a < 3; ++a) {
+            ray.origin[a] = plan.eye[a];
+            ray.direction[a] = dir[a];
+        }
+    } else {
+        ray = sample_ray(plan, sx_cell, sy_cell, side);
+    }
     for (int a = 0; a < 3; ++a) tracer.current_direction_[a] = ray.direction[a];
     tracer.pixel_x_ = sx_cell / side;  // the pixel holding the sample (for the exact tier)
     tracer.pixel_y_ = sy_cell / side;
@@ -1090,9 +1301,15 @@ struct PixelAccumulator {
         out.certified_share[i] = certified_share;
         out.count[i] = shown.eligible;
         if (level > kLevelFirst) ++out.escalations;
-        if (!shown_hit) return;
+        if (!shown_hit) {  // a miss (allocate() leaves the AOVs unset: every one is written here)
+            out.modulus[i] = std::numeric_limits<float>::infinity();
+            out.argument[i] = 0.0f;
+            out.re[i] = 0.0f;
+            out.im[i] = 0.0f;
+            return;
+        }
         out.modulus[i] = static_cast<float>(shown.modulus);
-        out.argument[i] = static_cast<float>(std::atan2(shown.disc.im, shown.disc.re));
+        out.argument[i] = static_cast<float>(argument_of(shown.disc.im, shown.disc.re));
         out.re[i] = static_cast<float>(shown.disc.re);
         out.im[i] = static_cast<float>(shown.disc.im);
     }
@@ -1107,19 +1324,23 @@ struct PixelAccumulator {
     }
 };
 
+/// Sizes the tile's AOVs. Their values are not set here: render_tile
+/// writes every pixel through write_pixel, which writes every AOV (a miss
+/// included), so one fill pass of nine (resize: a zeroing memset on fresh
+/// vectors) is all the setup costs.
 void allocate(TileAOVs& out, int w, int h) {
     out.width = w;
     out.height = h;
     const std::size_t np = static_cast<std::size_t>(w) * h;
-    out.rgba.assign(4 * np, 0.0f);
-    out.modulus.assign(np, std::numeric_limits<float>::infinity());
-    out.argument.assign(np, 0.0f);
-    out.re.assign(np, 0.0f);
-    out.im.assign(np, 0.0f);
-    out.count.assign(np, 0);
-    out.status.assign(np, kCertified);
-    out.escalation.assign(np, kLevelFirst);
-    out.certified_share.assign(np, 1.0f);
+    out.rgba.resize(4 * np);
+    out.modulus.resize(np);
+    out.argument.resize(np);
+    out.re.resize(np);
+    out.im.resize(np);
+    out.count.resize(np);
+    out.status.resize(np);
+    out.escalation.resize(np);
+    out.certified_share.resize(np);
     out.escalations = 0;
     out.root_calls = 0;
 }
@@ -1180,7 +1401,8 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
                     const BatchedCell pre{&batch, c};
                     const int sx = b0 + c;
                     const SampleResult sample = trace_sample(plan, tracer, sx, sy, side, seeds.data(), nullptr,
-                                                             batch.any() ? &pre : nullptr);
+                                                             batch.any() ? &pre : nullptr,
+                                                             batch.any() ? dirs + 3 * c : nullptr);
                     // One sample per pixel: straight to the AOVs (the same
                     // bits as add() then write(), without the copies).
                     if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * w + (sx - r.x0), sample);
