@@ -1400,9 +1400,11 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
                 for (int c = 0; c < cells; ++c) {
                     const BatchedCell pre{&batch, c};
                     const int sx = b0 + c;
+                    // (The run's directions are sample_direction's, to the bit.)
+                    const double dir[3] = {dx[c], dy[c], dz[c]};
                     const SampleResult sample = trace_sample(plan, tracer, sx, sy, side, seeds.data(), nullptr,
                                                              batch.any() ? &pre : nullptr,
-                                                             batch.any() ? dirs + 3 * c : nullptr);
+                                                             batch.any() ? dir : nullptr);
                     // One sample per pixel: straight to the AOVs (the same
                     // bits as add() then write(), without the copies).
                     if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * w + (sx - r.x0), sample);
