@@ -348,6 +348,9 @@ constexpr int W = 4;
 constexpr int W = 2;
 #endif
 static_assert(L % W == 0, "a block is whole vectors");
+/// From this sweep on (0-based), a real approximation whose correction is
+/// still large steps off the real axis (see aberth_lanes).
+constexpr int kRealNudgeSweep = 2;
 
 /// Aberth-Ehrlich sweeps (Gauss-Seidel over the roots, all lanes at once),
 /// with the scalar aberth's stopping rules per root and lane; a converged
@@ -371,6 +374,7 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
     int it = 0;
     for (; it < max_iter; ++it) {
         int left = 0;
+        const bool nudge_now = it >= kRealNudgeSweep;
 #pragma GCC unroll 8
         for (int i = 0; i < N; ++i) {
             for (int l0 = 0; l0 < L; l0 += W) {
@@ -420,10 +424,21 @@ ARGAND_LANES
                     const double nudge = (ax > 0.0 ? ax : 1.0) * 1e-7 * (1 + i);
                     const double nr = ok_w ? xr - wr : xr + nudge;
                     const double ni = ok_w ? xi - wi : xi + 0.7 * nudge;
+                    // Real arithmetic keeps a real approximation of a real
+                    // polynomial real: two real seeds of roots that have
+                    // become a complex pair (the ray left the surface
+                    // between neighbouring samples) would never converge.
+                    // A real approximation whose correction is still above
+                    // 2^-8 relative from sweep kRealNudgeSweep on steps off
+                    // the axis by 2^-6 relative (alternating sides); one
+                    // converging from a seed is far below that by then.
+                    const bool stray = nudge_now & (ni == 0.0) & (wr * wr + wi * wi > 0x1p-16 * (nr * nr));
+                    const double side = i % 2 == 0 ? 0x1p-6 : -0x1p-6;
+                    const double ni2 = stray ? side * (nr != 0.0 ? std::fabs(nr) : 1.0) : ni;
                     const bool act = done[i][l] == 0.0;
                     const bool move = act & !small;
                     b.xr[i][l] = move ? nr : xr;
-                    b.xi[i][l] = move ? ni : xi;
+                    b.xi[i][l] = move ? ni2 : xi;
                     const bool conv = small | (ok_w & (wr * wr + wi * wi <= stop_rel2 * (nr * nr + ni * ni)));
                     done[i][l] = (!act | conv) ? 1.0 : 0.0;
                 }
