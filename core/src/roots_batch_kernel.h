@@ -368,21 +368,29 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
     constexpr double eps = kU;
     constexpr double noise = 4.0 * (N + 1) * eps;
     constexpr double stop_rel2 = 0x1p-20 * 0x1p-20;
+    // Lanes per chunk: one vector; for n <= 4 the whole block, unskipped
+    // (from the closed-form starts nearly every lane stops after one sweep,
+    // and the per-chunk tests would cost more than they skip).
+    constexpr int CW = N <= 4 ? L : W;
     double done[N][L];
     for (int i = 0; i < N; ++i)
         for (int l = 0; l < L; ++l) done[i][l] = b.active[l] ? 0.0 : 1.0;
     int it = 0;
     for (; it < max_iter; ++it) {
         int left = 0;
-        const bool nudge_now = it >= kRealNudgeSweep;
+        // (Degrees 5 to 8 only: those take the ray caster's seeds; the
+        // closed-form starts of n <= 4 put a complex pair off the axis.)
+        const bool nudge_now = (N >= 5) & (it >= kRealNudgeSweep);
 #pragma GCC unroll 8
         for (int i = 0; i < N; ++i) {
-            for (int l0 = 0; l0 < L; l0 += W) {
-                double open = 0.0;
-                for (int l = l0; l < l0 + W; ++l) open += done[i][l] == 0.0 ? 1.0 : 0.0;
-                if (open == 0.0) continue;
+            for (int l0 = 0; l0 < L; l0 += CW) {
+                if constexpr (CW < L) {
+                    double open = 0.0;
+                    for (int l = l0; l < l0 + CW; ++l) open += done[i][l] == 0.0 ? 1.0 : 0.0;
+                    if (open == 0.0) continue;
+                }
 ARGAND_LANES
-                for (int l = l0; l < l0 + W; ++l) {
+                for (int l = l0; l < l0 + CW; ++l) {
                     const double xr = b.xr[i][l], xi = b.xi[i][l];
                     double pr = b.c[N][l], pi = 0.0, dr = 0.0, di = 0.0, ap = std::fabs(b.c[N][l]);
                     const double ax2 = xr * xr + xi * xi;
@@ -442,7 +450,7 @@ ARGAND_LANES
                     const bool conv = small | (ok_w & (wr * wr + wi * wi <= stop_rel2 * (nr * nr + ni * ni)));
                     done[i][l] = (!act | conv) ? 1.0 : 0.0;
                 }
-                for (int l = l0; l < l0 + W; ++l) left += done[i][l] == 0.0;
+                for (int l = l0; l < l0 + CW; ++l) left += done[i][l] == 0.0;
             }
         }
         if (left == 0) {
