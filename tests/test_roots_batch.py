@@ -215,3 +215,65 @@ def test_family_radii_in_the_lanes(method):
     assert kept > 0
     with pytest.raises(ValueError, match="radius"):
         find_roots_batch(np.ones((2, 3)), "auto", radius=-np.ones((2, 3)))
+
+
+def _lane_kinds(rng: np.random.Generator, n: int) -> list[list[float]]:
+    """One block's worth (16 rows) of lanes of degree n, easy and hard side
+    by side: well-separated roots, an exact double root, a near-multiple
+    pair (gap 1e-9), a tight cluster of three, a complex pair next to a real
+    root of nearly its modulus, and standard normal coefficients."""
+
+    def expand(roots: list[complex]) -> list[float]:
+        c = np.poly(np.array(roots))[::-1].real
+        return [float(v) for v in c]
+
+    def separated(k: int) -> list[complex]:
+        out: list[complex] = []
+        while len(out) < k:
+            z = complex(rng.uniform(-2, 2), rng.uniform(0.2, 1.5))
+            if len(out) + 2 <= k and rng.random() < 0.5:
+                out += [z, z.conjugate()]
+            else:
+                out.append(complex(z.real, 0.0))
+        return out
+
+    rows = []
+    for lane in range(16):
+        kind = lane % 6
+        if kind == 0:
+            rows.append(rng.standard_normal(n + 1).tolist())
+        elif kind == 1:
+            rows.append(expand(separated(n)))
+        elif kind == 2:  # exact double root beside separated ones
+            rows.append(expand([0.625, 0.625] + separated(n - 2)))
+        elif kind == 3:  # near-multiple pair
+            rows.append(expand([1.0, 1.0 + 1e-9] + separated(n - 2)))
+        elif kind == 4:  # cluster of three
+            rows.append(expand([0.75, 0.75 + 1e-6, 0.75 - 1e-6] + separated(n - 3)))
+        else:  # complex pair beside a real root of nearly its modulus
+            rows.append(expand([0.5 + 1j, 0.5 - 1j, -1.118] + separated(n - 3)))
+    return rows
+
+
+@pytest.mark.parametrize("n", range(4, BATCH_MAX_DEGREE + 1))
+def test_blocks_mixing_easy_and_hard_lanes(n):
+    """Every block of 16 lanes holds easy rows next to exact double roots,
+    near-multiple pairs, clusters and near-equal moduli (so the lanes of one
+    block stop after different numbers of Aberth sweeps): every claim holds
+    against the exact truth, the easy rows are answered in the lanes, and
+    every instruction set gives the same bits (their vectors differ in
+    width: 2, 4 or 8 lanes)."""
+    rng = np.random.default_rng([SEED, 77, n])
+    matrix = np.array([row for _ in range(4) for row in _lane_kinds(rng, n)], dtype=np.float64)
+    problems: list[str] = []
+    for method in ("auto", "smith"):
+        answers = [find_roots_batch(matrix, method, isa) for isa in ISAS]
+        for isa, other in zip(ISAS[1:], answers[1:]):
+            assert _same(answers[0], other), (n, method, ISAS[0], isa)
+        result = answers[0]
+        assert result.lanes_kept >= 16, (n, method, result.lanes_kept)  # at least the easy kinds
+        for r in range(len(matrix)):
+            found = check_roots(matrix[r], result.row(r), Truth(list(matrix[r])))
+            if found:
+                problems.append(f"{reproducer(matrix[r], method)} (lane {r % 16}): {found}")
+    assert not problems, f"{len(problems)} rows with false claims:\n" + "\n".join(problems[:10])
