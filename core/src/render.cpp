@@ -261,16 +261,61 @@ bool gradient_real(const ShadePlan::Object& ob, int degree, const double* x, dou
 // Tracing
 // ---------------------------------------------------------------------------
 
+/// The discs the decisions read (ObjectRoots::res), with RootsResult's
+/// field names: discs[i], n_discs, n_infinite, wants_exact, escalation.
+/// It points either at the tracer's own RootsResult (the scalar path, and a
+/// batched sample whose discs refine changes) or straight at PrimaryBatch's
+/// storage of the sample's RootsResult (no copy per sample), which stays
+/// unchanged until the batch's next solve, after the sample's decisions.
+struct RootsView {
+    const RootDisc* discs = nullptr;
+    std::int32_t n_discs = 0;
+    std::int32_t n_infinite = 0;
+    bool wants_exact = false;
+    std::int32_t escalation = 0;
+    void bind(const RootsResult& r) {
+        discs = r.discs;
+        n_discs = r.n_discs;
+        n_infinite = r.n_infinite;
+        wants_exact = r.wants_exact;
+        escalation = r.escalation;
+    }
+};
+
 /// One object's roots along the current ray.
+///
+/// For an object solved in a batch (PrimaryBatch::fill), res views the
+/// batch's RootsResult, and poly and ray are copied only where something
+/// reads them: poly for record (explain_pixel), ray where the object has a
+/// clipping sphere (the only decisions that read it) or for record. A
+/// batched object is never solved again by solve() (seeded is false), so
+/// its poly is not needed there.
 struct ObjectRoots {
     RayCoefficients<double> poly;
     ObjectRay ray;
-    RootsResult res;
+    RootsView res;      // what the decisions read
+    RootsResult own;    // the discs of solve(), and refine's copy (writable())
     Status status = Status::Ok;
     bool seeded = false;
     bool complete = false;   // status Ok, finite, every disc verified
     bool have_dd = false;
     RayCoefficients<DoubleDouble> poly_dd;
+
+    /// The discs as a RootsResult refine may change: own, holding a copy
+    /// of the batch's discs first if res views the batch's (copy on write;
+    /// the same fields fill used to copy). res views own afterwards; call
+    /// res.bind(own) again after changing own's header.
+    RootsResult& writable() {
+        if (res.discs != own.discs) {
+            own.n_discs = res.n_discs;
+            own.n_infinite = res.n_infinite;
+            own.wants_exact = res.wants_exact;
+            own.escalation = res.escalation;
+            std::copy(res.discs, res.discs + res.n_discs, own.discs);
+            res.bind(own);
+        }
+        return own;
+    }
 };
 
 /// Per-disc decisions of the current ray.
@@ -355,6 +400,7 @@ public:
             any_ = any_ || o.batched;
             if (!o.batched) continue;
             o.seeded = plan.params.seed_from_neighbour && n > 4;
+            o.clipped = plan.scene.objects[obj].clip_radius > 0.0;
         }
     }
 
@@ -408,6 +454,14 @@ public:
             rows.stride = kCells;
             rows.n_coeffs = n + 1;
             find_roots_soa(rows, plan_.params.method, o.res, o.status, isa_);
+            // What fill's ObjectRoots::complete was (status Ok, every disc
+            // verified), once per cell here.
+            for (int c = 0; c < cells; ++c) {
+                bool complete = !o.skip[c] && o.status[c] == Status::Ok;
+                const RootsResult& res = o.res[c];
+                for (int i = 0; i < res.n_discs && complete; ++i) complete = res.discs[i].verified;
+                o.complete[c] = complete ? 1 : 0;
+            }
             if (!o.seeded) continue;
             // These samples' roots seed the samples below them (as the
             // scalar path's seeds: every root, with multiplicity; NaN in
@@ -434,37 +488,40 @@ public:
     /// what primary_ray_polynomial and find_roots_rows gave before, read
     /// from the run's structure of arrays (coefficients and radii up to the
     /// degree, the discs that exist).
-    void fill(int obj, int c, ObjectRoots& r) const {
+    /// `all`: also the polynomial and the ray whatever the object (record
+    /// reads them); otherwise the ray only for an object with a clipping
+    /// sphere and the polynomial not at all (see ObjectRoots). r.res views
+    /// the batch's RootsResult of the cell (valid until the next solve).
+    void fill(int obj, int c, ObjectRoots& r, bool all) const {
         const Object& o = objects_[obj];
         const detail::PrimaryRun& p = o.run;
-        const int n = p.n;
-        r.poly.n = n;
-        r.poly.finite = p.finite[c] != 0;
-        for (int k = 0; k <= n; ++k) {
-            r.poly.c[k] = p.c[k][c];
-            r.poly.r[k] = p.r[k][c];
+        if (all) {
+            const int n = p.n;
+            r.poly.n = n;
+            r.poly.finite = p.finite[c] != 0;
+            for (int k = 0; k <= n; ++k) {
+                r.poly.c[k] = p.c[k][c];
+                r.poly.r[k] = p.r[k][c];
+            }
         }
-        const FramePlan::ObjectPlan& op = plan_.objects[obj];
-        for (int a = 0; a < 3; ++a) {
-            r.ray.origin[a] = op.origin[a];
-            r.ray.direction[a] = Ball(p.dir[a][c], p.dir_rad[a][c]);
+        if (all || o.clipped) {
+            const FramePlan::ObjectPlan& op = plan_.objects[obj];
+            for (int a = 0; a < 3; ++a) {
+                r.ray.origin[a] = op.origin[a];
+                r.ray.direction[a] = Ball(p.dir[a][c], p.dir_rad[a][c]);
+            }
         }
         r.seeded = false;
         if (o.skip[c]) {
             r.status = Status::NonFinite;
-            r.res.n_discs = 0;
+            r.own.n_discs = 0;
+            r.res.bind(r.own);
             r.complete = false;
             return;
         }
-        const RootsResult& res = o.res[c];
-        r.res.n_discs = res.n_discs;
-        r.res.n_infinite = res.n_infinite;
-        r.res.wants_exact = res.wants_exact;
-        r.res.escalation = res.escalation;
-        std::copy(res.discs, res.discs + res.n_discs, r.res.discs);
+        r.res.bind(o.res[c]);
         r.status = o.status[c];
-        r.complete = r.status == Status::Ok;
-        for (int i = 0; i < r.res.n_discs && r.complete; ++i) r.complete = r.res.discs[i].verified;
+        r.complete = o.complete[c] != 0;
     }
 
 private:
@@ -478,6 +535,8 @@ private:
         std::vector<double> above_re, above_im;
         RootsResult res[kCells];
         Status status[kCells];
+        std::uint8_t complete[kCells];  // solved, status Ok, every disc verified
+        bool clipped = false;  // a clipping sphere: the decisions read the ray
     };
     const FramePlan& plan_;
     BatchIsa isa_;
@@ -525,7 +584,7 @@ public:
             ObjectRoots& r = roots[obj];
             if (primary && pre != nullptr && pre->batch->batched(obj)) {
                 ++root_calls;
-                pre->batch->fill(obj, pre->cell, r);
+                pre->batch->fill(obj, pre->cell, r, trace != nullptr);
                 r.have_dd = false;
                 if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
                 continue;
@@ -586,9 +645,17 @@ public:
         }
         h.level = level;
         if (seeds) {
+            // Only for the objects whose seeds a later sample may read: the
+            // scalar path's (intersect's use_seed: degree > 4 and
+            // seed_from_neighbour), and not those this batch solves (the
+            // batch's lanes take their seeds from its own arrays; a tile
+            // with a batch gives every primary sample its BatchedCell).
+            // Any other object's Seeds stay as they were, never read.
             for (int obj = 0; obj < n_obj; ++obj) {
-                const ObjectRoots& r = roots[obj];
                 const int n = plan_.scene.objects[obj].degree;
+                if (n <= 4 || !plan_.params.seed_from_neighbour) continue;
+                if (primary && pre != nullptr && pre->batch->batched(obj)) continue;
+                const ObjectRoots& r = roots[obj];
                 int m = 0;
                 for (int i = 0; i < r.res.n_discs && m < n; ++i)
                     for (int c = 0; c < std::max(1, static_cast<int>(r.res.discs[i].count)) && m < n; ++c) {
@@ -759,12 +826,14 @@ private:
         ++root_calls;
         if (!r.poly.finite) {
             r.status = Status::NonFinite;
-            r.res.n_discs = 0;
+            r.own.n_discs = 0;
+            r.res.bind(r.own);
             r.complete = false;
             return;
         }
-        r.status = find_roots(r.poly.c, degree + 1, plan_.params.method, r.res, seed ? seed->re : nullptr,
+        r.status = find_roots(r.poly.c, degree + 1, plan_.params.method, r.own, seed ? seed->re : nullptr,
                               seed ? seed->im : nullptr, r.poly.r);
+        r.res.bind(r.own);
         r.complete = r.status == Status::Ok;
         for (int i = 0; i < r.res.n_discs && r.complete; ++i) r.complete = r.res.discs[i].verified;
     }
@@ -789,7 +858,9 @@ private:
             if (!info.live || isolated[info.object] || !r.complete) continue;
             if (r.res.discs[info.index].count < 2) continue;
             ensure_dd(info.object);
-            if (detail::isolate_dd(r.poly_dd, r.res)) {
+            const bool done = detail::isolate_dd(r.poly_dd, r.writable());
+            r.res.bind(r.own);  // (its header may have changed)
+            if (done) {
                 isolated[info.object] = true;
                 changed = true;
             }
@@ -797,9 +868,9 @@ private:
         for (const DiscInfo& info : infos) {
             if (!info.live || info.at_origin || isolated[info.object]) continue;
             ObjectRoots& r = roots[info.object];
-            RootDisc& disc = r.res.discs[info.index];
-            if (!r.complete || disc.count != 1) continue;
+            if (!r.complete || r.res.discs[info.index].count != 1) continue;
             ensure_dd(info.object);
+            RootDisc& disc = r.writable().discs[info.index];
             const bool real_before = info.real;
             if (detail::refine_disc_dd(r.poly_dd, real_before, disc)) {
                 // A proven real root stays real: its disc is now centred on
