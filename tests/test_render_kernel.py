@@ -198,3 +198,30 @@ def test_lane_parallel_ray_polynomials_are_the_scalar_ones(tmp_path):
         assert eb["hit"] == bool(frame.rgba[y, x, 3] > 0)
         if eb["hit"]:
             assert np.float32(eb["root"].real) == frame.aovs["re"][y, x]
+
+
+def test_refined_batched_pixels_replay():
+    """Pixels that climb to the double-double ray (level 3: refine changes
+    a batched object's discs, on render_tile's own copy of the batch's
+    discs) give explain_pixel's decisions, and those of the first pixels of
+    the same runs of 32, which read the batch's discs unchanged, too."""
+    scene = load_scene("endrass-octic")
+    params = FrameParams(delta=0.0, width=48, height=40)
+    best = _core.batch_kernel()
+    frame = render_with(best, scene, params)
+    level = np.asarray(frame.aovs["escalation"])
+    spots = np.argwhere(level == 3)
+    assert len(spots) >= 5, "the scene no longer reaches the double-double ray"
+    spots = list(spots[:: max(1, len(spots) // 6)])
+    # Neighbours in the same run of 32 (the row's samples 0..31, 32..47).
+    spots += [np.array([y, x + 1]) for y, x in spots[:3] if x + 1 < params.width]
+    for y, x in spots:
+        e = explain_with(best, scene, params, int(x), int(y))
+        assert e["escalation"] == level[y, x]
+        assert e["status"] == frame.aovs["status"][y, x]
+        assert e["hit"] == bool(frame.rgba[y, x, 3] > 0)
+        if e["hit"]:
+            assert np.float32(e["root"].real) == frame.aovs["re"][y, x]
+            assert np.float32(e["root"].imag) == frame.aovs["im"][y, x]
+    check = check_frame(scene, params, frame, [(int(x), int(y)) for y, x in np.argwhere(level == 3)])
+    assert check.wrong == 0, check.disagreements[:3]
