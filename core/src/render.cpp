@@ -513,9 +513,10 @@ public:
         }
         r.seeded = false;
         if (o.skip[c]) {
+            // (As before the view: no discs, the rest of the header left
+            // as the slot's previous sample had it.)
             r.status = Status::NonFinite;
-            r.own.n_discs = 0;
-            r.res.bind(r.own);
+            r.res.n_discs = 0;
             r.complete = false;
             return;
         }
