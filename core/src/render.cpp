@@ -141,9 +141,14 @@ struct ShadePlan {
         bool real_ok = false;             // every ce finite and nonzero (gradient_real may run)
         int ce_lo = 0, ce_hi = 0;         // ilogb range of the ce
         double eye_object[3];             // to_object(eye): the primary rays' origin in object space
+        bool identity = false;            // linear is the identity, bit for bit (see linear_apply)
     };
     std::vector<Object> objects;
     std::vector<std::array<double, 3>> light_dir;  // directional lights: normalize3(vector)
+    // l.intensity * l.color[a]: shade's `l.intensity * l.color[a] * (...)`
+    // parses as (l.intensity * l.color[a]) * (...), so the product formed
+    // once per frame is the same double.
+    std::vector<std::array<double, 3>> light_ic;
     // ARGAND_SHADE=reference: shade() runs its plain per-pixel code
     // (gradient(), std::pow, std::exp, std::atan2 always), the reference
     // the fast paths are tested against to the bit (tests/test_render.py).
@@ -178,14 +183,41 @@ struct ShadePlan {
                 }
             }
             to_object(s, plan.eye, ob.eye_object);
+            static const double kIdentity[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+            ob.identity = std::memcmp(s.linear, kIdentity, sizeof kIdentity) == 0;  // +0 entries, not -0
         }
         light_dir.assign(sc.lights.size(), {0.0, 0.0, 0.0});
+        light_ic.assign(sc.lights.size(), {0.0, 0.0, 0.0});
         for (std::size_t i = 0; i < sc.lights.size(); ++i) {
             for (int a = 0; a < 3; ++a) light_dir[i][a] = sc.lights[i].vector[a];
             normalize3(light_dir[i].data());
+            for (int a = 0; a < 3; ++a) light_ic[i][a] = sc.lights[i].intensity * sc.lights[i].color[a];
         }
     }
 };
+
+/// mat_vec (transpose false) or mat_t_vec (true) of s.linear and v, with no
+/// products where `identity` (linear is the identity to the bit) and every
+/// v[a] is finite and nonzero.
+///
+/// Contract (-ffp-contract=off, round to nearest): both compute
+/// out[r] = (m_0 v_0 + m_1 v_1) + m_2 v_2 with the row's (or column's) three
+/// entries, here one exactly 1.0 and two +0.0. 1.0 * v_r = v_r exactly; +0.0
+/// * v for a finite v is a zero (of either sign); and x + (+-0) = (+-0) + x = x
+/// exactly for every nonzero x. So every sum, in either order, is v_r to the
+/// bit. A zero v_r (whose sign the sum may change), an infinity or a NaN
+/// (0 * inf = NaN) takes the products.
+inline void linear_apply(const SurfaceSpec& s, bool identity, bool transpose, const double* v, double* out) {
+    bool plain = identity;
+    for (int a = 0; a < 3 && plain; ++a) plain = v[a] != 0.0 && std::fabs(v[a]) < kInf;
+    if (plain) {
+        for (int a = 0; a < 3; ++a) out[a] = v[a];
+    } else if (transpose) {
+        mat_t_vec(s.linear, v, out);
+    } else {
+        mat_vec(s.linear, v, out);
+    }
+}
 
 /// gradient() from the flattened terms: the same complex operations in the
 /// same order (a product by pw[b][0] = 1 included: it is not always exact
@@ -638,7 +670,11 @@ public:
         } else {
             to_object(s, o, oo);
         }
-        mat_vec(s.linear, d, od);
+        if (ref) {
+            mat_vec(s.linear, d, od);
+        } else {
+            linear_apply(s, sob.identity, false, d, od);
+        }
         double gobj[3];
         bool real_done = false;
         if (ref) {
@@ -662,7 +698,11 @@ public:
             gradient_flat(sob, z, gobj);
         }
         double n[3];
-        mat_t_vec(s.linear, gobj, n);
+        if (ref) {
+            mat_t_vec(s.linear, gobj, n);
+        } else {
+            linear_apply(s, sob.identity, true, gobj, n);
+        }
         normalize3(n);
         if (dot3(n, d) > 0) for (double& v : n) v = -v;
         // Base colour, or hue by argument.
@@ -699,8 +739,13 @@ public:
             // pow(+0, y) = +0 for every y > 0 (C11 F.10.4.4): no call.
             const double spec =
                 m.specular * (!ref && rv == 0.0 && m.shininess > 0 ? 0.0 : std::pow(rv, m.shininess));
-            for (int a = 0; a < 3; ++a)
-                local[a] += l.intensity * l.color[a] * (m.diffuse * ndl * base[a] + spec);
+            if (ref) {
+                for (int a = 0; a < 3; ++a)
+                    local[a] += l.intensity * l.color[a] * (m.diffuse * ndl * base[a] + spec);
+            } else {
+                const double* ic = shading_.light_ic[li].data();  // l.intensity * l.color[a], once
+                for (int a = 0; a < 3; ++a) local[a] += ic[a] * (m.diffuse * ndl * base[a] + spec);
+            }
         }
         // Depth cue from the modulus (the paper colours by the minimum
         // modulus): roots nearer than the scene's centre are brighter.
