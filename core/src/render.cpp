@@ -138,6 +138,7 @@ struct ShadePlan {
     struct Object {
         std::vector<GradientTerm> terms;  // gradient()'s order: term by term, axis 0..2 within a term
         int k_max[3] = {0, 0, 0};         // highest power of each coordinate the terms use
+        int k_top = 0;                    // max of k_max
         bool real_ok = false;             // every ce finite and nonzero (gradient_real may run)
         int ce_lo = 0, ce_hi = 0;         // ilogb range of the ce
         double eye_object[3];             // to_object(eye): the primary rays' origin in object space
@@ -182,6 +183,7 @@ struct ShadePlan {
                     first = false;
                 }
             }
+            ob.k_top = std::max(ob.k_max[0], std::max(ob.k_max[1], ob.k_max[2]));
             to_object(s, plan.eye, ob.eye_object);
             static const double kIdentity[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
             ob.identity = std::memcmp(s.linear, kIdentity, sizeof kIdentity) == 0;  // +0 entries, not -0
@@ -208,8 +210,13 @@ struct ShadePlan {
 /// bit. A zero v_r (whose sign the sum may change), an infinity or a NaN
 /// (0 * inf = NaN) takes the products.
 inline void linear_apply(const SurfaceSpec& s, bool identity, bool transpose, const double* v, double* out) {
-    bool plain = identity;
-    for (int a = 0; a < 3 && plain; ++a) plain = v[a] != 0.0 && std::fabs(v[a]) < kInf;
+    // From the bits: with the sign shifted out, a finite nonzero double is
+    // 0 < b << 1 < 0x7ff << 53 (zero: 0; infinity: 0x7ff << 53; NaN: above),
+    // i.e. (b << 1) - 1 < (0x7ff << 53) - 1 in unsigned arithmetic.
+    std::uint64_t b[3];
+    std::memcpy(b, v, sizeof b);
+    constexpr std::uint64_t kTop = (std::uint64_t{0x7ff} << 53) - 1;
+    const bool plain = identity & ((b[0] << 1) - 1 < kTop) & ((b[1] << 1) - 1 < kTop) & ((b[2] << 1) - 1 < kTop);
     if (plain) {
         for (int a = 0; a < 3; ++a) out[a] = v[a];
     } else if (transpose) {
@@ -224,15 +231,17 @@ inline void linear_apply(const SurfaceSpec& s, bool identity, bool transpose, co
 /// in complex arithmetic, e.g. for a signed zero or an infinity), only the
 /// powers no term uses are not formed. The real parts, to the bit.
 void gradient_flat(const ShadePlan::Object& ob, const Complex<double>* z, double* grad_re) {
-    Complex<double> pw[3][kMaxDegree + 1];
-    for (int a = 0; a < 3; ++a) {
-        pw[a][0] = Complex<double>(1.0, 0.0);
-        for (int k = 1; k <= ob.k_max[a]; ++k) pw[a][k] = pw[a][k - 1] * z[a];
-    }
+    // The powers k = 1..max k_max, the axes side by side (as in
+    // gradient_real: an axis's powers beyond its k_max are never read, each
+    // one read is the same chain pw[k - 1][a] * z[a]).
+    Complex<double> pw[kMaxDegree + 1][3];
+    for (int a = 0; a < 3; ++a) pw[0][a] = Complex<double>(1.0, 0.0);
+    for (int k = 1; k <= ob.k_top; ++k)
+        for (int a = 0; a < 3; ++a) pw[k][a] = pw[k - 1][a] * z[a];
     Complex<double> grad[3] = {Complex<double>(0.0, 0.0), Complex<double>(0.0, 0.0), Complex<double>(0.0, 0.0)};
     for (const GradientTerm& g : ob.terms) {
         Complex<double> v(g.ce, 0.0);
-        for (int b = 0; b < 3; ++b) v = v * pw[b][g.k[b]];
+        for (int b = 0; b < 3; ++b) v = v * pw[g.k[b]][b];
         grad[g.axis] = grad[g.axis] + v;
     }
     for (int a = 0; a < 3; ++a) grad_re[a] = grad[a].re;
@@ -272,17 +281,19 @@ bool gradient_real(const ShadePlan::Object& ob, int degree, const double* x, dou
     const long D = degree;
     if (ob.ce_lo + D * lo - 1 < -1021 || ob.ce_hi + D * hi + 2 > 1023 || D * lo - 1 < -1021 || D * hi + 1 > 1023)
         return false;
-    double pw[3][kMaxDegree + 1];
-    for (int a = 0; a < 3; ++a) {
-        pw[a][0] = 1.0;
-        for (int k = 1; k <= ob.k_max[a]; ++k) pw[a][k] = pw[a][k - 1] * x[a];
-    }
+    // The powers k = 1..max k_max, the three axes side by side (an axis's
+    // powers beyond its k_max are formed but never read; each one read is
+    // the same chain pw[a][k - 1] * x[a] as before, so the same double).
+    double pw[kMaxDegree + 1][3];
+    for (int a = 0; a < 3; ++a) pw[0][a] = 1.0;
+    for (int k = 1; k <= ob.k_top; ++k)
+        for (int a = 0; a < 3; ++a) pw[k][a] = pw[k - 1][a] * x[a];
     double g[3] = {0.0, 0.0, 0.0};
     for (const GradientTerm& t : ob.terms) {
         double v = t.ce;
-        if (t.k[0]) v = v * pw[0][t.k[0]];
-        if (t.k[1]) v = v * pw[1][t.k[1]];
-        if (t.k[2]) v = v * pw[2][t.k[2]];
+        if (t.k[0]) v = v * pw[t.k[0]][0];
+        if (t.k[1]) v = v * pw[t.k[1]][1];
+        if (t.k[2]) v = v * pw[t.k[2]][2];
         g[t.axis] = g[t.axis] + v;
     }
     for (int a = 0; a < 3; ++a) grad_re[a] = g[a];
