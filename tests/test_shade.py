@@ -112,3 +112,31 @@ def test_reflective_transparent_point_lit_and_axis_hits_equal_the_reference():
     assert np.sum(r.rgba[..., 3] > 0) > 100
     r = _assert_same(scene, FrameParams(delta=0.0, width=31, height=21, max_depth=1))
     assert np.sum(r.rgba[..., 3] > 0) > 100
+
+
+def test_identity_and_transformed_objects_equal_the_reference():
+    # shade() skips the matrix products of an identity linear when every
+    # component is finite and nonzero. Seen from the y axis at odd sizes, the
+    # middle column's and middle row's directions have an exactly zero
+    # component (the products run there); a translated object keeps the
+    # identity linear with another origin; a rotated and scaled object takes
+    # the products everywhere; a 90-degree rotation is a signed permutation
+    # with -0 / +0 entries (not the identity bit for bit).
+    scene = scene_from_dict(
+        {
+            "objects": [
+                {"surface": "x^3 + y^2*z - 3*z^3 - 0.5", "clip_radius": 2.0},
+                {"surface": "x^2 + y^2 + z^2 - 0.3", "transform": {"translate": [1.5, 0, 0.5]}},
+                {"surface": "x^4 + y^4 + z^4 - 0.2", "transform": {"rotate": [20, 35, 10], "scale": 0.7,
+                                                                    "translate": [-1.4, 0.5, -0.6]}},
+                {"surface": "x^2*y - z^3 + y^3 - 0.1", "space": "real",
+                 "transform": {"rotate": [90, 0, 0], "translate": [0.2, 0.3, -1.5]}},
+            ],
+            "camera": {"position": [0, -6, 0], "look_at": [0, 0, 0], "up": [0, 0, 1]},
+        }
+    )
+    for delta in (0.0, math.pi / 9):
+        r = _assert_same(scene, FrameParams(delta=delta, width=33, height=25))
+        assert np.sum(r.rgba[..., 3] > 0) > 100
+    r = _assert_same(scene, FrameParams(sigma=0.2, delta=math.pi / 9, width=21, height=15, samples=4, hue_by_argument=True))
+    assert np.sum(r.rgba[..., 3] > 0) > 50

@@ -138,12 +138,18 @@ struct ShadePlan {
     struct Object {
         std::vector<GradientTerm> terms;  // gradient()'s order: term by term, axis 0..2 within a term
         int k_max[3] = {0, 0, 0};         // highest power of each coordinate the terms use
+        int k_top = 0;                    // max of k_max
         bool real_ok = false;             // every ce finite and nonzero (gradient_real may run)
         int ce_lo = 0, ce_hi = 0;         // ilogb range of the ce
         double eye_object[3];             // to_object(eye): the primary rays' origin in object space
+        bool identity = false;            // linear is the identity, bit for bit (see linear_apply)
     };
     std::vector<Object> objects;
     std::vector<std::array<double, 3>> light_dir;  // directional lights: normalize3(vector)
+    // l.intensity * l.color[a]: shade's `l.intensity * l.color[a] * (...)`
+    // parses as (l.intensity * l.color[a]) * (...), so the product formed
+    // once per frame is the same double.
+    std::vector<std::array<double, 3>> light_ic;
     // ARGAND_SHADE=reference: shade() runs its plain per-pixel code
     // (gradient(), std::pow, std::exp, std::atan2 always), the reference
     // the fast paths are tested against to the bit (tests/test_render.py).
@@ -177,30 +183,65 @@ struct ShadePlan {
                     first = false;
                 }
             }
+            ob.k_top = std::max(ob.k_max[0], std::max(ob.k_max[1], ob.k_max[2]));
             to_object(s, plan.eye, ob.eye_object);
+            static const double kIdentity[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+            ob.identity = std::memcmp(s.linear, kIdentity, sizeof kIdentity) == 0;  // +0 entries, not -0
         }
         light_dir.assign(sc.lights.size(), {0.0, 0.0, 0.0});
+        light_ic.assign(sc.lights.size(), {0.0, 0.0, 0.0});
         for (std::size_t i = 0; i < sc.lights.size(); ++i) {
             for (int a = 0; a < 3; ++a) light_dir[i][a] = sc.lights[i].vector[a];
             normalize3(light_dir[i].data());
+            for (int a = 0; a < 3; ++a) light_ic[i][a] = sc.lights[i].intensity * sc.lights[i].color[a];
         }
     }
 };
+
+/// mat_vec (transpose false) or mat_t_vec (true) of s.linear and v, with no
+/// products where `identity` (linear is the identity to the bit) and every
+/// v[a] is finite and nonzero.
+///
+/// Contract (-ffp-contract=off, round to nearest): both compute
+/// out[r] = (m_0 v_0 + m_1 v_1) + m_2 v_2 with the row's (or column's) three
+/// entries, here one exactly 1.0 and two +0.0. 1.0 * v_r = v_r exactly; +0.0
+/// * v for a finite v is a zero (of either sign); and x + (+-0) = (+-0) + x = x
+/// exactly for every nonzero x. So every sum, in either order, is v_r to the
+/// bit. A zero v_r (whose sign the sum may change), an infinity or a NaN
+/// (0 * inf = NaN) takes the products.
+inline void linear_apply(const SurfaceSpec& s, bool identity, bool transpose, const double* v, double* out) {
+    // From the bits: with the sign shifted out, a finite nonzero double is
+    // 0 < b << 1 < 0x7ff << 53 (zero: 0; infinity: 0x7ff << 53; NaN: above),
+    // i.e. (b << 1) - 1 < (0x7ff << 53) - 1 in unsigned arithmetic.
+    std::uint64_t b[3];
+    std::memcpy(b, v, sizeof b);
+    constexpr std::uint64_t kTop = (std::uint64_t{0x7ff} << 53) - 1;
+    const bool plain = identity & ((b[0] << 1) - 1 < kTop) & ((b[1] << 1) - 1 < kTop) & ((b[2] << 1) - 1 < kTop);
+    if (plain) {
+        for (int a = 0; a < 3; ++a) out[a] = v[a];
+    } else if (transpose) {
+        mat_t_vec(s.linear, v, out);
+    } else {
+        mat_vec(s.linear, v, out);
+    }
+}
 
 /// gradient() from the flattened terms: the same complex operations in the
 /// same order (a product by pw[b][0] = 1 included: it is not always exact
 /// in complex arithmetic, e.g. for a signed zero or an infinity), only the
 /// powers no term uses are not formed. The real parts, to the bit.
 void gradient_flat(const ShadePlan::Object& ob, const Complex<double>* z, double* grad_re) {
-    Complex<double> pw[3][kMaxDegree + 1];
-    for (int a = 0; a < 3; ++a) {
-        pw[a][0] = Complex<double>(1.0, 0.0);
-        for (int k = 1; k <= ob.k_max[a]; ++k) pw[a][k] = pw[a][k - 1] * z[a];
-    }
+    // The powers k = 1..max k_max, the axes side by side (as in
+    // gradient_real: an axis's powers beyond its k_max are never read, each
+    // one read is the same chain pw[k - 1][a] * z[a]).
+    Complex<double> pw[kMaxDegree + 1][3];
+    for (int a = 0; a < 3; ++a) pw[0][a] = Complex<double>(1.0, 0.0);
+    for (int k = 1; k <= ob.k_top; ++k)
+        for (int a = 0; a < 3; ++a) pw[k][a] = pw[k - 1][a] * z[a];
     Complex<double> grad[3] = {Complex<double>(0.0, 0.0), Complex<double>(0.0, 0.0), Complex<double>(0.0, 0.0)};
     for (const GradientTerm& g : ob.terms) {
         Complex<double> v(g.ce, 0.0);
-        for (int b = 0; b < 3; ++b) v = v * pw[b][g.k[b]];
+        for (int b = 0; b < 3; ++b) v = v * pw[g.k[b]][b];
         grad[g.axis] = grad[g.axis] + v;
     }
     for (int a = 0; a < 3; ++a) grad_re[a] = grad[a].re;
@@ -240,17 +281,19 @@ bool gradient_real(const ShadePlan::Object& ob, int degree, const double* x, dou
     const long D = degree;
     if (ob.ce_lo + D * lo - 1 < -1021 || ob.ce_hi + D * hi + 2 > 1023 || D * lo - 1 < -1021 || D * hi + 1 > 1023)
         return false;
-    double pw[3][kMaxDegree + 1];
-    for (int a = 0; a < 3; ++a) {
-        pw[a][0] = 1.0;
-        for (int k = 1; k <= ob.k_max[a]; ++k) pw[a][k] = pw[a][k - 1] * x[a];
-    }
+    // The powers k = 1..max k_max, the three axes side by side (an axis's
+    // powers beyond its k_max are formed but never read; each one read is
+    // the same chain pw[a][k - 1] * x[a] as before, so the same double).
+    double pw[kMaxDegree + 1][3];
+    for (int a = 0; a < 3; ++a) pw[0][a] = 1.0;
+    for (int k = 1; k <= ob.k_top; ++k)
+        for (int a = 0; a < 3; ++a) pw[k][a] = pw[k - 1][a] * x[a];
     double g[3] = {0.0, 0.0, 0.0};
     for (const GradientTerm& t : ob.terms) {
         double v = t.ce;
-        if (t.k[0]) v = v * pw[0][t.k[0]];
-        if (t.k[1]) v = v * pw[1][t.k[1]];
-        if (t.k[2]) v = v * pw[2][t.k[2]];
+        if (t.k[0]) v = v * pw[t.k[0]][0];
+        if (t.k[1]) v = v * pw[t.k[1]][1];
+        if (t.k[2]) v = v * pw[t.k[2]][2];
         g[t.axis] = g[t.axis] + v;
     }
     for (int a = 0; a < 3; ++a) grad_re[a] = g[a];
@@ -706,7 +749,11 @@ public:
         } else {
             to_object(s, o, oo);
         }
-        mat_vec(s.linear, d, od);
+        if (ref) {
+            mat_vec(s.linear, d, od);
+        } else {
+            linear_apply(s, sob.identity, false, d, od);
+        }
         double gobj[3];
         bool real_done = false;
         if (ref) {
@@ -730,7 +777,11 @@ public:
             gradient_flat(sob, z, gobj);
         }
         double n[3];
-        mat_t_vec(s.linear, gobj, n);
+        if (ref) {
+            mat_t_vec(s.linear, gobj, n);
+        } else {
+            linear_apply(s, sob.identity, true, gobj, n);
+        }
         normalize3(n);
         if (dot3(n, d) > 0) for (double& v : n) v = -v;
         // Base colour, or hue by argument.
@@ -767,8 +818,13 @@ public:
             // pow(+0, y) = +0 for every y > 0 (C11 F.10.4.4): no call.
             const double spec =
                 m.specular * (!ref && rv == 0.0 && m.shininess > 0 ? 0.0 : std::pow(rv, m.shininess));
-            for (int a = 0; a < 3; ++a)
-                local[a] += l.intensity * l.color[a] * (m.diffuse * ndl * base[a] + spec);
+            if (ref) {
+                for (int a = 0; a < 3; ++a)
+                    local[a] += l.intensity * l.color[a] * (m.diffuse * ndl * base[a] + spec);
+            } else {
+                const double* ic = shading_.light_ic[li].data();  // l.intensity * l.color[a], once
+                for (int a = 0; a < 3; ++a) local[a] += ic[a] * (m.diffuse * ndl * base[a] + spec);
+            }
         }
         // Depth cue from the modulus (the paper colours by the minimum
         // modulus): roots nearer than the scene's centre are brighter.
