@@ -359,13 +359,13 @@ constexpr int kRealNudgeSweep = 2;
 /// ulps, or about 1e-9 where the cubic's trigonometric form is used) the two
 /// corrections agree to second order, and the pairwise sums cost n^2 per
 /// lane; a lane Newton does not settle goes on with Aberth sweeps.
-template <int N, bool Newton>
-inline void sweep_root(BatchBlock& b, int i, int l0, int l1, double (*done)[L], bool nudge_now) {
+template <int N, bool Newton, int CW>
+inline void sweep_root(BatchBlock& b, int i, int l0, double (*done)[L], bool nudge_now) {
     constexpr double eps = kU;
     constexpr double noise = 4.0 * (N + 1) * eps;
     constexpr double stop_rel2 = 0x1p-20 * 0x1p-20;
 ARGAND_LANES
-    for (int l = l0; l < l1; ++l) {
+    for (int l = l0; l < l0 + CW; ++l) {
         const double xr = b.xr[i][l], xi = b.xi[i][l];
         double pr = b.c[N][l], pi = 0.0, dr = 0.0, di = 0.0, ap = std::fabs(b.c[N][l]);
         const double ax2 = xr * xr + xi * xi;
@@ -448,10 +448,6 @@ ARGAND_LANES
 /// and discarding the result).
 template <int N>
 int aberth_lanes(BatchBlock& b, int max_iter) {
-    // Lanes per chunk: one vector; for n <= 4 the whole block, unskipped
-    // (from the closed-form starts nearly every lane stops after one sweep,
-    // and the per-chunk tests would cost more than they skip).
-    constexpr int CW = N <= 4 ? L : W;
     double done[N][L];
     for (int i = 0; i < N; ++i)
         for (int l = 0; l < L; ++l) done[i][l] = b.active[l] ? 0.0 : 1.0;
@@ -461,23 +457,29 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
         // (Degrees 5 to 8 only: those take the ray caster's seeds; the
         // closed-form starts of n <= 4 put a complex pair off the axis.)
         const bool nudge_now = (N >= 5) & (it >= kRealNudgeSweep);
-        // n <= 4: the first sweep from the closed-form starts is Newton's.
-        const bool newton = (N <= 4) & (it == 0);
+        if ((N <= 4) & (it == 0)) {
+            // n <= 4, first sweep from the closed-form starts: Newton's,
+            // over the whole block without per-chunk tests (nearly every
+            // lane stops here, and the tests would cost more than they
+            // skip).
 #pragma GCC unroll 8
-        for (int i = 0; i < N; ++i) {
-            for (int l0 = 0; l0 < L; l0 += CW) {
-                if constexpr (CW < L) {
+            for (int i = 0; i < N; ++i) {
+                sweep_root<N, true, L>(b, i, 0, done, nudge_now);
+                for (int l = 0; l < L; ++l) left += done[i][l] == 0.0;
+            }
+        } else {
+            // Chunk by chunk (one vector of W lanes); a chunk where root i
+            // has stopped in every lane skips it (for n <= 4 these sweeps
+            // only finish the few lanes Newton did not settle).
+#pragma GCC unroll 8
+            for (int i = 0; i < N; ++i) {
+                for (int l0 = 0; l0 < L; l0 += W) {
                     double open = 0.0;
-                    for (int l = l0; l < l0 + CW; ++l) open += done[i][l] == 0.0 ? 1.0 : 0.0;
+                    for (int l = l0; l < l0 + W; ++l) open += done[i][l] == 0.0 ? 1.0 : 0.0;
                     if (open == 0.0) continue;
+                    sweep_root<N, false, W>(b, i, l0, done, nudge_now);
+                    for (int l = l0; l < l0 + W; ++l) left += done[i][l] == 0.0;
                 }
-                if constexpr (N <= 4) {
-                    if (newton) sweep_root<N, true>(b, i, l0, l0 + CW, done, nudge_now);
-                    else sweep_root<N, false>(b, i, l0, l0 + CW, done, nudge_now);
-                } else {
-                    sweep_root<N, false>(b, i, l0, l0 + CW, done, nudge_now);
-                }
-                for (int l = l0; l < l0 + CW; ++l) left += done[i][l] == 0.0;
             }
         }
         if (left == 0) {
