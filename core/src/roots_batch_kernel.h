@@ -352,6 +352,89 @@ static_assert(L % W == 0, "a block is whole vectors");
 /// still large steps off the real axis (see aberth_lanes).
 constexpr int kRealNudgeSweep = 2;
 
+/// One sweep's update of root i in lanes [l0, l1) (see aberth_lanes). With
+/// Newton set (n <= 4, first sweep from the closed-form starts) the Aberth
+/// sum is left out: the correction is Newton's p / p' (M = 1, S = 0 in the
+/// formula below). From starts this close (the closed form's error is a few
+/// ulps, or about 1e-9 where the cubic's trigonometric form is used) the two
+/// corrections agree to second order, and the pairwise sums cost n^2 per
+/// lane; a lane Newton does not settle goes on with Aberth sweeps.
+template <int N, bool Newton, int CW>
+inline void sweep_root(BatchBlock& b, int i, int l0, double (*done)[L], bool nudge_now) {
+    constexpr double eps = kU;
+    constexpr double noise = 4.0 * (N + 1) * eps;
+    constexpr double stop_rel2 = 0x1p-20 * 0x1p-20;
+ARGAND_LANES
+    for (int l = l0; l < l0 + CW; ++l) {
+        const double xr = b.xr[i][l], xi = b.xi[i][l];
+        double pr = b.c[N][l], pi = 0.0, dr = 0.0, di = 0.0, ap = std::fabs(b.c[N][l]);
+        const double ax2 = xr * xr + xi * xi;
+        const double ax = std::sqrt(ax2);
+#pragma GCC unroll 8
+        for (int k = N - 1; k >= 0; --k) {
+            const double ndr = dr * xr - di * xi + pr;
+            const double ndi = dr * xi + di * xr + pi;
+            dr = ndr;
+            di = ndi;
+            const double npr = pr * xr - pi * xi + b.c[k][l];
+            const double npi = pr * xi + pi * xr;
+            pr = npr;
+            pi = npi;
+            ap = ap * ax + std::fabs(b.c[k][l]);
+        }
+        const double floor = noise * ap;
+        const bool small = pr * pr + pi * pi <= floor * floor;
+        double wr, wi;
+        if constexpr (Newton) {
+            // w = p / p' = p conj(p') / |p'|^2.
+            const double inv = 1.0 / (dr * dr + di * di);
+            wr = (pr * dr + pi * di) * inv;
+            wi = (pi * dr - pr * di) * inv;
+        } else {
+            // Aberth sum over j != i with a single division.
+            double mprod = 1.0, sr = 0.0, si = 0.0;
+#pragma GCC unroll 8
+            for (int j = 0; j < N; ++j) {
+                if (j == i) continue;
+                const double er = xr - b.xr[j][l], ei = xi - b.xi[j][l];
+                const double m = er * er + ei * ei;
+                // S <- S m + conj(d) M (keeps S = sum conj(d_j) M / m_j).
+                sr = sr * m + er * mprod;
+                si = si * m - ei * mprod;
+                mprod *= m;
+            }
+            // den = p' M - p S; w = p M / den.
+            const double denr = dr * mprod - (pr * sr - pi * si);
+            const double deni = di * mprod - (pr * si + pi * sr);
+            const double numr = pr * mprod, numi = pi * mprod;
+            const double inv = 1.0 / (denr * denr + deni * deni);
+            wr = (numr * denr + numi * deni) * inv;
+            wi = (numi * denr - numr * deni) * inv;
+        }
+        const bool ok_w = finite(wr) & finite(wi);
+        const double nudge = (ax > 0.0 ? ax : 1.0) * 1e-7 * (1 + i);
+        const double nr = ok_w ? xr - wr : xr + nudge;
+        const double ni = ok_w ? xi - wi : xi + 0.7 * nudge;
+        // Real arithmetic keeps a real approximation of a real
+        // polynomial real: two real seeds of roots that have
+        // become a complex pair (the ray left the surface
+        // between neighbouring samples) would never converge.
+        // A real approximation whose correction is still above
+        // 2^-8 relative from sweep kRealNudgeSweep on steps off
+        // the axis by 2^-6 relative (alternating sides); one
+        // converging from a seed is far below that by then.
+        const bool stray = nudge_now & (ni == 0.0) & (wr * wr + wi * wi > 0x1p-16 * (nr * nr));
+        const double side = i % 2 == 0 ? 0x1p-6 : -0x1p-6;
+        const double ni2 = stray ? side * (nr != 0.0 ? std::fabs(nr) : 1.0) : ni;
+        const bool act = done[i][l] == 0.0;
+        const bool move = act & !small;
+        b.xr[i][l] = move ? nr : xr;
+        b.xi[i][l] = move ? ni2 : xi;
+        const bool conv = small | (ok_w & (wr * wr + wi * wi <= stop_rel2 * (nr * nr + ni * ni)));
+        done[i][l] = (!act | conv) ? 1.0 : 0.0;
+    }
+}
+
 /// Aberth-Ehrlich sweeps (Gauss-Seidel over the roots, all lanes at once),
 /// with the scalar aberth's stopping rules per root and lane; a converged
 /// root is frozen. The Aberth sum uses one division per root: with
@@ -365,13 +448,6 @@ constexpr int kRealNudgeSweep = 2;
 /// and discarding the result).
 template <int N>
 int aberth_lanes(BatchBlock& b, int max_iter) {
-    constexpr double eps = kU;
-    constexpr double noise = 4.0 * (N + 1) * eps;
-    constexpr double stop_rel2 = 0x1p-20 * 0x1p-20;
-    // Lanes per chunk: one vector; for n <= 4 the whole block, unskipped
-    // (from the closed-form starts nearly every lane stops after one sweep,
-    // and the per-chunk tests would cost more than they skip).
-    constexpr int CW = N <= 4 ? L : W;
     double done[N][L];
     for (int i = 0; i < N; ++i)
         for (int l = 0; l < L; ++l) done[i][l] = b.active[l] ? 0.0 : 1.0;
@@ -381,76 +457,29 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
         // (Degrees 5 to 8 only: those take the ray caster's seeds; the
         // closed-form starts of n <= 4 put a complex pair off the axis.)
         const bool nudge_now = (N >= 5) & (it >= kRealNudgeSweep);
+        if ((N <= 4) & (it == 0)) {
+            // n <= 4, first sweep from the closed-form starts: Newton's,
+            // over the whole block without per-chunk tests (nearly every
+            // lane stops here, and the tests would cost more than they
+            // skip).
 #pragma GCC unroll 8
-        for (int i = 0; i < N; ++i) {
-            for (int l0 = 0; l0 < L; l0 += CW) {
-                if constexpr (CW < L) {
+            for (int i = 0; i < N; ++i) {
+                sweep_root<N, true, L>(b, i, 0, done, nudge_now);
+                for (int l = 0; l < L; ++l) left += done[i][l] == 0.0;
+            }
+        } else {
+            // Chunk by chunk (one vector of W lanes); a chunk where root i
+            // has stopped in every lane skips it (for n <= 4 these sweeps
+            // only finish the few lanes Newton did not settle).
+#pragma GCC unroll 8
+            for (int i = 0; i < N; ++i) {
+                for (int l0 = 0; l0 < L; l0 += W) {
                     double open = 0.0;
-                    for (int l = l0; l < l0 + CW; ++l) open += done[i][l] == 0.0 ? 1.0 : 0.0;
+                    for (int l = l0; l < l0 + W; ++l) open += done[i][l] == 0.0 ? 1.0 : 0.0;
                     if (open == 0.0) continue;
+                    sweep_root<N, false, W>(b, i, l0, done, nudge_now);
+                    for (int l = l0; l < l0 + W; ++l) left += done[i][l] == 0.0;
                 }
-ARGAND_LANES
-                for (int l = l0; l < l0 + CW; ++l) {
-                    const double xr = b.xr[i][l], xi = b.xi[i][l];
-                    double pr = b.c[N][l], pi = 0.0, dr = 0.0, di = 0.0, ap = std::fabs(b.c[N][l]);
-                    const double ax2 = xr * xr + xi * xi;
-                    const double ax = std::sqrt(ax2);
-#pragma GCC unroll 8
-                    for (int k = N - 1; k >= 0; --k) {
-                        const double ndr = dr * xr - di * xi + pr;
-                        const double ndi = dr * xi + di * xr + pi;
-                        dr = ndr;
-                        di = ndi;
-                        const double npr = pr * xr - pi * xi + b.c[k][l];
-                        const double npi = pr * xi + pi * xr;
-                        pr = npr;
-                        pi = npi;
-                        ap = ap * ax + std::fabs(b.c[k][l]);
-                    }
-                    const double floor = noise * ap;
-                    const bool small = pr * pr + pi * pi <= floor * floor;
-                    // Aberth sum over j != i with a single division.
-                    double mprod = 1.0, sr = 0.0, si = 0.0;
-#pragma GCC unroll 8
-                    for (int j = 0; j < N; ++j) {
-                        if (j == i) continue;
-                        const double er = xr - b.xr[j][l], ei = xi - b.xi[j][l];
-                        const double m = er * er + ei * ei;
-                        // S <- S m + conj(d) M (keeps S = sum conj(d_j) M / m_j).
-                        sr = sr * m + er * mprod;
-                        si = si * m - ei * mprod;
-                        mprod *= m;
-                    }
-                    // den = p' M - p S; w = p M / den.
-                    const double denr = dr * mprod - (pr * sr - pi * si);
-                    const double deni = di * mprod - (pr * si + pi * sr);
-                    const double numr = pr * mprod, numi = pi * mprod;
-                    const double inv = 1.0 / (denr * denr + deni * deni);
-                    const double wr = (numr * denr + numi * deni) * inv;
-                    const double wi = (numi * denr - numr * deni) * inv;
-                    const bool ok_w = finite(wr) & finite(wi);
-                    const double nudge = (ax > 0.0 ? ax : 1.0) * 1e-7 * (1 + i);
-                    const double nr = ok_w ? xr - wr : xr + nudge;
-                    const double ni = ok_w ? xi - wi : xi + 0.7 * nudge;
-                    // Real arithmetic keeps a real approximation of a real
-                    // polynomial real: two real seeds of roots that have
-                    // become a complex pair (the ray left the surface
-                    // between neighbouring samples) would never converge.
-                    // A real approximation whose correction is still above
-                    // 2^-8 relative from sweep kRealNudgeSweep on steps off
-                    // the axis by 2^-6 relative (alternating sides); one
-                    // converging from a seed is far below that by then.
-                    const bool stray = nudge_now & (ni == 0.0) & (wr * wr + wi * wi > 0x1p-16 * (nr * nr));
-                    const double side = i % 2 == 0 ? 0x1p-6 : -0x1p-6;
-                    const double ni2 = stray ? side * (nr != 0.0 ? std::fabs(nr) : 1.0) : ni;
-                    const bool act = done[i][l] == 0.0;
-                    const bool move = act & !small;
-                    b.xr[i][l] = move ? nr : xr;
-                    b.xi[i][l] = move ? ni2 : xi;
-                    const bool conv = small | (ok_w & (wr * wr + wi * wi <= stop_rel2 * (nr * nr + ni * ni)));
-                    done[i][l] = (!act | conv) ? 1.0 : 0.0;
-                }
-                for (int l = l0; l < l0 + CW; ++l) left += done[i][l] == 0.0;
             }
         }
         if (left == 0) {
