@@ -105,6 +105,11 @@ def make_user_class(shared: Shared):
 
         def on_start(self) -> None:
             self.own: str | None = None  # the job this user submitted and is waiting for
+            # Each user comes to render something: their first action is a
+            # submission (then the weighted tasks below). Without it a short
+            # run (the smoke run's few seconds) could end without a single
+            # POST /api/jobs, Locust's task choice being random.
+            self.submit()
 
         # -- helpers ---------------------------------------------------
         def _get_job(self, job_id: str, name: str = "GET /api/jobs/{id}") -> dict | None:
