@@ -3,6 +3,11 @@
 #include "pixel_decision.h"
 
 #include <cmath>
+#include <cstddef>
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#endif
 
 #include "solver.h"
 
@@ -111,41 +116,11 @@ bool is_mirror_twin(const RootDisc& b, const RootDisc& j, const RootDisc* all, i
 }
 
 Verdict band_membership(const RootDisc& d, bool real, const FramePlan& plan, bool complex_space) {
-    const double r = d.radius;
-    // 0 is outside the disc (a sufficient test first, then the modulus).
-    const bool misses_zero = std::fabs(d.re) > r || std::fabs(d.im) > r || modulus_down(d) > 0.0;
-    if (!complex_space || (plan.params.sigma == 0.0 && plan.params.delta == 0.0)) {
-        // The band is the positive real axis (arg t = 0 exactly).
-        if (real && misses_zero) return d.re > 0.0 ? Verdict::Yes : Verdict::No;
-        // Points of the disc on the half-line [0, inf)?
-        if (add_down(std::fabs(d.im), -r) > 0.0 || add_up(d.re, r) < 0.0) return Verdict::No;
-        return Verdict::Unknown;
-    }
-    if (!misses_zero) return Verdict::Unknown;
     const double sigma = plan.params.sigma;
-    if (real) {
-        // arg t = 0 (in the band iff sigma == 0) or pi (never: sigma + delta
-        // <= pi, and the exact sum of two doubles is never pi).
-        if (d.re > 0.0) return sigma == 0.0 ? Verdict::Yes : Verdict::No;
-        return Verdict::No;
-    }
-    // |arg z| over the disc equals arg z over the disc reflected into the
-    // upper half-plane (centre (x, |y|)); there arg z <= alpha iff
-    // s(z) <= 0, and arg z >= alpha iff s(z) >= 0 (alpha in (0, pi)).
-    const double x = d.re, y = std::fabs(d.im);
-    bool above_lower = true, below_lower = false;  // all >= sigma / all < sigma
-    if (sigma > 0.0) {
-        double lo, hi;
-        edge_range(plan.lower_edge, x, y, r, lo, hi);
-        above_lower = lo >= 0.0;
-        below_lower = hi < 0.0;
-    }
-    double lo, hi;
-    edge_range(plan.upper_edge, x, y, r, lo, hi);
-    const bool below_upper = hi <= 0.0, above_upper = lo > 0.0;
-    if (above_lower && below_upper) return Verdict::Yes;
-    if (below_lower || above_upper) return Verdict::No;
-    return Verdict::Unknown;
+    return band_verdict(d, real, !complex_space || (sigma == 0.0 && plan.params.delta == 0.0), sigma == 0.0, sigma > 0.0,
+                        [&plan](bool upper, double x, double y, double r, double& lo, double& hi) {
+                            edge_range(upper ? plan.upper_edge : plan.lower_edge, x, y, r, lo, hi);
+                        });
 }
 
 namespace {
@@ -217,6 +192,241 @@ Verdict clip_verdict_fast(const ObjectRay& ray, double mod_lo, double mod_hi, do
 Verdict inside_clip(const ObjectRay& ray, double mod_lo, double mod_hi, double radius) {
     const Verdict v = clip_verdict_fast(ray, mod_lo, mod_hi, radius);
     return v != Verdict::Unknown ? v : clip_verdict_exact(ray, mod_lo, mod_hi, radius);
+}
+
+namespace {
+
+/// One disc's verdicts into v (the reference of classify_discs_*).
+inline void classify_disc(const RootDisc* discs, int n, int i, const BandPlan& bp, const ObjectRay& ray,
+                          const ClipSums& sums, double clip_radius, DiscVerdicts& v) {
+    const RootDisc& d = discs[i];
+    const std::uint64_t bit = std::uint64_t{1} << i;
+    v.live &= ~bit;
+    v.eligible &= ~bit;
+    if (d.count <= 0 || (d.re == 0.0 && d.im == 0.0 && d.radius == 0.0)) return;  // (the exact root 0: not live)
+    const Verdict band = band_fast_verified(discs, n, i, bp);
+    if (band == Verdict::No) return;
+    double lo, hi;
+    modulus_fast(d, lo, hi);
+    const Verdict clip = clip_radius > 0.0 ? clip_fast(ray, sums, lo, hi, clip_radius) : Verdict::Yes;
+    if (clip == Verdict::No) return;
+    v.lo[i] = lo;
+    v.hi[i] = hi;
+    v.live |= bit;
+    if (band == Verdict::Yes && clip == Verdict::Yes) v.eligible |= bit;
+}
+
+}  // namespace
+
+void classify_discs_scalar(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray, double clip_radius,
+                           DiscVerdicts& v) {
+    v.live = v.eligible = 0;
+    const ClipSums sums = clip_radius > 0.0 ? clip_sums(ray) : ClipSums{};
+    // A disc that is the previous one's exact mirror image (the closed-form
+    // starts of degree <= 4 list conjugate pairs so) takes its verdicts:
+    // band, moduli and sphere are functions of (re, |im|, radius, count,
+    // real) and the ray alone but for realness by the mirror test, which
+    // proves neither of the two real (each meets the other's mirror image:
+    // distance 0), so the mirror's verdicts are the previous disc's, bit for
+    // bit. (Not twice in a row: the previous disc's own.)
+    bool have_prev = false;
+    for (int i = 0; i < n; ++i) {
+        if (have_prev && exact_mirrors(discs[i - 1], discs[i])) {
+            const std::uint64_t prev = std::uint64_t{1} << (i - 1);
+            if (v.live & prev) {
+                v.live |= prev << 1;
+                v.eligible |= (v.eligible & prev) << 1;
+                v.lo[i] = v.lo[i - 1];
+                v.hi[i] = v.hi[i - 1];
+            }
+            have_prev = false;
+            continue;
+        }
+        classify_disc(discs, n, i, bp, ray, sums, clip_radius, v);
+        have_prev = true;
+    }
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define ARGAND_CLASSIFY_AVX2 1
+#define ARGAND_AVX2 __attribute__((target("avx2")))
+
+namespace {
+
+ARGAND_AVX2 inline __m256d v_abs(__m256d x) { return _mm256_andnot_pd(_mm256_set1_pd(-0.0), x); }
+/// The double whose bits are x's + k (the successor / predecessor of a
+/// positive finite x for k = +1 / -1).
+ARGAND_AVX2 inline __m256d v_step(__m256d x, long long k) {
+    return _mm256_castsi256_pd(_mm256_add_epi64(_mm256_castpd_si256(x), _mm256_set1_epi64x(k)));
+}
+ARGAND_AVX2 inline __m256d v_gt(__m256d a, __m256d b) { return _mm256_cmp_pd(a, b, _CMP_GT_OQ); }
+ARGAND_AVX2 inline __m256d v_lt(__m256d a, __m256d b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
+ARGAND_AVX2 inline __m256d v_and(__m256d a, __m256d b) { return _mm256_and_pd(a, b); }
+ARGAND_AVX2 inline __m256d v_or(__m256d a, __m256d b) { return _mm256_or_pd(a, b); }
+ARGAND_AVX2 inline __m256d v_andnot(__m256d a, __m256d b) { return _mm256_andnot_pd(a, b); }  // ~a & b
+
+/// edge_range_fast's quick test for four discs (x, y = |im|, r; ax = |x|):
+/// `in` where s < -t (hi = lo = s < 0), `out` where s > t (lo = hi = s >
+/// 0), the same s and t, the same operations in the same order.
+ARGAND_AVX2 inline void v_edge(const FastEdge& f, __m256d x, __m256d y, __m256d ax, __m256d r, __m256d& in,
+                               __m256d& out) {
+    constexpr double kU = kUnitRoundoff;
+    const __m256d s = _mm256_sub_pd(_mm256_mul_pd(y, _mm256_set1_pd(f.e.cos_mid)),
+                                    _mm256_mul_pd(x, _mm256_set1_pd(f.e.sin_mid)));
+    const __m256d t = _mm256_add_pd(
+        _mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(ax, y), _mm256_set1_pd(f.k)), r),
+                      _mm256_set1_pd(1.0 + 16.0 * kU)),
+        _mm256_set1_pd(64.0 * kDenormMin));
+    out = v_gt(s, t);
+    in = v_gt(_mm256_xor_pd(s, _mm256_set1_pd(-0.0)), t);
+}
+
+}  // namespace
+
+bool classify_discs_avx2_supported() { return __builtin_cpu_supports("avx2"); }
+
+// Each lane follows the scalar code's branches as masks; a lane is sent to
+// classify_disc (the reference) wherever the scalar code would leave its
+// quick tests: misses_zero's sufficient test failing (band_fast then needs
+// modulus_down), the mirror test (count 1, not flagged real, |im| <= r),
+// either band edge's quick test undecided with no edge proving it out,
+// moduli outside [2^-500, 2^500] or a non-finite upper bound, the sphere's
+// first test undecided. Identities used (doubles v, c, eta = 2^-1074):
+// next_down(v) > 0 iff v > eta; next_up(v) < 0 iff v < -eta; next_down(v) >
+// c iff v > next_up(c) (next_down(v) is the largest double below v; NaN
+// fails each side); 0 + p^2 = p^2 (p^2 is never -0).
+ARGAND_AVX2 void classify_discs_avx2(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray,
+                                     double clip_radius, DiscVerdicts& v) {
+    constexpr double kU = kUnitRoundoff;
+    static_assert(sizeof(RootDisc) == 32 && offsetof(RootDisc, re) == 0 && offsetof(RootDisc, im) == 8 &&
+                      offsetof(RootDisc, radius) == 16 && offsetof(RootDisc, count) == 24 &&
+                      offsetof(RootDisc, real) == 29,
+                  "classify_discs_avx2 loads a disc as four doubles");
+    static const RootDisc kNone{0.0, 0.0, 0.0, 0, false, false};
+    v.live = v.eligible = 0;
+    const bool clip = clip_radius > 0.0;
+    const ClipSums sums = clip ? clip_sums(ray) : ClipSums{};
+    const __m256d zero = _mm256_setzero_pd(), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    const __m256d eta = _mm256_set1_pd(kDenormMin), neg_eta = _mm256_set1_pd(-kDenormMin);
+    const __m256d inf = _mm256_set1_pd(INFINITY);
+    // The sphere's constants: its first test's bounds (No: > next_up(c)).
+    const __m256d c_yes = _mm256_set1_pd(clip_radius * (1.0 - 2.0 * kU));
+    const __m256d c_no = _mm256_set1_pd(next_up(clip_radius * (1.0 + 2.0 * kU)));
+    const __m256d o0 = _mm256_set1_pd(ray.origin[0].mid), o1 = _mm256_set1_pd(ray.origin[1].mid),
+                  o2 = _mm256_set1_pd(ray.origin[2].mid);
+    const __m256d d0 = _mm256_set1_pd(ray.direction[0].mid), d1 = _mm256_set1_pd(ray.direction[1].mid),
+                  d2 = _mm256_set1_pd(ray.direction[2].mid);
+    const __m256d s_dabs = _mm256_set1_pd(sums.dabs), s_orad = _mm256_set1_pd(sums.orad),
+                  s_drad = _mm256_set1_pd(sums.drad), s_omid = _mm256_set1_pd(sums.omid);
+    std::uint64_t fallback = 0;
+    for (int g = 0; g < n; g += 4) {
+        // Four discs (kNone past the end: count 0, not live), transposed.
+        const RootDisc* p1 = g + 1 < n ? discs + g + 1 : &kNone;
+        const RootDisc* p2 = g + 2 < n ? discs + g + 2 : &kNone;
+        const RootDisc* p3 = g + 3 < n ? discs + g + 3 : &kNone;
+        const __m256d D0 = _mm256_loadu_pd(&discs[g].re), D1 = _mm256_loadu_pd(&p1->re),
+                      D2 = _mm256_loadu_pd(&p2->re), D3 = _mm256_loadu_pd(&p3->re);
+        const __m256d t0 = _mm256_unpacklo_pd(D0, D1), t1 = _mm256_unpackhi_pd(D0, D1);
+        const __m256d t2 = _mm256_unpacklo_pd(D2, D3), t3 = _mm256_unpackhi_pd(D2, D3);
+        const __m256d re = _mm256_permute2f128_pd(t0, t2, 0x20), r = _mm256_permute2f128_pd(t0, t2, 0x31);
+        const __m256d im = _mm256_permute2f128_pd(t1, t3, 0x20);
+        const __m256i fl = _mm256_castpd_si256(_mm256_permute2f128_pd(t1, t3, 0x31));
+        // count (the low 32 bits) > 0, == 1; real (byte 5) set.
+        const __m256d counted = _mm256_castsi256_pd(_mm256_shuffle_epi32(_mm256_cmpgt_epi32(fl, _mm256_setzero_si256()), 0xA0));
+        const __m256d single = _mm256_castsi256_pd(_mm256_shuffle_epi32(_mm256_cmpeq_epi32(fl, _mm256_set1_epi32(1)), 0xA0));
+        const __m256i real_byte = _mm256_and_si256(_mm256_srli_epi64(fl, 40), _mm256_set1_epi64x(0xFF));
+        const __m256d flagged = _mm256_castsi256_pd(_mm256_cmpeq_epi64(real_byte, _mm256_set1_epi64x(1)));
+        const __m256d at_origin = v_and(v_and(_mm256_cmp_pd(re, zero, _CMP_EQ_OQ), _mm256_cmp_pd(im, zero, _CMP_EQ_OQ)),
+                                        _mm256_cmp_pd(r, zero, _CMP_EQ_OQ));
+        const __m256d valid = v_andnot(at_origin, counted);
+        const __m256d are = v_abs(re), aim = v_abs(im);
+        // band_fast_verified: count 1 and flagged real: band_fast(real);
+        // count 1, not flagged, |im| <= r: the mirror test (reference);
+        // otherwise band_fast(not real).
+        const __m256d real = v_and(single, flagged);
+        __m256d band_fb = v_andnot(flagged, v_and(single, _mm256_cmp_pd(aim, r, _CMP_LE_OQ)));
+        const __m256d misses_zero = v_or(v_gt(are, r), v_gt(aim, r));  // (else: modulus_down, the reference)
+        const __m256d positive = v_gt(re, zero);
+        __m256d yes, no;
+        if (bp.axis) {
+            const __m256d real_decided = v_and(real, misses_zero);
+            band_fb = v_or(band_fb, v_andnot(misses_zero, real));
+            yes = v_and(real_decided, positive);
+            // add_down(|im|, -r) > 0 || add_up(re, r) < 0.
+            const __m256d off_axis = v_or(v_gt(_mm256_add_pd(aim, _mm256_xor_pd(r, _mm256_set1_pd(-0.0))), eta),
+                                          v_lt(_mm256_add_pd(re, r), neg_eta));
+            no = v_or(v_andnot(positive, real_decided), v_andnot(real, off_axis));
+        } else {
+            band_fb = v_or(band_fb, v_andnot(misses_zero, all));
+            yes = bp.sigma_zero ? v_and(real, positive) : zero;
+            no = v_andnot(yes, real);
+            __m256d up_in, up_out, low_in = all, low_out = zero;
+            v_edge(bp.upper_edge, re, aim, are, r, up_in, up_out);
+            if (bp.lower) {
+                __m256d low_below, low_above;
+                v_edge(bp.lower_edge, re, aim, are, r, low_below, low_above);
+                low_in = low_above;   // all above sigma
+                low_out = low_below;  // all below sigma
+            }
+            const __m256d out = v_or(up_out, low_out), in = v_and(up_in, low_in);
+            yes = v_or(yes, v_andnot(real, in));
+            no = v_or(no, v_andnot(real, out));
+            band_fb = v_or(band_fb, v_andnot(real, v_andnot(v_or(in, out), all)));
+        }
+        // modulus_fast.
+        const __m256d m = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(re, re), _mm256_mul_pd(im, im)));
+        const __m256d a = _mm256_sub_pd(v_step(_mm256_mul_pd(m, _mm256_set1_pd(1.0 - 4.0 * kU)), -1), r);
+        const __m256d lo = _mm256_blendv_pd(zero, v_step(a, -1), v_gt(a, zero));
+        const __m256d b = _mm256_add_pd(v_step(_mm256_mul_pd(m, _mm256_set1_pd(1.0 + 4.0 * kU)), 1), r);
+        const __m256d hi = v_step(b, 1);
+        const __m256d mod_ok = v_and(v_and(_mm256_cmp_pd(m, _mm256_set1_pd(0x1p-500), _CMP_GE_OQ),
+                                           _mm256_cmp_pd(m, _mm256_set1_pd(0x1p500), _CMP_LE_OQ)),
+                                     v_and(v_gt(b, zero), v_lt(b, inf)));
+        // clip_fast's first test.
+        __m256d c_in = all, c_out = zero;
+        if (clip) {
+            const __m256d mid = _mm256_mul_pd(_mm256_set1_pd(0.5), _mm256_add_pd(lo, hi));
+            const __m256d w = _mm256_mul_pd(_mm256_max_pd(_mm256_sub_pd(hi, mid), _mm256_sub_pd(mid, lo)),
+                                            _mm256_set1_pd(1.0 + 4.0 * kU));
+            const __m256d q0 = _mm256_add_pd(o0, _mm256_mul_pd(mid, d0));
+            const __m256d q1 = _mm256_add_pd(o1, _mm256_mul_pd(mid, d1));
+            const __m256d q2 = _mm256_add_pd(o2, _mm256_mul_pd(mid, d2));
+            const __m256d q = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(q0, q0), _mm256_mul_pd(q1, q1)),
+                                            _mm256_mul_pd(q2, q2));
+            const __m256d spread = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(w, s_dabs), s_orad), _mm256_mul_pd(hi, s_drad));
+            const __m256d size = _mm256_mul_pd(_mm256_set1_pd(8.0 * kU),
+                                               _mm256_add_pd(s_omid, _mm256_mul_pd(hi, s_dabs)));
+            const __m256d e1 = _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(spread, size), _mm256_set1_pd(1.0 + 64.0 * kU)),
+                                             _mm256_set1_pd(256.0 * kDenormMin));
+            const __m256d norm = _mm256_sqrt_pd(q);
+            c_in = v_lt(_mm256_add_pd(_mm256_mul_pd(norm, _mm256_set1_pd(1.0 + 4.0 * kU)), e1), c_yes);
+            c_out = v_gt(_mm256_sub_pd(_mm256_mul_pd(norm, _mm256_set1_pd(1.0 - 4.0 * kU)), e1), c_no);
+        }
+        // A lane not proven out of the band needs its moduli and sphere.
+        const __m256d needs = v_andnot(no, all);
+        const __m256d fb = v_and(valid, v_or(band_fb, v_and(needs, v_andnot(v_and(mod_ok, v_or(c_in, c_out)), all))));
+        const __m256d live = v_andnot(fb, v_and(valid, v_andnot(v_or(no, c_out), all)));
+        const __m256d eligible = v_and(live, v_and(yes, c_in));
+        _mm256_storeu_pd(v.lo + g, lo);
+        _mm256_storeu_pd(v.hi + g, hi);
+        v.live |= static_cast<std::uint64_t>(_mm256_movemask_pd(live)) << g;
+        v.eligible |= static_cast<std::uint64_t>(_mm256_movemask_pd(eligible)) << g;
+        fallback |= static_cast<std::uint64_t>(_mm256_movemask_pd(fb)) << g;
+    }
+    for (; fallback != 0; fallback &= fallback - 1)
+        classify_disc(discs, n, __builtin_ctzll(fallback), bp, ray, sums, clip_radius, v);
+}
+
+#else
+bool classify_discs_avx2_supported() { return false; }
+void classify_discs_avx2(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray, double clip_radius,
+                         DiscVerdicts& v) {
+    classify_discs_scalar(discs, n, bp, ray, clip_radius, v);
+}
+#endif
+
+ClassifyDiscs classify_discs_best(bool scalar) {
+    return !scalar && classify_discs_avx2_supported() ? classify_discs_avx2 : classify_discs_scalar;
 }
 
 namespace {

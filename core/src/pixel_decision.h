@@ -65,6 +65,7 @@ inline bool proven_real(const RootDisc* all, int n_all, int self, bool all_verif
 /// Band membership of every root in disc d: Yes (all in the band), No (all
 /// outside), Unknown. `real` says d's single root is proven real. For a real
 /// object (complex_space false) the band is the positive real axis.
+/// (band_verdict with edge_range.)
 Verdict band_membership(const RootDisc& d, bool real, const FramePlan& plan, bool complex_space);
 
 /// The clipping sphere |P| <= radius for every point P = o' + s d' with s
@@ -151,35 +152,58 @@ struct BandPlan {
 };
 BandPlan band_plan(const FramePlan& plan, bool complex_space);
 
-/// band_membership(d, real, plan, complex_space) for bp = band_plan(plan,
-/// complex_space): the same branches, with edge_range_fast.
-__attribute__((always_inline)) inline Verdict band_fast(const RootDisc& d, bool real, const BandPlan& bp) {
+/// Band membership (band_membership's logic, for band_membership and
+/// band_fast alike): `axis`: the band is the positive real axis (a real
+/// object, or sigma = delta = 0); `sigma_zero`: sigma == 0; `lower`: sigma >
+/// 0 (the lower edge is tested). edge(upper, x, y, r, lo, hi) gives the
+/// bounds of s(z) over the disc for the upper (true) or lower edge:
+/// edge_range, or edge_range_fast (whose signs are edge_range's).
+template <class Edge>
+__attribute__((always_inline)) inline Verdict band_verdict(const RootDisc& d, bool real, bool axis, bool sigma_zero,
+                                                           bool lower, Edge&& edge) {
     const double r = d.radius;
+    // 0 is outside the disc (a sufficient test first, then the modulus).
     const bool misses_zero = std::fabs(d.re) > r || std::fabs(d.im) > r || modulus_down(d) > 0.0;
-    if (bp.axis) {
+    if (axis) {
+        // The band is the positive real axis (arg t = 0 exactly).
         if (real && misses_zero) return d.re > 0.0 ? Verdict::Yes : Verdict::No;
+        // Points of the disc on the half-line [0, inf)?
         if (add_down(std::fabs(d.im), -r) > 0.0 || add_up(d.re, r) < 0.0) return Verdict::No;
         return Verdict::Unknown;
     }
     if (!misses_zero) return Verdict::Unknown;
     if (real) {
-        if (d.re > 0.0) return bp.sigma_zero ? Verdict::Yes : Verdict::No;
+        // arg t = 0 (in the band iff sigma == 0) or pi (never: sigma + delta
+        // <= pi, and the exact sum of two doubles is never pi).
+        if (d.re > 0.0) return sigma_zero ? Verdict::Yes : Verdict::No;
         return Verdict::No;
     }
+    // |arg z| over the disc equals arg z over the disc reflected into the
+    // upper half-plane (centre (x, |y|)); there arg z <= alpha iff
+    // s(z) <= 0, and arg z >= alpha iff s(z) >= 0 (alpha in (0, pi)).
     const double x = d.re, y = std::fabs(d.im);
-    bool above_lower = true, below_lower = false;
-    if (bp.lower) {
+    bool above_lower = true, below_lower = false;  // all >= sigma / all < sigma
+    if (lower) {
         double lo, hi;
-        edge_range_fast(bp.lower_edge, x, y, r, lo, hi);
+        edge(false, x, y, r, lo, hi);
         above_lower = lo >= 0.0;
         below_lower = hi < 0.0;
     }
     double lo, hi;
-    edge_range_fast(bp.upper_edge, x, y, r, lo, hi);
+    edge(true, x, y, r, lo, hi);
     const bool below_upper = hi <= 0.0, above_upper = lo > 0.0;
     if (above_lower && below_upper) return Verdict::Yes;
     if (below_lower || above_upper) return Verdict::No;
     return Verdict::Unknown;
+}
+
+/// band_membership(d, real, plan, complex_space) for bp = band_plan(plan,
+/// complex_space): band_verdict with edge_range_fast.
+__attribute__((always_inline)) inline Verdict band_fast(const RootDisc& d, bool real, const BandPlan& bp) {
+    return band_verdict(d, real, bp.axis, bp.sigma_zero, bp.lower,
+                        [&bp](bool upper, double x, double y, double r, double& lo, double& hi) {
+                            edge_range_fast(upper ? bp.upper_edge : bp.lower_edge, x, y, r, lo, hi);
+                        });
 }
 
 /// band_membership(all[self], proven_real(all, n_all, self, true), ..) for a
@@ -309,6 +333,54 @@ __attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, co
     if (next_down(norm * (1.0 - 4.0 * kU) - e1) > radius * (1.0 + 2.0 * kU)) return Verdict::No;
     return inside_clip(ray, mod_lo, mod_hi, radius);
 }
+
+/// b is a's mirror image to the bit (centre conjugated, same radius, count
+/// and flags).
+inline bool exact_mirrors(const RootDisc& a, const RootDisc& b) {
+    std::uint64_t ar, ai, aq, br, bi, bq;
+    std::memcpy(&ar, &a.re, 8);
+    std::memcpy(&br, &b.re, 8);
+    if (ar != br) return false;
+    std::memcpy(&ai, &a.im, 8);
+    std::memcpy(&bi, &b.im, 8);
+    std::memcpy(&aq, &a.radius, 8);
+    std::memcpy(&bq, &b.radius, 8);
+    return bi == (ai ^ (std::uint64_t{1} << 63)) && aq == bq && a.count == b.count && a.real == b.real &&
+           a.verified == b.verified;
+}
+
+/// The decisions of one polynomial's discs (decide_fast's per-disc part):
+/// bit i of `live` says disc i may hold the pixel's root (count > 0, not the
+/// exact root 0, not proven out of the band, not proven outside the sphere),
+/// bit i of `eligible` that it is proven in both; lo[i], hi[i] are its
+/// modulus bounds (set for live discs only).
+struct DiscVerdicts {
+    std::uint64_t live = 0, eligible = 0;
+    double lo[kMaxDegree], hi[kMaxDegree];
+};
+static_assert(kMaxDegree <= 64, "DiscVerdicts: one bit per disc");
+
+/// The verdicts of discs[0..n) (n <= kMaxDegree), all verified and of a
+/// complete polynomial: for each disc, exactly band_fast_verified, then
+/// (band not No) modulus_fast and (clip_radius > 0) clip_fast, that is
+/// exactly decide_full's band_membership (with proven_real), modulus_bounds
+/// and inside_clip. Writes every field of v.
+using ClassifyDiscs = void (*)(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray,
+                               double clip_radius, DiscVerdicts& v);
+/// One disc at a time (the reference of the quick form below; a disc that
+/// is its predecessor's exact mirror image takes its verdicts).
+void classify_discs_scalar(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray, double clip_radius,
+                           DiscVerdicts& v);
+/// Four discs per AVX2 vector: every quick test of band_fast, modulus_fast
+/// and clip_fast at once, with the same operations in the same order per
+/// lane (so the same roundings), and the scalar reference for a disc any of
+/// them leaves undecided (near an edge, a sphere, zero, a mirror test, outside
+/// the safe range). Only where classify_discs_avx2_supported().
+void classify_discs_avx2(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray, double clip_radius,
+                         DiscVerdicts& v);
+bool classify_discs_avx2_supported();
+/// The fastest supported form (`scalar`: the scalar one).
+ClassifyDiscs classify_discs_best(bool scalar = false);
 
 /// Shrinks a verified count-1 disc d of p with the double-double
 /// coefficients p (|p_k - c_k| <= r_k): Newton steps in double-double, then

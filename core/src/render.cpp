@@ -603,6 +603,7 @@ public:
         infos_.resize(static_cast<std::size_t>(levels));
         const char* mode = std::getenv("ARGAND_DECIDE");
         full_only_ = mode != nullptr && std::string(mode) == "full";
+        classify_ = detail::classify_discs_best(mode != nullptr && std::string(mode) == "fast-scalar");
         for (const SurfaceSpec& s : plan.scene.objects) bands_.push_back(detail::band_plan(plan, s.complex_space));
     }
 
@@ -949,12 +950,13 @@ private:
 
     /// The fast path of decide, for the common pixel: every object's roots
     /// complete (status Ok, every disc verified) and the result certified.
-    /// It makes decide_full's decisions with the same predicates (the
-    /// *_fast forms of pixel_decision.h, which return exactly what
+    /// It makes decide_full's decisions with the same predicates
+    /// (detail::classify_discs_*: the *_fast forms of pixel_decision.h, four
+    /// discs per vector where AVX2 runs, which return exactly what
     /// decide_full's references return), in the same order over the discs,
     /// but keeps only the live discs (in a fixed array), decides realness
-    /// only where the band verdict depends on it, and computes moduli and
-    /// the sphere only for discs not proven out of the band (as decide_full).
+    /// only where the band verdict depends on it, and uses moduli and the
+    /// sphere only for discs not proven out of the band (as decide_full).
     /// True, with h (default-constructed by the caller) exactly
     /// decide_full's result, when the pixel is
     /// certified; false (h unspecified) for any other outcome (a blocked
@@ -966,65 +968,25 @@ private:
         struct Live {
             double lo, hi;
             int object, index;
-            bool eligible;
         };
         constexpr int kLive = 2 * kMaxDegree;
         Live live[kLive];
+        detail::DiscVerdicts v;
         int n_live = 0, eligible = 0, best = -1;
         const int n_obj = static_cast<int>(plan_.scene.objects.size());
         for (int obj = 0; obj < n_obj; ++obj) {
             const ObjectRoots& r = roots[obj];
             if (r.status != Status::Ok || !r.complete) return false;  // (degenerate or incomplete)
-            const detail::BandPlan& bp = bands_[obj];
-            const double clip_radius = plan_.scene.objects[obj].clip_radius;
-            const detail::ClipSums sums = clip_radius > 0.0 ? detail::clip_sums(r.ray) : detail::ClipSums{};
-            const RootDisc* discs = r.res.discs;
-            const int n = r.res.n_discs;
-            // The previous disc's verdicts, for its exact mirror image when
-            // that comes next (the closed-form starts of degree <= 4 list
-            // conjugate pairs so): band, moduli and sphere are functions of
-            // (re, |im|, radius, count, real) and the ray alone but for
-            // realness by the mirror test, which proves neither of the two
-            // real (each meets the other's mirror image: distance 0), so the
-            // mirror's verdicts are the previous disc's, bit for bit.
-            bool have_prev = false;
-            Verdict prev_band = Verdict::No, prev_clip = Verdict::No;
-            double prev_lo = 0.0, prev_hi = 0.0;
-            for (int i = 0; i < n; ++i) {
-                const RootDisc& disc = discs[i];
-                if (disc.count <= 0 || (disc.re == 0.0 && disc.im == 0.0 && disc.radius == 0.0)) {
-                    have_prev = false;  // (at the origin: not live)
-                    continue;
-                }
-                Verdict band, clip = Verdict::Yes;
-                double lo = 0.0, hi = 0.0;
-                if (have_prev && exact_mirrors(discs[i - 1], disc)) {
-                    band = prev_band;
-                    clip = prev_clip;
-                    lo = prev_lo;
-                    hi = prev_hi;
-                    have_prev = false;
-                } else {
-                    // decide_full: band (with proven_real, every disc verified),
-                    // then (not proven out of the band) moduli and sphere.
-                    band = detail::band_fast_verified(discs, n, i, bp);
-                    if (band != Verdict::No) {
-                        detail::modulus_fast(disc, lo, hi);
-                        if (clip_radius > 0.0) clip = detail::clip_fast(r.ray, sums, lo, hi, clip_radius);
-                    }
-                    have_prev = true;
-                    prev_band = band;
-                    prev_clip = clip;
-                    prev_lo = lo;
-                    prev_hi = hi;
-                }
-                if (band == Verdict::No || clip == Verdict::No) continue;  // not live
+            // decide_full's verdicts: band (with proven_real, every disc
+            // verified), then (not proven out of the band) moduli and sphere.
+            classify_(r.res.discs, r.res.n_discs, bands_[obj], r.ray, plan_.scene.objects[obj].clip_radius, v);
+            for (std::uint64_t m = v.live; m != 0; m &= m - 1) {
+                const int i = __builtin_ctzll(m);
                 if (n_live == kLive) return false;
-                const bool e = clip == Verdict::Yes && band == Verdict::Yes;
-                live[n_live] = Live{lo, hi, obj, i, e};
-                if (e) {
-                    eligible += disc.count;
-                    if (best < 0 || hi < live[best].hi) best = n_live;
+                live[n_live] = Live{v.lo[i], v.hi[i], obj, i};
+                if ((v.eligible >> i) & 1) {
+                    eligible += r.res.discs[i].count;
+                    if (best < 0 || v.hi[i] < live[best].hi) best = n_live;
                 }
                 ++n_live;
             }
@@ -1048,28 +1010,17 @@ private:
         // (h is decide's default HitInfo: no hit, certified, level first.)
         h.eligible = eligible;
         h.status = kCertified;
-        if (best >= 0) {
-            const Live& c = live[best];
-            h.hit = true;
-            h.object = c.object;
-            h.disc = roots[c.object].res.discs[c.index];
-            h.modulus = std::hypot(h.disc.re, h.disc.im);
-        }
+        if (best >= 0) set_hit(roots, live[best].object, live[best].index, h);
         return true;
     }
 
-    /// b is a's mirror image to the bit (centre conjugated, same radius,
-    /// count and flag).
-    static bool exact_mirrors(const RootDisc& a, const RootDisc& b) {
-        std::uint64_t ar, ai, aq, br, bi, bq;
-        std::memcpy(&ar, &a.re, 8);
-        std::memcpy(&br, &b.re, 8);
-        if (ar != br) return false;
-        std::memcpy(&ai, &a.im, 8);
-        std::memcpy(&bi, &b.im, 8);
-        std::memcpy(&aq, &a.radius, 8);
-        std::memcpy(&bq, &b.radius, 8);
-        return bi == (ai ^ (std::uint64_t{1} << 63)) && aq == bq && a.count == b.count && a.real == b.real;
+    /// h shows disc `index` of object `object` (decide_fast and decide_full).
+    static void set_hit(const ObjectRoots* roots, int object, int index, HitInfo& h) {
+        h.hit = true;
+        h.object = object;
+        h.disc = roots[object].res.discs[index];
+        // hypot(x, +-0) is |x| (C99 F.9.4.3); NaN keeps the call.
+        h.modulus = h.disc.im == 0.0 && !std::isnan(h.disc.re) ? std::fabs(h.disc.re) : std::hypot(h.disc.re, h.disc.im);
     }
 
     /// The full decision, every disc's verdicts in `infos`.
@@ -1180,13 +1131,7 @@ private:
                 }
             }
         }
-        if (chosen_ >= 0) {
-            const DiscInfo& c = infos[chosen_];
-            h.hit = true;
-            h.object = c.object;
-            h.disc = roots[c.object].res.discs[c.index];
-            h.modulus = std::hypot(h.disc.re, h.disc.im);
-        }
+        if (chosen_ >= 0) set_hit(roots, infos[chosen_].object, infos[chosen_].index, h);
         return h;
     }
 
@@ -1242,6 +1187,7 @@ private:
     bool recording_ = false;  // keep every disc's decisions (explain_pixel)
     bool full_only_ = false;  // ARGAND_DECIDE=full: decide_full for every pixel (the reference)
     std::vector<detail::BandPlan> bands_;  // per object: band_fast's constants
+    detail::ClassifyDiscs classify_ = nullptr;  // decide_fast's verdicts (ARGAND_DECIDE=fast-scalar: the scalar form)
 };
 
 }  // namespace

@@ -634,6 +634,94 @@ static void test_fast_decisions() {
     for (const auto& r : ranges) CHECK(clip_fast(ray, clip_sums(ray), r[0], r[1], 2.0) == inside_clip(ray, r[0], r[1], 2.0));
 }
 
+// classify_discs_avx2 / classify_discs_scalar against decide_full's
+// references, disc by disc: random disc sets (conjugate pairs, clusters,
+// discs on and near band edges, at zero, meeting their mirror) on random rays
+// with a clipping sphere through one of the discs (so their quick sphere test
+// straddles it) or none, at bands with sigma = 0 and > 0, delta = 0, the
+// half-plane.
+static void test_classify_discs() {
+    std::mt19937_64 g(20261203);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    const double bands[][2] = {{0.0, 0.0}, {0.0, kPiDouble / 9}, {0.3, kPiDouble / 4}, {1.0, 0.0},
+                               {0.0, kPiDouble}, {0.2, kPiDouble - 0.2}, {1e-300, 0.3}};
+    long compared = 0, live = 0, eligible = 0;
+    const bool avx2 = classify_discs_avx2_supported();
+    std::printf("classify_discs_avx2 supported: %d\n", avx2 ? 1 : 0);
+    for (const auto& b : bands) {
+        const FramePlan plan = plan_with(b[0], b[1]);
+        for (int cs = 0; cs < 2; ++cs) {
+            const BandPlan bp = band_plan(plan, cs == 1);
+            for (int trial = 0; trial < 6000; ++trial) {
+                RootDisc all[16];
+                int n = 1 + static_cast<int>(u01(g) * 9);
+                for (int i = 0; i < n; ++i) all[i] = random_disc(g, b[0], b[0] + b[1]);
+                for (int i = 0; i < n && n < 16; ++i)
+                    if (u01(g) < 0.3) {  // its mirror image, exact or slightly off
+                        RootDisc m = all[i];
+                        m.im = -m.im;
+                        if (u01(g) < 0.3) m.re += m.radius * 0.25;
+                        all[n++] = m;
+                    }
+                if (u01(g) < 0.05) all[static_cast<int>(u01(g) * n)].count = 0;
+                ObjectRay ray;
+                const double scale = std::pow(10.0, -2.0 + 3.0 * u01(g));
+                for (int a = 0; a < 3; ++a) {
+                    ray.origin[a] = Ball(scale * (2.0 * u01(g) - 1.0), u01(g) < 0.5 ? 0.0 : std::ldexp(u01(g), -45));
+                    ray.direction[a] = Ball(2.0 * u01(g) - 1.0, u01(g) < 0.5 ? 0.0 : std::ldexp(u01(g), -50));
+                }
+                // The sphere: none, anywhere, or through the point at a
+                // disc's modulus (to a relative 2^-k).
+                double radius = 0.0;
+                const int kind = static_cast<int>(u01(g) * 4);
+                if (kind == 1) radius = scale * std::pow(10.0, -1.0 + 3.0 * u01(g));
+                if (kind >= 2) {
+                    const RootDisc& d = all[static_cast<int>(u01(g) * n)];
+                    const double s0 = std::hypot(d.re, d.im);
+                    double p2 = 0.0;
+                    for (int a = 0; a < 3; ++a) {
+                        const double v = ray.origin[a].mid + s0 * ray.direction[a].mid;
+                        p2 += v * v;
+                    }
+                    radius = std::sqrt(p2) * (1.0 + (2.0 * u01(g) - 1.0) * std::ldexp(1.0, -static_cast<int>(u01(g) * 55)));
+                }
+                const ClipSums sums = clip_sums(ray);
+                DiscVerdicts vs, va;
+                classify_discs_scalar(all, n, bp, ray, radius, vs);
+                classify_discs_avx2(all, n, bp, ray, radius, va);
+                CHECK(vs.live == va.live && vs.eligible == va.eligible);
+                for (int i = 0; i < n; ++i) {
+                    const RootDisc& d = all[i];
+                    const std::uint64_t bit = std::uint64_t{1} << i;
+                    bool ref_live = false, ref_eligible = false;
+                    double lo = 0.0, hi = 0.0;
+                    if (d.count > 0 && !(d.re == 0.0 && d.im == 0.0 && d.radius == 0.0)) {
+                        const Verdict band = band_membership(d, proven_real(all, n, i, true), plan, cs == 1);
+                        if (band != Verdict::No) {
+                            modulus_bounds(d, lo, hi);
+                            const Verdict clip = radius > 0.0 ? inside_clip(ray, lo, hi, radius) : Verdict::Yes;
+                            ref_live = clip != Verdict::No;
+                            ref_eligible = ref_live && band == Verdict::Yes && clip == Verdict::Yes;
+                        }
+                    }
+                    CHECK(((va.live & bit) != 0) == ref_live && ((va.eligible & bit) != 0) == ref_eligible);
+                    CHECK(((vs.live & bit) != 0) == ref_live && ((vs.eligible & bit) != 0) == ref_eligible);
+                    if (ref_live) {
+                        CHECK(std::memcmp(&va.lo[i], &lo, 8) == 0 && std::memcmp(&va.hi[i], &hi, 8) == 0);
+                        CHECK(std::memcmp(&vs.lo[i], &lo, 8) == 0 && std::memcmp(&vs.hi[i], &hi, 8) == 0);
+                    }
+                    live += ref_live;
+                    eligible += ref_eligible;
+                    ++compared;
+                }
+                (void)sums;
+            }
+        }
+    }
+    std::printf("classify: %ld discs, %ld live, %ld eligible\n", compared, live, eligible);
+    CHECK(compared > 100000 && live > 10000 && eligible > 5000);
+}
+
 int main() {
     test_band_rule();
     test_balls();
@@ -641,6 +729,7 @@ int main() {
     test_trig_assumption();
     test_clip();
     test_fast_decisions();
+    test_classify_discs();
     test_ray_coefficients();
     test_refinement();
     test_isolation();
