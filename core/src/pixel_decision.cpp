@@ -197,8 +197,10 @@ Verdict inside_clip(const ObjectRay& ray, double mod_lo, double mod_hi, double r
 namespace {
 
 /// One disc's verdicts into v (the reference of classify_discs_*).
-inline void classify_disc(const RootDisc* discs, int n, int i, const BandPlan& bp, const ObjectRay& ray,
-                          const ClipSums& sums, double clip_radius, DiscVerdicts& v) {
+inline void classify_disc(const RootDisc* discs, int n, int i, const ClassifyPlan& cp, const ObjectRay& ray,
+                          const ClipSums& sums, DiscVerdicts& v) {
+    const BandPlan& bp = cp.band;
+    const double clip_radius = cp.clip_radius;
     const RootDisc& d = discs[i];
     const std::uint64_t bit = std::uint64_t{1} << i;
     v.live &= ~bit;
@@ -218,10 +220,10 @@ inline void classify_disc(const RootDisc* discs, int n, int i, const BandPlan& b
 
 }  // namespace
 
-void classify_discs_scalar(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray, double clip_radius,
+void classify_discs_scalar(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray,
                            DiscVerdicts& v) {
     v.live = v.eligible = 0;
-    const ClipSums sums = clip_radius > 0.0 ? clip_sums(ray) : ClipSums{};
+    const ClipSums sums = cp.clip ? clip_sums(ray) : ClipSums{};
     // A disc that is the previous one's exact mirror image (the closed-form
     // starts of degree <= 4 list conjugate pairs so) takes its verdicts:
     // band, moduli and sphere are functions of (re, |im|, radius, count,
@@ -242,7 +244,7 @@ void classify_discs_scalar(const RootDisc* discs, int n, const BandPlan& bp, con
             have_prev = false;
             continue;
         }
-        classify_disc(discs, n, i, bp, ray, sums, clip_radius, v);
+        classify_disc(discs, n, i, cp, ray, sums, v);
         have_prev = true;
     }
 }
@@ -281,6 +283,27 @@ ARGAND_AVX2 inline void v_edge(const FastEdge& f, __m256d x, __m256d y, __m256d 
     in = v_gt(_mm256_xor_pd(s, _mm256_set1_pd(-0.0)), t);
 }
 
+/// clip_sums(ray) as [omid, orad, dabs, drad]: per axis a the lanes [|o'_a.mid|,
+/// o'_a.rad, |d'_a.mid| + d'_a.rad, d'_a.rad], summed lane by lane as ((a = 0)
+/// + (a = 1)) + (a = 2): clip_sums' operations in its order.
+ARGAND_AVX2 __attribute__((always_inline)) inline __m256d v_clip_sums(const ObjectRay& ray) {
+    static_assert(sizeof(ObjectRay) == 12 * sizeof(double), "ObjectRay: six balls (mid, rad) in a row");
+    const double* p = &ray.origin[0].mid;
+    const __m256d A = _mm256_loadu_pd(p), B = _mm256_loadu_pd(p + 4), C = _mm256_loadu_pd(p + 8);
+    // A = [o0m, o0r, o1m, o1r], B = [o2m, o2r, d0m, d0r], C = [d1m, d1r, d2m, d2r].
+    const __m256d mids = _mm256_castsi256_pd(_mm256_set_epi64x(0, static_cast<long long>(0x8000000000000000ULL), 0,
+                                                               static_cast<long long>(0x8000000000000000ULL)));
+    // Per axis [|om|, or, |dm|, dr], then lane 2: |dm| + dr (the others as
+    // they are).
+    const __m256d x0 = _mm256_andnot_pd(mids, _mm256_permute2f128_pd(A, B, 0x30));
+    const __m256d x1 = _mm256_andnot_pd(mids, _mm256_permute2f128_pd(A, C, 0x21));
+    const __m256d x2 = _mm256_andnot_pd(mids, _mm256_permute2f128_pd(B, C, 0x30));
+    const __m256d y0 = _mm256_blend_pd(x0, _mm256_add_pd(x0, _mm256_permute_pd(x0, 0xF)), 0x4);
+    const __m256d y1 = _mm256_blend_pd(x1, _mm256_add_pd(x1, _mm256_permute_pd(x1, 0xF)), 0x4);
+    const __m256d y2 = _mm256_blend_pd(x2, _mm256_add_pd(x2, _mm256_permute_pd(x2, 0xF)), 0x4);
+    return _mm256_add_pd(_mm256_add_pd(y0, y1), y2);
+}
+
 }  // namespace
 
 bool classify_discs_avx2_supported() { return __builtin_cpu_supports("avx2"); }
@@ -295,135 +318,186 @@ bool classify_discs_avx2_supported() { return __builtin_cpu_supports("avx2"); }
 // next_down(v) > 0 iff v > eta; next_up(v) < 0 iff v < -eta; next_down(v) >
 // c iff v > next_up(c) (next_down(v) is the largest double below v; NaN
 // fails each side); 0 + p^2 = p^2 (p^2 is never -0).
-ARGAND_AVX2 void classify_discs_avx2(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray,
-                                     double clip_radius, DiscVerdicts& v) {
+namespace {
+
+/// One group of four discs (p[0..3], discs g..g+3; kNone past the end).
+ARGAND_AVX2 __attribute__((always_inline)) inline void classify_group(const RootDisc* p0, const RootDisc* p1,
+                                                                     const RootDisc* p2, const RootDisc* p3, int g,
+                                                                     const ClassifyPlan& cp, const ObjectRay& ray,
+                                                                     __m256d sums, DiscVerdicts& v,
+                                                                     std::uint64_t& fallback) {
     constexpr double kU = kUnitRoundoff;
+    const BandPlan& bp = cp.band;
+    const __m256d zero = _mm256_setzero_pd(), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    const __m256d sign = _mm256_set1_pd(-0.0);
+    // Four discs, transposed.
+    const __m256d D0 = _mm256_loadu_pd(&p0->re), D1 = _mm256_loadu_pd(&p1->re), D2 = _mm256_loadu_pd(&p2->re),
+                  D3 = _mm256_loadu_pd(&p3->re);
+    const __m256d t0 = _mm256_unpacklo_pd(D0, D1), t1 = _mm256_unpackhi_pd(D0, D1);
+    const __m256d t2 = _mm256_unpacklo_pd(D2, D3), t3 = _mm256_unpackhi_pd(D2, D3);
+    const __m256d re = _mm256_permute2f128_pd(t0, t2, 0x20), r = _mm256_permute2f128_pd(t0, t2, 0x31);
+    const __m256d im = _mm256_permute2f128_pd(t1, t3, 0x20);
+    const __m256i fl = _mm256_castpd_si256(_mm256_permute2f128_pd(t1, t3, 0x31));
+    // count (the low 32 bits) > 0; count 1 and real (byte 5) set; count 1
+    // and real clear (bytes 4, verified, and 6-7, padding, masked).
+    const __m256d counted =
+        _mm256_castsi256_pd(_mm256_shuffle_epi32(_mm256_cmpgt_epi32(fl, _mm256_setzero_si256()), 0xA0));
+    const __m256i count_real = _mm256_and_si256(fl, _mm256_set1_epi64x(0x0000FF00FFFFFFFFLL));
+    const __m256d real = _mm256_castsi256_pd(_mm256_cmpeq_epi64(count_real, _mm256_set1_epi64x(0x0000010000000001LL)));
+    const __m256d single_unflagged = _mm256_castsi256_pd(_mm256_cmpeq_epi64(count_real, _mm256_set1_epi64x(1)));
+    const __m256d are = _mm256_andnot_pd(sign, re), aim = _mm256_andnot_pd(sign, im);
+    // The exact root 0: re, im and radius all +-0 (their bits or'ed, the
+    // signs of re and im cleared, is +-0 exactly then).
+    const __m256d at_origin = _mm256_cmp_pd(v_or(v_or(are, aim), r), zero, _CMP_EQ_OQ);
+    const __m256d valid = v_andnot(at_origin, counted);
+    // band_fast_verified: count 1 and flagged real: band_fast(real); count
+    // 1, not flagged, |im| <= r: the mirror test (the reference); otherwise
+    // band_fast(not real).
+    __m256d band_fb = v_and(single_unflagged, _mm256_cmp_pd(aim, r, _CMP_LE_OQ));
+    const __m256d misses_zero = v_or(v_gt(are, r), v_gt(aim, r));  // (else: modulus_down, the reference)
+    const __m256d positive = v_gt(re, zero);
+    __m256d yes, no;
+    if (bp.axis) {
+        const __m256d real_decided = v_and(real, misses_zero);
+        band_fb = v_or(band_fb, v_andnot(misses_zero, real));
+        yes = v_and(real_decided, positive);
+        // add_down(|im|, -r) > 0 || add_up(re, r) < 0.
+        const __m256d off_axis = v_or(v_gt(_mm256_add_pd(aim, _mm256_xor_pd(r, sign)), _mm256_set1_pd(kDenormMin)),
+                                      v_lt(_mm256_add_pd(re, r), _mm256_set1_pd(-kDenormMin)));
+        no = v_or(v_andnot(positive, real_decided), v_andnot(real, off_axis));
+    } else {
+        band_fb = v_or(band_fb, v_andnot(misses_zero, all));
+        yes = bp.sigma_zero ? v_and(real, positive) : zero;
+        no = v_andnot(yes, real);
+        __m256d in, out;
+        v_edge(bp.upper_edge, re, aim, are, r, in, out);
+        if (bp.lower) {
+            __m256d below, above;
+            v_edge(bp.lower_edge, re, aim, are, r, below, above);
+            in = v_and(in, above);
+            out = v_or(out, below);
+        }
+        yes = v_or(yes, v_andnot(real, in));
+        no = v_or(no, v_andnot(real, out));
+        band_fb = v_or(band_fb, v_andnot(real, v_andnot(v_or(in, out), all)));
+    }
+    // A lane not proven out of the band needs its moduli and sphere.
+    const __m256d needs = v_and(valid, v_andnot(v_or(no, band_fb), all));
+    if (_mm256_movemask_pd(needs) == 0) {
+        fallback |= static_cast<std::uint64_t>(_mm256_movemask_pd(v_and(valid, band_fb))) << g;
+        return;
+    }
+    // modulus_fast.
+    const __m256d m = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(re, re), _mm256_mul_pd(im, im)));
+    const __m256d a = _mm256_sub_pd(v_step(_mm256_mul_pd(m, _mm256_set1_pd(1.0 - 4.0 * kU)), -1), r);
+    const __m256d lo = _mm256_blendv_pd(zero, v_step(a, -1), v_gt(a, zero));
+    const __m256d b = _mm256_add_pd(v_step(_mm256_mul_pd(m, _mm256_set1_pd(1.0 + 4.0 * kU)), 1), r);
+    const __m256d hi = v_step(b, 1);
+    const __m256d mod_ok = v_and(v_and(_mm256_cmp_pd(m, _mm256_set1_pd(0x1p-500), _CMP_GE_OQ),
+                                       _mm256_cmp_pd(m, _mm256_set1_pd(0x1p500), _CMP_LE_OQ)),
+                                 v_and(v_gt(b, zero), v_lt(b, _mm256_set1_pd(INFINITY))));
+    // clip_fast's first test.
+    __m256d c_in = all, c_out = zero;
+    if (cp.clip) {
+        const __m256d mid = _mm256_mul_pd(_mm256_set1_pd(0.5), _mm256_add_pd(lo, hi));
+        const __m256d w = _mm256_mul_pd(_mm256_max_pd(_mm256_sub_pd(hi, mid), _mm256_sub_pd(mid, lo)),
+                                        _mm256_set1_pd(1.0 + 4.0 * kU));
+        const __m256d q0 = _mm256_add_pd(_mm256_set1_pd(ray.origin[0].mid), _mm256_mul_pd(mid, _mm256_set1_pd(ray.direction[0].mid)));
+        const __m256d q1 = _mm256_add_pd(_mm256_set1_pd(ray.origin[1].mid), _mm256_mul_pd(mid, _mm256_set1_pd(ray.direction[1].mid)));
+        const __m256d q2 = _mm256_add_pd(_mm256_set1_pd(ray.origin[2].mid), _mm256_mul_pd(mid, _mm256_set1_pd(ray.direction[2].mid)));
+        const __m256d q = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(q0, q0), _mm256_mul_pd(q1, q1)), _mm256_mul_pd(q2, q2));
+        // (sums: [omid, orad, dabs, drad].)
+        const __m256d dabs = _mm256_permute4x64_pd(sums, 0xAA);
+        const __m256d spread = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(w, dabs), _mm256_permute4x64_pd(sums, 0x55)),
+                                             _mm256_mul_pd(hi, _mm256_permute4x64_pd(sums, 0xFF)));
+        const __m256d size = _mm256_mul_pd(_mm256_set1_pd(8.0 * kU),
+                                           _mm256_add_pd(_mm256_permute4x64_pd(sums, 0x00), _mm256_mul_pd(hi, dabs)));
+        const __m256d e1 = _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(spread, size), _mm256_set1_pd(1.0 + 64.0 * kU)),
+                                         _mm256_set1_pd(256.0 * kDenormMin));
+        const __m256d norm = _mm256_sqrt_pd(q);
+        c_in = v_lt(_mm256_add_pd(_mm256_mul_pd(norm, _mm256_set1_pd(1.0 + 4.0 * kU)), e1), _mm256_set1_pd(cp.clip_yes));
+        c_out = v_gt(_mm256_sub_pd(_mm256_mul_pd(norm, _mm256_set1_pd(1.0 - 4.0 * kU)), e1), _mm256_set1_pd(cp.clip_no));
+    }
+    const __m256d fb = v_or(v_and(valid, band_fb), v_andnot(v_and(mod_ok, v_or(c_in, c_out)), needs));
+    const __m256d live = v_andnot(v_or(fb, c_out), needs);
+    const __m256d eligible = v_and(live, v_and(yes, c_in));
+    _mm256_storeu_pd(v.lo + g, lo);
+    _mm256_storeu_pd(v.hi + g, hi);
+    v.live |= static_cast<std::uint64_t>(_mm256_movemask_pd(live)) << g;
+    v.eligible |= static_cast<std::uint64_t>(_mm256_movemask_pd(eligible)) << g;
+    fallback |= static_cast<std::uint64_t>(_mm256_movemask_pd(fb)) << g;
+}
+
+}  // namespace
+
+namespace {
+
+/// The discs that classify_group left undecided, by the reference.
+__attribute__((noinline)) void classify_fallback(const RootDisc* discs, int n, const ClassifyPlan& cp,
+                                                 const ObjectRay& ray, DiscVerdicts& v, std::uint64_t fallback) {
+    const ClipSums sums = cp.clip ? clip_sums(ray) : ClipSums{};
+    for (; fallback != 0; fallback &= fallback - 1)
+        classify_disc(discs, n, __builtin_ctzll(fallback), cp, ray, sums, v);
+}
+
+/// Four discs (the common case: every degree-4 polynomial), straight.
+ARGAND_AVX2 __attribute__((noinline)) void classify_four(const RootDisc* discs, const ClassifyPlan& cp,
+                                                         const ObjectRay& ray, DiscVerdicts& v) {
+    v.live = v.eligible = 0;
+    const __m256d sums = cp.clip ? v_clip_sums(ray) : _mm256_setzero_pd();
+    std::uint64_t fallback = 0;
+    classify_group(discs, discs + 1, discs + 2, discs + 3, 0, cp, ray, sums, v, fallback);
+    if (fallback != 0) classify_fallback(discs, 4, cp, ray, v, fallback);
+}
+
+}  // namespace
+
+namespace {
+
+/// Any number of discs, four at a time (kNone past the end: count 0, not
+/// live).
+ARGAND_AVX2 __attribute__((noinline)) void classify_any(const RootDisc* discs, int n, const ClassifyPlan& cp,
+                                                        const ObjectRay& ray, DiscVerdicts& v) {
+    static const RootDisc kNone{0.0, 0.0, 0.0, 0, false, false};
+    v.live = v.eligible = 0;
+    const __m256d sums = cp.clip ? v_clip_sums(ray) : _mm256_setzero_pd();
+    std::uint64_t fallback = 0;
+    for (int g = 0; g < n; g += 4) {
+        const RootDisc* p1 = g + 1 < n ? discs + g + 1 : &kNone;
+        const RootDisc* p2 = g + 2 < n ? discs + g + 2 : &kNone;
+        const RootDisc* p3 = g + 3 < n ? discs + g + 3 : &kNone;
+        classify_group(discs + g, p1, p2, p3, g, cp, ray, sums, v, fallback);
+    }
+    if (fallback != 0) classify_fallback(discs, n, cp, ray, v, fallback);
+}
+
+}  // namespace
+
+void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v) {
     static_assert(sizeof(RootDisc) == 32 && offsetof(RootDisc, re) == 0 && offsetof(RootDisc, im) == 8 &&
                       offsetof(RootDisc, radius) == 16 && offsetof(RootDisc, count) == 24 &&
                       offsetof(RootDisc, real) == 29,
                   "classify_discs_avx2 loads a disc as four doubles");
-    static const RootDisc kNone{0.0, 0.0, 0.0, 0, false, false};
-    v.live = v.eligible = 0;
-    const bool clip = clip_radius > 0.0;
-    const ClipSums sums = clip ? clip_sums(ray) : ClipSums{};
-    const __m256d zero = _mm256_setzero_pd(), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
-    const __m256d eta = _mm256_set1_pd(kDenormMin), neg_eta = _mm256_set1_pd(-kDenormMin);
-    const __m256d inf = _mm256_set1_pd(INFINITY);
-    // The sphere's constants: its first test's bounds (No: > next_up(c)).
-    const __m256d c_yes = _mm256_set1_pd(clip_radius * (1.0 - 2.0 * kU));
-    const __m256d c_no = _mm256_set1_pd(next_up(clip_radius * (1.0 + 2.0 * kU)));
-    const __m256d o0 = _mm256_set1_pd(ray.origin[0].mid), o1 = _mm256_set1_pd(ray.origin[1].mid),
-                  o2 = _mm256_set1_pd(ray.origin[2].mid);
-    const __m256d d0 = _mm256_set1_pd(ray.direction[0].mid), d1 = _mm256_set1_pd(ray.direction[1].mid),
-                  d2 = _mm256_set1_pd(ray.direction[2].mid);
-    const __m256d s_dabs = _mm256_set1_pd(sums.dabs), s_orad = _mm256_set1_pd(sums.orad),
-                  s_drad = _mm256_set1_pd(sums.drad), s_omid = _mm256_set1_pd(sums.omid);
-    std::uint64_t fallback = 0;
-    for (int g = 0; g < n; g += 4) {
-        // Four discs (kNone past the end: count 0, not live), transposed.
-        const RootDisc* p1 = g + 1 < n ? discs + g + 1 : &kNone;
-        const RootDisc* p2 = g + 2 < n ? discs + g + 2 : &kNone;
-        const RootDisc* p3 = g + 3 < n ? discs + g + 3 : &kNone;
-        const __m256d D0 = _mm256_loadu_pd(&discs[g].re), D1 = _mm256_loadu_pd(&p1->re),
-                      D2 = _mm256_loadu_pd(&p2->re), D3 = _mm256_loadu_pd(&p3->re);
-        const __m256d t0 = _mm256_unpacklo_pd(D0, D1), t1 = _mm256_unpackhi_pd(D0, D1);
-        const __m256d t2 = _mm256_unpacklo_pd(D2, D3), t3 = _mm256_unpackhi_pd(D2, D3);
-        const __m256d re = _mm256_permute2f128_pd(t0, t2, 0x20), r = _mm256_permute2f128_pd(t0, t2, 0x31);
-        const __m256d im = _mm256_permute2f128_pd(t1, t3, 0x20);
-        const __m256i fl = _mm256_castpd_si256(_mm256_permute2f128_pd(t1, t3, 0x31));
-        // count (the low 32 bits) > 0, == 1; real (byte 5) set.
-        const __m256d counted = _mm256_castsi256_pd(_mm256_shuffle_epi32(_mm256_cmpgt_epi32(fl, _mm256_setzero_si256()), 0xA0));
-        const __m256d single = _mm256_castsi256_pd(_mm256_shuffle_epi32(_mm256_cmpeq_epi32(fl, _mm256_set1_epi32(1)), 0xA0));
-        const __m256i real_byte = _mm256_and_si256(_mm256_srli_epi64(fl, 40), _mm256_set1_epi64x(0xFF));
-        const __m256d flagged = _mm256_castsi256_pd(_mm256_cmpeq_epi64(real_byte, _mm256_set1_epi64x(1)));
-        const __m256d at_origin = v_and(v_and(_mm256_cmp_pd(re, zero, _CMP_EQ_OQ), _mm256_cmp_pd(im, zero, _CMP_EQ_OQ)),
-                                        _mm256_cmp_pd(r, zero, _CMP_EQ_OQ));
-        const __m256d valid = v_andnot(at_origin, counted);
-        const __m256d are = v_abs(re), aim = v_abs(im);
-        // band_fast_verified: count 1 and flagged real: band_fast(real);
-        // count 1, not flagged, |im| <= r: the mirror test (reference);
-        // otherwise band_fast(not real).
-        const __m256d real = v_and(single, flagged);
-        __m256d band_fb = v_andnot(flagged, v_and(single, _mm256_cmp_pd(aim, r, _CMP_LE_OQ)));
-        const __m256d misses_zero = v_or(v_gt(are, r), v_gt(aim, r));  // (else: modulus_down, the reference)
-        const __m256d positive = v_gt(re, zero);
-        __m256d yes, no;
-        if (bp.axis) {
-            const __m256d real_decided = v_and(real, misses_zero);
-            band_fb = v_or(band_fb, v_andnot(misses_zero, real));
-            yes = v_and(real_decided, positive);
-            // add_down(|im|, -r) > 0 || add_up(re, r) < 0.
-            const __m256d off_axis = v_or(v_gt(_mm256_add_pd(aim, _mm256_xor_pd(r, _mm256_set1_pd(-0.0))), eta),
-                                          v_lt(_mm256_add_pd(re, r), neg_eta));
-            no = v_or(v_andnot(positive, real_decided), v_andnot(real, off_axis));
-        } else {
-            band_fb = v_or(band_fb, v_andnot(misses_zero, all));
-            yes = bp.sigma_zero ? v_and(real, positive) : zero;
-            no = v_andnot(yes, real);
-            __m256d up_in, up_out, low_in = all, low_out = zero;
-            v_edge(bp.upper_edge, re, aim, are, r, up_in, up_out);
-            if (bp.lower) {
-                __m256d low_below, low_above;
-                v_edge(bp.lower_edge, re, aim, are, r, low_below, low_above);
-                low_in = low_above;   // all above sigma
-                low_out = low_below;  // all below sigma
-            }
-            const __m256d out = v_or(up_out, low_out), in = v_and(up_in, low_in);
-            yes = v_or(yes, v_andnot(real, in));
-            no = v_or(no, v_andnot(real, out));
-            band_fb = v_or(band_fb, v_andnot(real, v_andnot(v_or(in, out), all)));
-        }
-        // modulus_fast.
-        const __m256d m = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(re, re), _mm256_mul_pd(im, im)));
-        const __m256d a = _mm256_sub_pd(v_step(_mm256_mul_pd(m, _mm256_set1_pd(1.0 - 4.0 * kU)), -1), r);
-        const __m256d lo = _mm256_blendv_pd(zero, v_step(a, -1), v_gt(a, zero));
-        const __m256d b = _mm256_add_pd(v_step(_mm256_mul_pd(m, _mm256_set1_pd(1.0 + 4.0 * kU)), 1), r);
-        const __m256d hi = v_step(b, 1);
-        const __m256d mod_ok = v_and(v_and(_mm256_cmp_pd(m, _mm256_set1_pd(0x1p-500), _CMP_GE_OQ),
-                                           _mm256_cmp_pd(m, _mm256_set1_pd(0x1p500), _CMP_LE_OQ)),
-                                     v_and(v_gt(b, zero), v_lt(b, inf)));
-        // clip_fast's first test.
-        __m256d c_in = all, c_out = zero;
-        if (clip) {
-            const __m256d mid = _mm256_mul_pd(_mm256_set1_pd(0.5), _mm256_add_pd(lo, hi));
-            const __m256d w = _mm256_mul_pd(_mm256_max_pd(_mm256_sub_pd(hi, mid), _mm256_sub_pd(mid, lo)),
-                                            _mm256_set1_pd(1.0 + 4.0 * kU));
-            const __m256d q0 = _mm256_add_pd(o0, _mm256_mul_pd(mid, d0));
-            const __m256d q1 = _mm256_add_pd(o1, _mm256_mul_pd(mid, d1));
-            const __m256d q2 = _mm256_add_pd(o2, _mm256_mul_pd(mid, d2));
-            const __m256d q = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(q0, q0), _mm256_mul_pd(q1, q1)),
-                                            _mm256_mul_pd(q2, q2));
-            const __m256d spread = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(w, s_dabs), s_orad), _mm256_mul_pd(hi, s_drad));
-            const __m256d size = _mm256_mul_pd(_mm256_set1_pd(8.0 * kU),
-                                               _mm256_add_pd(s_omid, _mm256_mul_pd(hi, s_dabs)));
-            const __m256d e1 = _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(spread, size), _mm256_set1_pd(1.0 + 64.0 * kU)),
-                                             _mm256_set1_pd(256.0 * kDenormMin));
-            const __m256d norm = _mm256_sqrt_pd(q);
-            c_in = v_lt(_mm256_add_pd(_mm256_mul_pd(norm, _mm256_set1_pd(1.0 + 4.0 * kU)), e1), c_yes);
-            c_out = v_gt(_mm256_sub_pd(_mm256_mul_pd(norm, _mm256_set1_pd(1.0 - 4.0 * kU)), e1), c_no);
-        }
-        // A lane not proven out of the band needs its moduli and sphere.
-        const __m256d needs = v_andnot(no, all);
-        const __m256d fb = v_and(valid, v_or(band_fb, v_and(needs, v_andnot(v_and(mod_ok, v_or(c_in, c_out)), all))));
-        const __m256d live = v_andnot(fb, v_and(valid, v_andnot(v_or(no, c_out), all)));
-        const __m256d eligible = v_and(live, v_and(yes, c_in));
-        _mm256_storeu_pd(v.lo + g, lo);
-        _mm256_storeu_pd(v.hi + g, hi);
-        v.live |= static_cast<std::uint64_t>(_mm256_movemask_pd(live)) << g;
-        v.eligible |= static_cast<std::uint64_t>(_mm256_movemask_pd(eligible)) << g;
-        fallback |= static_cast<std::uint64_t>(_mm256_movemask_pd(fb)) << g;
-    }
-    for (; fallback != 0; fallback &= fallback - 1)
-        classify_disc(discs, n, __builtin_ctzll(fallback), bp, ray, sums, clip_radius, v);
+    if (n == 4) classify_four(discs, cp, ray, v);
+    else classify_any(discs, n, cp, ray, v);
 }
 
 #else
 bool classify_discs_avx2_supported() { return false; }
-void classify_discs_avx2(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray, double clip_radius,
-                         DiscVerdicts& v) {
-    classify_discs_scalar(discs, n, bp, ray, clip_radius, v);
+void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v) {
+    classify_discs_scalar(discs, n, cp, ray, v);
 }
 #endif
+
+ClassifyPlan classify_plan(const FramePlan& plan, bool complex_space, double clip_radius) {
+    ClassifyPlan cp;
+    cp.band = band_plan(plan, complex_space);
+    cp.clip_radius = clip_radius;
+    cp.clip = clip_radius > 0.0;
+    cp.clip_yes = clip_radius * (1.0 - 2.0 * kU);
+    cp.clip_no = next_up(clip_radius * (1.0 + 2.0 * kU));
+    return cp;
+}
 
 ClassifyDiscs classify_discs_best(bool scalar) {
     return !scalar && classify_discs_avx2_supported() ? classify_discs_avx2 : classify_discs_scalar;

@@ -225,13 +225,29 @@ __attribute__((always_inline)) inline Verdict band_fast_verified(const RootDisc*
     return v1;
 }
 
+/// b is a's mirror image to the bit (centre conjugated, same radius, count
+/// and flags).
+inline bool exact_mirrors(const RootDisc& a, const RootDisc& b) {
+    std::uint64_t ar, ai, aq, br, bi, bq;
+    std::memcpy(&ar, &a.re, 8);
+    std::memcpy(&br, &b.re, 8);
+    if (ar != br) return false;
+    std::memcpy(&ai, &a.im, 8);
+    std::memcpy(&bi, &b.im, 8);
+    std::memcpy(&aq, &a.radius, 8);
+    std::memcpy(&bq, &b.radius, 8);
+    return bi == (ai ^ (std::uint64_t{1} << 63)) && aq == bq && a.count == b.count && a.real == b.real &&
+           a.verified == b.verified;
+}
+
 /// is_mirror_twin(all[b], all[j], all, n_all, true) for discs all verified
 /// (b != j): j meets b's mirror image, so "exactly one disc meets it" is
 /// "no disc but j meets it".
 __attribute__((always_inline)) inline bool is_mirror_twin_fast(const RootDisc* all, int n_all, int b, int j) {
     const RootDisc& db = all[b];
     if (db.count != 1 || all[j].count != 1) return false;
-    if (!may_meet_mirror(all[j], db)) return false;
+    // (j exactly b's mirror image meets it: distance 0.)
+    if (!exact_mirrors(all[j], db) && !may_meet_mirror(all[j], db)) return false;
     for (int k = 0; k < n_all; ++k)
         if (k != j && may_meet_mirror(all[k], db)) return false;
     return true;
@@ -334,21 +350,6 @@ __attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, co
     return inside_clip(ray, mod_lo, mod_hi, radius);
 }
 
-/// b is a's mirror image to the bit (centre conjugated, same radius, count
-/// and flags).
-inline bool exact_mirrors(const RootDisc& a, const RootDisc& b) {
-    std::uint64_t ar, ai, aq, br, bi, bq;
-    std::memcpy(&ar, &a.re, 8);
-    std::memcpy(&br, &b.re, 8);
-    if (ar != br) return false;
-    std::memcpy(&ai, &a.im, 8);
-    std::memcpy(&bi, &b.im, 8);
-    std::memcpy(&aq, &a.radius, 8);
-    std::memcpy(&bq, &b.radius, 8);
-    return bi == (ai ^ (std::uint64_t{1} << 63)) && aq == bq && a.count == b.count && a.real == b.real &&
-           a.verified == b.verified;
-}
-
 /// The decisions of one polynomial's discs (decide_fast's per-disc part):
 /// bit i of `live` says disc i may hold the pixel's root (count > 0, not the
 /// exact root 0, not proven out of the band, not proven outside the sphere),
@@ -360,24 +361,33 @@ struct DiscVerdicts {
 };
 static_assert(kMaxDegree <= 64, "DiscVerdicts: one bit per disc");
 
+/// An object's constants for classify_discs_*: its band, its clipping
+/// sphere (clip: clip_radius > 0) and clip_fast's first-test bounds (Yes:
+/// below clip_yes = fl(radius (1 - 2u)); No: above clip_no = next_up(fl(radius
+/// (1 + 2u))), as next_down(v) > c iff v > next_up(c) for doubles).
+struct ClassifyPlan {
+    BandPlan band;
+    double clip_radius = 0.0, clip_yes = 0.0, clip_no = 0.0;
+    bool clip = false;
+};
+ClassifyPlan classify_plan(const FramePlan& plan, bool complex_space, double clip_radius);
+
 /// The verdicts of discs[0..n) (n <= kMaxDegree), all verified and of a
 /// complete polynomial: for each disc, exactly band_fast_verified, then
 /// (band not No) modulus_fast and (clip_radius > 0) clip_fast, that is
 /// exactly decide_full's band_membership (with proven_real), modulus_bounds
-/// and inside_clip. Writes every field of v.
-using ClassifyDiscs = void (*)(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray,
-                               double clip_radius, DiscVerdicts& v);
+/// and inside_clip. Writes v.live and v.eligible, and lo, hi of live discs.
+using ClassifyDiscs = void (*)(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray,
+                               DiscVerdicts& v);
 /// One disc at a time (the reference of the quick form below; a disc that
 /// is its predecessor's exact mirror image takes its verdicts).
-void classify_discs_scalar(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray, double clip_radius,
-                           DiscVerdicts& v);
+void classify_discs_scalar(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v);
 /// Four discs per AVX2 vector: every quick test of band_fast, modulus_fast
 /// and clip_fast at once, with the same operations in the same order per
 /// lane (so the same roundings), and the scalar reference for a disc any of
 /// them leaves undecided (near an edge, a sphere, zero, a mirror test, outside
 /// the safe range). Only where classify_discs_avx2_supported().
-void classify_discs_avx2(const RootDisc* discs, int n, const BandPlan& bp, const ObjectRay& ray, double clip_radius,
-                         DiscVerdicts& v);
+void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v);
 bool classify_discs_avx2_supported();
 /// The fastest supported form (`scalar`: the scalar one).
 ClassifyDiscs classify_discs_best(bool scalar = false);

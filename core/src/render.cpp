@@ -604,7 +604,8 @@ public:
         const char* mode = std::getenv("ARGAND_DECIDE");
         full_only_ = mode != nullptr && std::string(mode) == "full";
         classify_ = detail::classify_discs_best(mode != nullptr && std::string(mode) == "fast-scalar");
-        for (const SurfaceSpec& s : plan.scene.objects) bands_.push_back(detail::band_plan(plan, s.complex_space));
+        for (const SurfaceSpec& s : plan.scene.objects)
+            classify_plans_.push_back(detail::classify_plan(plan, s.complex_space, s.clip_radius));
     }
 
     std::int64_t root_calls = 0;
@@ -969,17 +970,18 @@ private:
             double lo, hi;
             int object, index;
         };
+        const int n_obj = static_cast<int>(plan_.scene.objects.size());
+        if (n_obj == 1) return decide_one(roots, h);
+        detail::DiscVerdicts v;
         constexpr int kLive = 2 * kMaxDegree;
         Live live[kLive];
-        detail::DiscVerdicts v;
         int n_live = 0, eligible = 0, best = -1;
-        const int n_obj = static_cast<int>(plan_.scene.objects.size());
         for (int obj = 0; obj < n_obj; ++obj) {
             const ObjectRoots& r = roots[obj];
             if (r.status != Status::Ok || !r.complete) return false;  // (degenerate or incomplete)
             // decide_full's verdicts: band (with proven_real, every disc
             // verified), then (not proven out of the band) moduli and sphere.
-            classify_(r.res.discs, r.res.n_discs, bands_[obj], r.ray, plan_.scene.objects[obj].clip_radius, v);
+            classify_(r.res.discs, r.res.n_discs, classify_plans_[obj], r.ray, v);
             for (std::uint64_t m = v.live; m != 0; m &= m - 1) {
                 const int i = __builtin_ctzll(m);
                 if (n_live == kLive) return false;
@@ -1011,6 +1013,44 @@ private:
         h.eligible = eligible;
         h.status = kCertified;
         if (best >= 0) set_hit(roots, live[best].object, live[best].index, h);
+        return true;
+    }
+
+    /// decide_fast for a scene of one object: the same decisions straight
+    /// from the disc bits (eligible discs in order: the first of least hi is
+    /// chosen).
+    bool decide_one(const ObjectRoots* roots, HitInfo& h) const {
+        const ObjectRoots& r = roots[0];
+        if (r.status != Status::Ok || !r.complete) return false;  // (degenerate or incomplete)
+        const RootDisc* discs = r.res.discs;
+        detail::DiscVerdicts v;
+        classify_(discs, r.res.n_discs, classify_plans_[0], r.ray, v);
+        std::uint64_t m = v.eligible;
+        if (m == 0) {
+            if (v.live != 0) return false;  // (a live disc blocks the miss)
+            h.eligible = 0;
+            h.status = kCertified;
+            return true;
+        }
+        int best = __builtin_ctzll(m), eligible = discs[best].count;
+        double best_hi = v.hi[best];
+        for (m &= m - 1; m != 0; m &= m - 1) {
+            const int i = __builtin_ctzll(m);
+            eligible += discs[i].count;
+            if (v.hi[i] < best_hi) {
+                best = i;
+                best_hi = v.hi[i];
+            }
+        }
+        if (discs[best].count > 1) return false;  // a cluster chosen
+        for (m = v.live & ~(std::uint64_t{1} << best); m != 0; m &= m - 1) {
+            const int j = __builtin_ctzll(m);
+            if (best_hi < v.lo[j]) continue;
+            if (!detail::is_mirror_twin_fast(discs, r.res.n_discs, best, j)) return false;
+        }
+        h.eligible = eligible;
+        h.status = kCertified;
+        set_hit(roots, 0, best, h);
         return true;
     }
 
@@ -1186,7 +1226,7 @@ private:
     int chosen_ = -1;
     bool recording_ = false;  // keep every disc's decisions (explain_pixel)
     bool full_only_ = false;  // ARGAND_DECIDE=full: decide_full for every pixel (the reference)
-    std::vector<detail::BandPlan> bands_;  // per object: band_fast's constants
+    std::vector<detail::ClassifyPlan> classify_plans_;  // per object: band and sphere constants of decide_fast
     detail::ClassifyDiscs classify_ = nullptr;  // decide_fast's verdicts (ARGAND_DECIDE=fast-scalar: the scalar form)
 };
 

@@ -651,7 +651,6 @@ static void test_classify_discs() {
     for (const auto& b : bands) {
         const FramePlan plan = plan_with(b[0], b[1]);
         for (int cs = 0; cs < 2; ++cs) {
-            const BandPlan bp = band_plan(plan, cs == 1);
             for (int trial = 0; trial < 6000; ++trial) {
                 RootDisc all[16];
                 int n = 1 + static_cast<int>(u01(g) * 9);
@@ -685,10 +684,10 @@ static void test_classify_discs() {
                     }
                     radius = std::sqrt(p2) * (1.0 + (2.0 * u01(g) - 1.0) * std::ldexp(1.0, -static_cast<int>(u01(g) * 55)));
                 }
-                const ClipSums sums = clip_sums(ray);
+                const ClassifyPlan cp = classify_plan(plan, cs == 1, radius);
                 DiscVerdicts vs, va;
-                classify_discs_scalar(all, n, bp, ray, radius, vs);
-                classify_discs_avx2(all, n, bp, ray, radius, va);
+                classify_discs_scalar(all, n, cp, ray, vs);
+                classify_discs_avx2(all, n, cp, ray, va);
                 CHECK(vs.live == va.live && vs.eligible == va.eligible);
                 for (int i = 0; i < n; ++i) {
                     const RootDisc& d = all[i];
@@ -714,7 +713,6 @@ static void test_classify_discs() {
                     eligible += ref_eligible;
                     ++compared;
                 }
-                (void)sums;
             }
         }
     }
