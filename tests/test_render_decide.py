@@ -125,3 +125,49 @@ def test_explain_still_shows_every_disc():
         assert sum(d["count"] for d in e["discs"]) == degree
         proven_out += sum(d["in_band"] == "no" for d in e["discs"])
     assert proven_out > 0  # (the fast path keeps no such disc)
+
+
+# decide_fast's verdicts come four discs per AVX2 vector where it runs
+# (classify_discs_avx2: quick tests as lane masks, the scalar reference for a
+# disc they leave undecided) and one disc at a time otherwise
+# (ARGAND_DECIDE=fast-scalar). Scenes whose discs sit on the quick tests'
+# edges: a clipping sphere cutting through the real surface and through its
+# complex roots' shell (the sphere test straddles), double roots (count 2
+# discs, a cluster) and near-double roots, at bands whose edges pass through
+# the roots' arguments (sigma > 0, delta = 0, the whole half-plane).
+EDGE_SCENES = {
+    "bicube-cut": 'objects:\n  - surface: "x^4 + y^4 + z^4 - 1000"\n    clip_radius: 6.2\n',
+    "bicube-shell": 'objects:\n  - surface: "x^4 + y^4 + z^4 - 1000"\n    clip_radius: 7.45\n',
+    "double-sphere": 'objects:\n  - surface: "(x^2 + y^2 + z^2 - 9)^2"\n    clip_radius: 8\n',
+    "near-double": 'objects:\n  - surface: "(x^2 + y^2 + z^2 - 9)^2 - 0.0001"\n    clip_radius: 3.0001\n',
+    "two-objects": ('objects:\n  - surface: "x^4 + y^4 + z^4 - 1000"\n    clip_radius: 7\n'
+                    '  - surface: "x^2 + y^2 + z^2 - 30"\n'),
+}
+EDGE_BANDS = ((0.0, 0.0), (0.0, math.pi / 9), (0.35, 0.0), (0.4, 0.5), (0.0, math.pi), (1e-300, 0.3),
+              (math.pi / 9, math.pi / 18))
+
+
+@pytest.mark.parametrize("name", sorted(EDGE_SCENES))
+@pytest.mark.parametrize("mode", ["fast", "fast-scalar"])
+def test_quick_verdicts_at_their_edges(tmp_path, name, mode):
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(EDGE_SCENES[name])
+    scene = load_scene(str(path))
+    for sigma, delta in EDGE_BANDS:
+        for kernel in ("auto", "scalar"):
+            params = FrameParams(sigma=sigma, delta=delta, width=23, height=19)
+            fast = render_env(scene, params, ARGAND_KERNEL=kernel, ARGAND_DECIDE=mode)
+            full = render_env(scene, params, ARGAND_KERNEL=kernel, ARGAND_DECIDE="full")
+            assert_identical(fast, full, f"{name} {mode} sigma={sigma} delta={delta} kernel={kernel}")
+
+
+@pytest.mark.parametrize("name", PAPER_PRESETS + CLASSIC_PRESETS)
+def test_scalar_verdicts_are_the_full_path_on_every_preset(name):
+    # (The vector form is the default; the scalar form serves machines
+    # without AVX2.)
+    scene = load_scene(name)
+    for sigma, delta in ((0.0, math.pi / 9), (0.3, math.pi / 4), (1.0, 0.0)):
+        params = FrameParams(sigma=sigma, delta=delta, width=21, height=15)
+        fast = render_env(scene, params, ARGAND_DECIDE="fast-scalar")
+        full = render_env(scene, params, ARGAND_DECIDE="full")
+        assert_identical(fast, full, f"{name} fast-scalar sigma={sigma} delta={delta}")

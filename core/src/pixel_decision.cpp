@@ -247,6 +247,7 @@ void classify_discs_scalar(const RootDisc* discs, int n, const ClassifyPlan& cp,
         classify_disc(discs, n, i, cp, ray, sums, v);
         have_prev = true;
     }
+    finish_choice(discs, v);
 }
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
@@ -324,8 +325,10 @@ namespace {
 ARGAND_AVX2 __attribute__((always_inline)) inline void classify_group(const RootDisc* p0, const RootDisc* p1,
                                                                      const RootDisc* p2, const RootDisc* p3, int g,
                                                                      const ClassifyPlan& cp, const ObjectRay& ray,
-                                                                     __m256d sums, DiscVerdicts& v,
-                                                                     std::uint64_t& fallback) {
+                                                                     DiscVerdicts& v,
+                                                                     std::uint64_t& fallback, __m256d& lo_out,
+                                                                     __m256d& hi_out, __m256d& live_out,
+                                                                     __m256d& eligible_out, int& ones_out) {
     constexpr double kU = kUnitRoundoff;
     const BandPlan& bp = cp.band;
     const __m256d zero = _mm256_setzero_pd(), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
@@ -385,6 +388,8 @@ ARGAND_AVX2 __attribute__((always_inline)) inline void classify_group(const Root
     const __m256d needs = v_and(valid, v_andnot(v_or(no, band_fb), all));
     if (_mm256_movemask_pd(needs) == 0) {
         fallback |= static_cast<std::uint64_t>(_mm256_movemask_pd(v_and(valid, band_fb))) << g;
+        lo_out = hi_out = live_out = eligible_out = zero;
+        ones_out = 0;
         return;
     }
     // modulus_fast.
@@ -399,6 +404,7 @@ ARGAND_AVX2 __attribute__((always_inline)) inline void classify_group(const Root
     // clip_fast's first test.
     __m256d c_in = all, c_out = zero;
     if (cp.clip) {
+        const __m256d sums = v_clip_sums(ray);
         const __m256d mid = _mm256_mul_pd(_mm256_set1_pd(0.5), _mm256_add_pd(lo, hi));
         const __m256d w = _mm256_mul_pd(_mm256_max_pd(_mm256_sub_pd(hi, mid), _mm256_sub_pd(mid, lo)),
                                         _mm256_set1_pd(1.0 + 4.0 * kU));
@@ -421,6 +427,11 @@ ARGAND_AVX2 __attribute__((always_inline)) inline void classify_group(const Root
     const __m256d fb = v_or(v_and(valid, band_fb), v_andnot(v_and(mod_ok, v_or(c_in, c_out)), needs));
     const __m256d live = v_andnot(v_or(fb, c_out), needs);
     const __m256d eligible = v_and(live, v_and(yes, c_in));
+    ones_out = _mm256_movemask_pd(v_or(real, single_unflagged));  // (count 1)
+    lo_out = lo;
+    hi_out = hi;
+    live_out = live;
+    eligible_out = eligible;
     _mm256_storeu_pd(v.lo + g, lo);
     _mm256_storeu_pd(v.hi + g, hi);
     v.live |= static_cast<std::uint64_t>(_mm256_movemask_pd(live)) << g;
@@ -444,10 +455,38 @@ __attribute__((noinline)) void classify_fallback(const RootDisc* discs, int n, c
 ARGAND_AVX2 __attribute__((noinline)) void classify_four(const RootDisc* discs, const ClassifyPlan& cp,
                                                          const ObjectRay& ray, DiscVerdicts& v) {
     v.live = v.eligible = 0;
-    const __m256d sums = cp.clip ? v_clip_sums(ray) : _mm256_setzero_pd();
     std::uint64_t fallback = 0;
-    classify_group(discs, discs + 1, discs + 2, discs + 3, 0, cp, ray, sums, v, fallback);
-    if (fallback != 0) classify_fallback(discs, 4, cp, ray, v, fallback);
+    __m256d lo, hi, live, eligible;
+    int ones;
+    classify_group(discs, discs + 1, discs + 2, discs + 3, 0, cp, ray, v, fallback, lo, hi, live, eligible, ones);
+    if (fallback != 0) {
+        classify_fallback(discs, 4, cp, ray, v, fallback);
+        finish_choice(discs, v);
+        return;
+    }
+    // finish_choice in the lanes: the least hi of the eligible discs (inf
+    // elsewhere; an eligible inf ties with it, and the first eligible lane
+    // holding the least is chosen either way), then the live discs whose lo
+    // is not above it.
+    v.best = -1;
+    v.count = 0;
+    v.blockers = 0;
+    std::uint64_t m = v.eligible;
+    if (m == 0) return;
+    __m256d least = _mm256_blendv_pd(_mm256_set1_pd(INFINITY), hi, eligible);
+    least = _mm256_min_pd(least, _mm256_permute2f128_pd(least, least, 1));
+    least = _mm256_min_pd(least, _mm256_permute_pd(least, 0x5));
+    const int best = __builtin_ctz(static_cast<unsigned>(_mm256_movemask_pd(v_and(_mm256_cmp_pd(hi, least, _CMP_EQ_OQ), eligible))));
+    v.best = best;
+    v.blockers = static_cast<std::uint64_t>(_mm256_movemask_pd(v_andnot(v_lt(least, lo), live))) &
+                 ~(std::uint64_t{1} << best);
+    if ((m & ~static_cast<std::uint64_t>(ones)) == 0) {
+        v.count = __builtin_popcountll(m);  // (every eligible disc holds one root)
+    } else {
+        int count = 0;
+        for (; m != 0; m &= m - 1) count += discs[__builtin_ctzll(m)].count;
+        v.count = count;
+    }
 }
 
 }  // namespace
@@ -460,15 +499,17 @@ ARGAND_AVX2 __attribute__((noinline)) void classify_any(const RootDisc* discs, i
                                                         const ObjectRay& ray, DiscVerdicts& v) {
     static const RootDisc kNone{0.0, 0.0, 0.0, 0, false, false};
     v.live = v.eligible = 0;
-    const __m256d sums = cp.clip ? v_clip_sums(ray) : _mm256_setzero_pd();
     std::uint64_t fallback = 0;
     for (int g = 0; g < n; g += 4) {
         const RootDisc* p1 = g + 1 < n ? discs + g + 1 : &kNone;
         const RootDisc* p2 = g + 2 < n ? discs + g + 2 : &kNone;
         const RootDisc* p3 = g + 3 < n ? discs + g + 3 : &kNone;
-        classify_group(discs + g, p1, p2, p3, g, cp, ray, sums, v, fallback);
+        __m256d lo, hi, live, eligible;
+        int ones;
+        classify_group(discs + g, p1, p2, p3, g, cp, ray, v, fallback, lo, hi, live, eligible, ones);
     }
     if (fallback != 0) classify_fallback(discs, n, cp, ray, v, fallback);
+    finish_choice(discs, v);
 }
 
 }  // namespace

@@ -355,11 +355,33 @@ __attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, co
 /// exact root 0, not proven out of the band, not proven outside the sphere),
 /// bit i of `eligible` that it is proven in both; lo[i], hi[i] are its
 /// modulus bounds (set for live discs only).
+/// And decide_full's choice among them (finish_choice): best, the first
+/// eligible disc of least hi (-1: none); count, the sum of the eligible
+/// discs' counts; blockers, the live discs but best whose lo is not above
+/// best's hi (0 without best).
 struct DiscVerdicts {
-    std::uint64_t live = 0, eligible = 0;
+    std::uint64_t live = 0, eligible = 0, blockers = 0;
+    int best = -1, count = 0;
     double lo[kMaxDegree], hi[kMaxDegree];
 };
 static_assert(kMaxDegree <= 64, "DiscVerdicts: one bit per disc");
+
+/// best, count and blockers of v from its live, eligible, lo and hi.
+inline void finish_choice(const RootDisc* discs, DiscVerdicts& v) {
+    v.best = -1;
+    v.count = 0;
+    v.blockers = 0;
+    for (std::uint64_t m = v.eligible; m != 0; m &= m - 1) {
+        const int i = __builtin_ctzll(m);
+        v.count += discs[i].count;
+        if (v.best < 0 || v.hi[i] < v.hi[v.best]) v.best = i;
+    }
+    if (v.best < 0) return;
+    for (std::uint64_t m = v.live & ~(std::uint64_t{1} << v.best); m != 0; m &= m - 1) {
+        const int j = __builtin_ctzll(m);
+        if (!(v.hi[v.best] < v.lo[j])) v.blockers |= std::uint64_t{1} << j;
+    }
+}
 
 /// An object's constants for classify_discs_*: its band, its clipping
 /// sphere (clip: clip_radius > 0) and clip_fast's first-test bounds (Yes:
@@ -376,7 +398,8 @@ ClassifyPlan classify_plan(const FramePlan& plan, bool complex_space, double cli
 /// complete polynomial: for each disc, exactly band_fast_verified, then
 /// (band not No) modulus_fast and (clip_radius > 0) clip_fast, that is
 /// exactly decide_full's band_membership (with proven_real), modulus_bounds
-/// and inside_clip. Writes v.live and v.eligible, and lo, hi of live discs.
+/// and inside_clip. Writes v.live, v.eligible, lo and hi of live discs, and
+/// v's choice (finish_choice).
 using ClassifyDiscs = void (*)(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray,
                                DiscVerdicts& v);
 /// One disc at a time (the reference of the quick form below; a disc that

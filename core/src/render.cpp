@@ -1016,41 +1016,34 @@ private:
         return true;
     }
 
-    /// decide_fast for a scene of one object: the same decisions straight
-    /// from the disc bits (eligible discs in order: the first of least hi is
-    /// chosen).
+    /// decide_fast for a scene of one object: the same decisions from the
+    /// discs' verdicts and choice (classify_discs_*, finish_choice).
     bool decide_one(const ObjectRoots* roots, HitInfo& h) const {
         const ObjectRoots& r = roots[0];
         if (r.status != Status::Ok || !r.complete) return false;  // (degenerate or incomplete)
         const RootDisc* discs = r.res.discs;
         detail::DiscVerdicts v;
         classify_(discs, r.res.n_discs, classify_plans_[0], r.ray, v);
-        std::uint64_t m = v.eligible;
-        if (m == 0) {
+        if (v.best < 0) {
             if (v.live != 0) return false;  // (a live disc blocks the miss)
             h.eligible = 0;
             h.status = kCertified;
             return true;
         }
-        int best = __builtin_ctzll(m), eligible = discs[best].count;
-        double best_hi = v.hi[best];
-        for (m &= m - 1; m != 0; m &= m - 1) {
-            const int i = __builtin_ctzll(m);
-            eligible += discs[i].count;
-            if (v.hi[i] < best_hi) {
-                best = i;
-                best_hi = v.hi[i];
-            }
-        }
-        if (discs[best].count > 1) return false;  // a cluster chosen
-        for (m = v.live & ~(std::uint64_t{1} << best); m != 0; m &= m - 1) {
-            const int j = __builtin_ctzll(m);
-            if (best_hi < v.lo[j]) continue;
-            if (!detail::is_mirror_twin_fast(discs, r.res.n_discs, best, j)) return false;
-        }
-        h.eligible = eligible;
+        if (discs[v.best].count > 1) return false;  // a cluster chosen
+        if (v.blockers != 0 && !blockers_are_twins(discs, r.res.n_discs, v.best, v.blockers)) return false;
+        h.eligible = v.count;
         h.status = kCertified;
-        set_hit(roots, 0, best, h);
+        set_hit(roots, 0, v.best, h);
+        return true;
+    }
+
+    /// Each disc of `blockers` holds exactly the conjugate of best's root
+    /// (decide_full's proof for a disc not beyond best).
+    __attribute__((noinline)) static bool blockers_are_twins(const RootDisc* discs, int n, int best,
+                                                             std::uint64_t blockers) {
+        for (; blockers != 0; blockers &= blockers - 1)
+            if (!detail::is_mirror_twin_fast(discs, n, best, __builtin_ctzll(blockers))) return false;
         return true;
     }
 

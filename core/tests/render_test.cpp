@@ -689,6 +689,7 @@ static void test_classify_discs() {
                 classify_discs_scalar(all, n, cp, ray, vs);
                 classify_discs_avx2(all, n, cp, ray, va);
                 CHECK(vs.live == va.live && vs.eligible == va.eligible);
+                CHECK(vs.best == va.best && vs.count == va.count && vs.blockers == va.blockers);
                 for (int i = 0; i < n; ++i) {
                     const RootDisc& d = all[i];
                     const std::uint64_t bit = std::uint64_t{1} << i;
