@@ -334,6 +334,10 @@ struct RootsView {
 /// batched object is never solved again by solve() (seeded is false), so
 /// its poly is not needed there.
 struct ObjectRoots {
+    // (User-provided: a Tracer's slots are not zeroed first, some 2 KB of
+    // discs and coefficients each; every field is written before it is
+    // read, as for RootsResult.)
+    ObjectRoots() {}
     RayCoefficients<double> poly;
     ObjectRay ray;
     RootsView res;      // what the decisions read
@@ -570,6 +574,10 @@ public:
 
 private:
     struct Object {
+        // (User-provided: objects_ is not zeroed first, some 70 KB per
+        // object per tile; res, status and complete are written by solve
+        // before fill reads them, run by primary_ray_polynomial_run.)
+        Object() {}
         bool batched = false;
         bool seeded = false;   // lanes start from the roots of the sample above
         detail::PrimaryRun run;  // the cells' ray polynomials (structure of arrays)
@@ -655,7 +663,6 @@ public:
         const bool exact_tier = h.status != kCertified && primary && exact_ && *exact_ &&
                                 plan_.params.exact_pixels_per_tile > 0 && plan_.params.method != Method::Unverified &&
                                 (trace != nullptr || !explaining_);
-        ExactAnswer answer;
         bool exact_ran = false;
         if (exact_tier) {
             // Level 4: the exact tier, within the tile's budget (--explain
@@ -669,7 +676,9 @@ public:
                     q.ray.origin[a] = o[a];
                     q.ray.direction[a] = d[a];
                 }
-                answer = (*exact_)(plan_, q);
+                // (The answer, strings and all, exists only here: not
+                // made and destroyed for every ray.)
+                ExactAnswer answer = (*exact_)(plan_, q);
                 exact_ran = true;
                 level = answer.multiple ? kLevelExactMultiple : kLevelExact;
                 h.status = answer.status;
@@ -685,6 +694,7 @@ public:
                         h.modulus = kInf;
                     }
                 }
+                if (trace) trace->exact = std::move(answer);
             }
         }
         h.level = level;
@@ -713,7 +723,7 @@ public:
         if (trace) {
             record(roots, infos, h, trace);
             trace->exact_ran = exact_ran;
-            trace->exact = std::move(answer);
+            if (!exact_ran) trace->exact = ExactAnswer{};
             if (exact_ran && trace->exact.decided) trace->chosen = -1;  // the root is the exact tier's
             trace->root_re = h.disc.re;
             trace->root_im = h.disc.im;
@@ -1411,7 +1421,7 @@ struct PixelAccumulator {
         ++seen;
     }
 
-    void write(TileAOVs& out, std::size_t i) const {
+    void write(TileView& out, std::size_t i) const {
         const double n = seen;
         const float rgb_mean[3] = {static_cast<float>(rgb[0] / n), static_cast<float>(rgb[1] / n),
                                    static_cast<float>(rgb[2] / n)};
@@ -1419,8 +1429,9 @@ struct PixelAccumulator {
                     shown, shown_hit);
     }
 
-    /// Writes pixel i of the tile's AOVs (the one place that does).
-    static void write_pixel(TileAOVs& out, std::size_t i, const float* rgb, float alpha, std::uint8_t status,
+    /// Writes pixel i (y * out.stride + x) of the tile's AOVs (the one
+    /// place that does).
+    static void write_pixel(TileView& out, std::size_t i, const float* rgb, float alpha, std::uint8_t status,
                             std::uint8_t level, float certified_share, const HitInfo& shown, bool shown_hit) {
         for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = rgb[a];
         out.rgba[4 * i + 3] = alpha;
@@ -1429,7 +1440,7 @@ struct PixelAccumulator {
         out.certified_share[i] = certified_share;
         out.count[i] = shown.eligible;
         if (level > kLevelFirst) ++out.escalations;
-        if (!shown_hit) {  // a miss (allocate() leaves the AOVs unset: every one is written here)
+        if (!shown_hit) {  // a miss (the planes come unset: every AOV is written here)
             out.modulus[i] = std::numeric_limits<float>::infinity();
             out.argument[i] = 0.0f;
             out.re[i] = 0.0f;
@@ -1445,18 +1456,19 @@ struct PixelAccumulator {
     /// A pixel of one sample, written as add() then write() would (the
     /// same values to the bit: a mean of one is the value), without the
     /// accumulator's copies.
-    static void write_single(TileAOVs& out, std::size_t i, const SampleResult& s) {
+    static void write_single(TileView& out, std::size_t i, const SampleResult& s) {
         const bool certified = s.hit.status == kCertified;
         write_pixel(out, i, s.rgb, s.hit.hit ? 1.0f : 0.0f, s.hit.status, s.hit.level, certified ? 1.0f : 0.0f,
                     s.hit, s.hit.hit);
     }
 };
 
-/// Sizes the tile's AOVs. Their values are not set here: render_tile
-/// writes every pixel through write_pixel, which writes every AOV (a miss
-/// included), so one fill pass of nine (resize: a zeroing memset on fresh
-/// vectors) is all the setup costs.
-void allocate(TileAOVs& out, int w, int h) {
+/// Sizes the tile's AOVs and returns the view of them render_tile writes
+/// through. Their values are not set here: render_tile writes every pixel
+/// through write_pixel, which writes every AOV (a miss included), so one
+/// fill pass of nine (resize: a zeroing memset on fresh vectors) is all the
+/// setup costs.
+TileView allocate(TileAOVs& out, int w, int h) {
     out.width = w;
     out.height = h;
     const std::size_t np = static_cast<std::size_t>(w) * h;
@@ -1471,6 +1483,18 @@ void allocate(TileAOVs& out, int w, int h) {
     out.certified_share.resize(np);
     out.escalations = 0;
     out.root_calls = 0;
+    TileView v;
+    v.stride = w;
+    v.rgba = out.rgba.data();
+    v.modulus = out.modulus.data();
+    v.argument = out.argument.data();
+    v.re = out.re.data();
+    v.im = out.im.data();
+    v.count = out.count.data();
+    v.status = out.status.data();
+    v.escalation = out.escalation.data();
+    v.certified_share = out.certified_share.data();
+    return v;
 }
 
 const char* status_reason(std::uint8_t status) {
@@ -1484,11 +1508,31 @@ const char* status_reason(std::uint8_t status) {
 
 }  // namespace
 
-void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, const ExactSolver* exact) {
+namespace {
+TileRect clamp_rect(const FramePlan& plan, const TileRect& rect_in) {
     const FrameParams& fp = plan.params;
-    TileRect r{std::max(0, rect_in.x0), std::max(0, rect_in.y0), std::min(fp.width, rect_in.x1), std::min(fp.height, rect_in.y1)};
+    return TileRect{std::max(0, rect_in.x0), std::max(0, rect_in.y0), std::min(fp.width, rect_in.x1),
+                    std::min(fp.height, rect_in.y1)};
+}
+}  // namespace
+
+void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, const ExactSolver* exact) {
+    const TileRect r = clamp_rect(plan, rect_in);
+    TileView v = allocate(out, std::max(0, r.x1 - r.x0), std::max(0, r.y1 - r.y0));
+    render_tile(plan, r, v, exact);
+    out.escalations = v.escalations;
+    out.root_calls = v.root_calls;
+}
+
+void render_tile(const FramePlan& plan, const TileRect& rect_in, TileView& out, const ExactSolver* exact) {
+    const FrameParams& fp = plan.params;
+    const TileRect r = clamp_rect(plan, rect_in);
     const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
-    allocate(out, w, h);
+    out.width = w;
+    out.height = h;
+    out.escalations = 0;
+    out.root_calls = 0;
+    const std::size_t stride = static_cast<std::size_t>(out.stride);
     const int side = sample_side(fp.samples);
     if (side == 0) throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples));
     Tracer tracer(plan, exact);
@@ -1535,13 +1579,13 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
                                                              batch.any() ? dir : nullptr);
                     // One sample per pixel: straight to the AOVs (the same
                     // bits as add() then write(), without the copies).
-                    if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * w + (sx - r.x0), sample);
+                    if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * stride + (sx - r.x0), sample);
                     else row[sx / side - r.x0].add(sample);
                 }
             }
         }
         if (side > 1)
-            for (int x = 0; x < w; ++x) row[x].write(out, static_cast<std::size_t>(y - r.y0) * w + x);
+            for (int x = 0; x < w; ++x) row[x].write(out, static_cast<std::size_t>(y - r.y0) * stride + x);
     }
     out.root_calls = tracer.root_calls;
 }
