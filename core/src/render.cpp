@@ -122,6 +122,43 @@ inline bool normal_exponent(double x, int& e) {
     return true;
 }
 
+/// True when spec = specular * pow(rv, shininess) is so small that
+/// diffuse[a] + spec == diffuse[a] (round to nearest) for a = 0, 1, 2, so
+/// that shade may leave spec (and pow) out with the same bits. For
+/// 0 < rv <= 1 and shininess >= k >= 1 (k <= 64): pow(rv, shininess) <=
+/// rv^k (1 + 2^-52) (glibc's pow is within 1 ulp), and rv^k <= q (1 + 2^-48)
+/// + 2^-1070 for q = rv^k by binary powering (at most 14 roundings, each
+/// within a factor 1 + 2^-53 or, below the normal range, 2^-1075 of the
+/// product; every factor is at most 1, so no error grows). So
+/// |spec| < |specular| (4 q + 2^-1000) / 2 when that is finite, and the
+/// test below keeps |spec| under a quarter of half an ulp of the least
+/// |diffuse[a]| (2^(e - 53), 2^e <= |diffuse[a]| < 2^(e + 1), each normal):
+/// x + s rounds to x for |s| below half the spacing of the doubles next to
+/// x, which is at least 2^(e - 53) / 2 on either side. A NaN or an
+/// infinity anywhere fails a comparison: pow.
+inline bool specular_negligible(int k, double rv, double specular, const double* diffuse) {
+    double q = 1.0, b = rv;
+    for (;;) {
+        if (k & 1) q = q * b;
+        k >>= 1;
+        if (k == 0) break;
+        b = b * b;
+    }
+    std::uint64_t bits[3];
+    std::memcpy(bits, diffuse, sizeof bits);
+    std::uint64_t f = 0x7ff;
+    for (int a = 0; a < 3; ++a) f = std::min(f, (bits[a] >> 52) & 0x7ff);
+    // (f = 0: a zero or subnormal; 0x7ff: not finite; f - 1023 - 53 >= -1000
+    // keeps 2^(e - 53) normal and far above the 2^-1000 slack.)
+    bool finite = true;
+    for (int a = 0; a < 3; ++a) finite &= ((bits[a] >> 52) & 0x7ff) != 0x7ff;
+    if (!finite || f < 1023 + 53 - 1000 + 64) return false;
+    double half_ulp;
+    const std::uint64_t hb = (f - 53) << 52;
+    std::memcpy(&half_ulp, &hb, sizeof half_ulp);
+    return std::fabs(specular) * (4.0 * q + 0x1p-1000) < half_ulp;
+}
+
 /// One term of the gradient, flattened: d/d axis of coeff x^ex y^ey z^ez is
 /// ce x^k[0] y^k[1] z^k[2] with ce = coeff * e[axis] (the same double
 /// product as gradient()'s) and k = the exponents, axis's lowered by one.
@@ -141,6 +178,18 @@ struct ShadePlan {
         int k_top = 0;                    // max of k_max
         bool real_ok = false;             // every ce finite and nonzero (gradient_real may run)
         int ce_lo = 0, ce_hi = 0;         // ilogb range of the ce
+        // gradient_real's range check, per coordinate (see there): the
+        // biased exponent field f of every x_a in [real_f_lo, real_f_hi]
+        // (real_ok false where no x passes).
+        std::uint32_t real_f_lo = 1, real_f_hi = 0;
+        // spec_k >= 1: shade may skip pow(rv, shininess) for 0 < rv <= 1
+        // when its product with the specular factor cannot change the
+        // diffuse terms it is added to (rv^shininess <= rv^spec_k there);
+        // 0: always pow.
+        int spec_k = 0;
+        // specular_negligible cannot hold for rv > spec_rv_cut (a filter
+        // only: that test decides).
+        double spec_rv_cut = 0.0;
         double eye_object[3];             // to_object(eye): the primary rays' origin in object space
         bool identity = false;            // linear is the identity, bit for bit (see linear_apply)
     };
@@ -150,6 +199,9 @@ struct ShadePlan {
     // parses as (l.intensity * l.color[a]) * (...), so the product formed
     // once per frame is the same double.
     std::vector<std::array<double, 3>> light_ic;
+    // Some light is a point light, or some object bounces rays: shade
+    // needs the hit point.
+    bool need_point = false;
     // ARGAND_SHADE=reference: shade() runs its plain per-pixel code
     // (gradient(), std::pow, std::exp, std::atan2 always), the reference
     // the fast paths are tested against to the bit (tests/test_render.py).
@@ -184,6 +236,44 @@ struct ShadePlan {
                 }
             }
             ob.k_top = std::max(ob.k_max[0], std::max(ob.k_max[1], ob.k_max[2]));
+            // gradient_real's condition on (lo, hi) (lo = min(0, min l_a),
+            // hi = max(0, max l_a + 1), l_a = ilogb x_a): A(lo) and B(hi),
+            // A true from some lo_min <= 0 upward, B up to some hi_max >= 0
+            // (monotone in lo and hi; D >= 1). So it holds iff every l_a is
+            // in [lo_min, hi_max - 1] (if A(0) and B(0) hold at all), read
+            // as a range of the biased exponent field (1..0x7fe: normal).
+            {
+                const long D = s.degree;
+                const auto A = [&](long lo) { return ob.ce_lo + D * lo - 1 >= -1021 && D * lo - 1 >= -1021; };
+                const auto B = [&](long hi) { return ob.ce_hi + D * hi + 2 <= 1023 && D * hi + 1 <= 1023; };
+                if (D >= 1 && A(0) && B(0)) {
+                    long lo = 0, hi = 0;
+                    while (A(lo - 1)) --lo;
+                    while (B(hi + 1)) ++hi;
+                    const long f_lo = std::max(1L, lo + 1023), f_hi = std::min(0x7feL, hi - 1 + 1023);
+                    if (f_lo <= f_hi) {
+                        ob.real_f_lo = static_cast<std::uint32_t>(f_lo);
+                        ob.real_f_hi = static_cast<std::uint32_t>(f_hi);
+                    } else {
+                        ob.real_ok = false;
+                    }
+                } else {
+                    ob.real_ok = false;
+                }
+            }
+            const double sh = s.material.shininess;
+            ob.spec_k = sh >= 1.0 ? static_cast<int>(std::min(64.0, std::floor(sh))) : 0;
+            // |diffuse[a]| <= |m.diffuse| |ndl| max(1, |color|) (base <= 1
+            // with hues; |ndl| <= 1 but for rounding), and the test needs
+            // 4 |specular| rv^k < 2^-53 min |diffuse[a]|.
+            if (ob.spec_k > 0) {
+                const Material& mt = s.material;
+                double cmax = 1.0;
+                for (int a = 0; a < 3; ++a) cmax = std::max(cmax, std::fabs(mt.color[a]));
+                const double room = std::fabs(mt.diffuse) * cmax * 1.01 * 0x1p-53 / (4.0 * std::fabs(mt.specular));
+                const double cut = std::pow(room, 1.0 / ob.spec_k) * 1.01;
+                ob.spec_rv_cut = std::isnan(cut) ? 1.0 : cut;
+            }
             to_object(s, plan.eye, ob.eye_object);
             static const double kIdentity[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
             ob.identity = std::memcmp(s.linear, kIdentity, sizeof kIdentity) == 0;  // +0 entries, not -0
@@ -194,7 +284,10 @@ struct ShadePlan {
             for (int a = 0; a < 3; ++a) light_dir[i][a] = sc.lights[i].vector[a];
             normalize3(light_dir[i].data());
             for (int a = 0; a < 3; ++a) light_ic[i][a] = sc.lights[i].intensity * sc.lights[i].color[a];
+            need_point = need_point || !sc.lights[i].directional;
         }
+        for (const SurfaceSpec& s : sc.objects)
+            need_point = need_point || s.material.reflectivity > 0 || s.material.transparency > 0;
     }
 };
 
@@ -209,7 +302,8 @@ struct ShadePlan {
 /// exactly for every nonzero x. So every sum, in either order, is v_r to the
 /// bit. A zero v_r (whose sign the sum may change), an infinity or a NaN
 /// (0 * inf = NaN) takes the products.
-inline void linear_apply(const SurfaceSpec& s, bool identity, bool transpose, const double* v, double* out) {
+[[gnu::always_inline]] inline void linear_apply(const SurfaceSpec& s, bool identity, bool transpose, const double* v,
+                                                double* out) {
     // From the bits: with the sign shifted out, a finite nonzero double is
     // 0 < b << 1 < 0x7ff << 53 (zero: 0; infinity: 0x7ff << 53; NaN: above),
     // i.e. (b << 1) - 1 < (0x7ff << 53) - 1 in unsigned arithmetic.
@@ -269,18 +363,18 @@ void gradient_flat(const ShadePlan::Object& ob, const Complex<double>* z, double
 /// induction over the chain: each partial product has a subset of the
 /// factors, inside the same range since L <= 0 <= H), and likewise
 /// D L - 1 >= -1021, D H + 1 <= 1023 for the powers alone.
-bool gradient_real(const ShadePlan::Object& ob, int degree, const double* x, double* grad_re) {
+bool gradient_real(const ShadePlan::Object& ob, const double* x, double* grad_re) {
     if (!ob.real_ok) return false;
-    int lo = 0, hi = 0;
-    for (int a = 0; a < 3; ++a) {
-        int l;
-        if (!normal_exponent(x[a], l)) return false;  // (a zero, subnormal or non-finite x_a: the complex path)
-        lo = std::min(lo, l);
-        hi = std::max(hi, l + 1);
-    }
-    const long D = degree;
-    if (ob.ce_lo + D * lo - 1 < -1021 || ob.ce_hi + D * hi + 2 > 1023 || D * lo - 1 < -1021 || D * hi + 1 > 1023)
-        return false;
+    // The check above, per coordinate (ShadePlan::build): the biased
+    // exponent f of x_a in [real_f_lo, real_f_hi] (within 1..0x7fe, so a
+    // zero, subnormal or non-finite x_a takes the complex path).
+    std::uint64_t b[3];
+    std::memcpy(b, x, sizeof b);
+    const std::uint32_t span = ob.real_f_hi - ob.real_f_lo;
+    bool in = true;
+    for (int a = 0; a < 3; ++a)
+        in &= static_cast<std::uint32_t>((b[a] >> 52) & 0x7ff) - ob.real_f_lo <= span;
+    if (!in) return false;
     // The powers k = 1..max k_max, the three axes side by side (an axis's
     // powers beyond its k_max are formed but never read; each one read is
     // the same chain pw[a][k - 1] * x[a] as before, so the same double).
@@ -504,10 +598,12 @@ public:
             // What fill's ObjectRoots::complete was (status Ok, every disc
             // verified), once per cell here.
             for (int c = 0; c < cells; ++c) {
-                bool complete = !o.skip[c] && o.status[c] == Status::Ok;
-                const RootsResult& res = o.res[c];
-                for (int i = 0; i < res.n_discs && complete; ++i) complete = res.discs[i].verified;
-                o.complete[c] = complete ? 1 : 0;
+                std::uint8_t complete = !o.skip[c] && o.status[c] == Status::Ok;
+                if (complete) {
+                    const RootsResult& res = o.res[c];
+                    for (int i = 0; i < res.n_discs; ++i) complete &= static_cast<std::uint8_t>(res.discs[i].verified);
+                }
+                o.complete[c] = complete;
             }
             if (!o.seeded) continue;
             // These samples' roots seed the samples below them (as the
@@ -611,7 +707,10 @@ public:
         infos_.resize(static_cast<std::size_t>(levels));
         const char* mode = std::getenv("ARGAND_DECIDE");
         full_only_ = mode != nullptr && std::string(mode) == "full";
-        for (const SurfaceSpec& s : plan.scene.objects) bands_.push_back(detail::band_plan(plan, s.complex_space));
+        for (const SurfaceSpec& s : plan.scene.objects) {
+            bands_.push_back(detail::band_plan(plan, s.complex_space));
+            seed_objects_ = seed_objects_ || (s.degree > 4 && plan.params.seed_from_neighbour);
+        }
     }
 
     std::int64_t root_calls = 0;
@@ -698,7 +797,7 @@ public:
             }
         }
         h.level = level;
-        if (seeds) {
+        if (seeds && seed_objects_) {
             // Only for the objects whose seeds a later sample may read: the
             // scalar path's (intersect's use_seed: degree > 4 and
             // seed_from_neighbour), and not those this batch solves (the
@@ -746,15 +845,18 @@ public:
         const SurfaceSpec& s = sc.objects[hit.object];
         const ShadePlan::Object& sob = shading_.objects[hit.object];
         const Material& m = s.material;
+        const bool ref = shading_.reference;
         // Hit point: distance |t| along the ray (a real point for every root).
+        // (Read only by a point light and the bounces: formed only where
+        // one of them may read it.)
         double p[3];
-        for (int a = 0; a < 3; ++a) p[a] = o[a] + hit.modulus * d[a];
+        if (ref || shading_.need_point) for (int a = 0; a < 3; ++a) p[a] = o[a] + hit.modulus * d[a];
         // Normal: real part of grad F at the complex point o' + t d'.
         // (The primary rays' origin, the eye, is in object space once per
-        // frame: the same to_object, the same bits.)
-        const bool ref = shading_.reference;
+        // frame: the same to_object, the same bits. Depth 0 is a primary
+        // ray, whose origin is the eye's doubles: trace_sample.)
         double oo[3], od[3];
-        if (!ref && std::memcmp(o, plan_.eye, sizeof oo) == 0) {
+        if (!ref && (depth == 0 || std::memcmp(o, plan_.eye, sizeof oo) == 0)) {
             for (int a = 0; a < 3; ++a) oo[a] = sob.eye_object[a];
         } else {
             to_object(s, o, oo);
@@ -778,7 +880,7 @@ public:
             // where gradient_real proves the bits are gradient()'s.
             double x[3];
             for (int a = 0; a < 3; ++a) x[a] = oo[a] + hit.disc.re * od[a];
-            real_done = gradient_real(sob, s.degree, x, gobj);
+            real_done = gradient_real(sob, x, gobj);
         }
         if (!real_done) {
             const Complex<double> t(hit.disc.re, hit.disc.im);
@@ -825,16 +927,25 @@ public:
             double R[3];
             for (int a = 0; a < 3; ++a) R[a] = 2 * ndl * n[a] - L[a];
             const double rv = std::max(0.0, -dot3(R, d));
-            // pow(+0, y) = +0 for every y > 0 (C11 F.10.4.4): no call.
-            const double spec =
-                m.specular * (!ref && rv == 0.0 && m.shininess > 0 ? 0.0 : std::pow(rv, m.shininess));
             if (ref) {
+                const double spec = m.specular * std::pow(rv, m.shininess);
                 for (int a = 0; a < 3; ++a)
                     local[a] += l.intensity * l.color[a] * (m.diffuse * ndl * base[a] + spec);
-            } else {
-                const double* ic = shading_.light_ic[li].data();  // l.intensity * l.color[a], once
-                for (int a = 0; a < 3; ++a) local[a] += ic[a] * (m.diffuse * ndl * base[a] + spec);
+                continue;
             }
+            const double* ic = shading_.light_ic[li].data();  // l.intensity * l.color[a], once
+            // The diffuse terms m.diffuse * ndl * base[a], as parsed.
+            const double dn = m.diffuse * ndl;
+            const double diffuse[3] = {dn * base[0], dn * base[1], dn * base[2]};
+            if (rv > 0.0 && rv <= 1.0 && rv <= sob.spec_rv_cut &&
+                specular_negligible(sob.spec_k, rv, m.specular, diffuse)) {
+                // diffuse[a] + spec == diffuse[a] for every a: no pow.
+                for (int a = 0; a < 3; ++a) local[a] += ic[a] * diffuse[a];
+                continue;
+            }
+            // pow(+0, y) = +0 for every y > 0 (C11 F.10.4.4): no call.
+            const double spec = m.specular * (rv == 0.0 && m.shininess > 0 ? 0.0 : std::pow(rv, m.shininess));
+            for (int a = 0; a < 3; ++a) local[a] += ic[a] * (diffuse[a] + spec);
         }
         // Depth cue from the modulus (the paper colours by the minimum
         // modulus): roots nearer than the scene's centre are brighter.
@@ -1252,6 +1363,7 @@ private:
     bool recording_ = false;  // keep every disc's decisions (explain_pixel)
     bool full_only_ = false;  // ARGAND_DECIDE=full: decide_full for every pixel (the reference)
     std::vector<detail::BandPlan> bands_;  // per object: band_fast's constants
+    bool seed_objects_ = false;  // some object's Seeds are kept (degree > 4, seed_from_neighbour)
 };
 
 }  // namespace
