@@ -721,10 +721,8 @@ public:
     /// (optional) receives every decision.
     /// `pre` (primary rays only): the sample's roots, solved in a batch, for
     /// the objects the batch covers.
-    /// (Inlined: the primary samples' calls are specialised, no HitInfo
-    /// copies on the way out.)
-    [[gnu::always_inline]] HitInfo intersect(const double* o, const double* d, bool primary, Seeds* seeds, int depth,
-                                             PixelExplanation* trace, const BatchedCell* pre = nullptr) {
+    HitInfo intersect(const double* o, const double* d, bool primary, Seeds* seeds, int depth, PixelExplanation* trace,
+                      const BatchedCell* pre = nullptr) {
         const int n_obj = static_cast<int>(plan_.scene.objects.size());
         const int slot = std::min(depth, plan_.params.max_depth + 1);
         ObjectRoots* roots = scratch_.data() + static_cast<std::size_t>(slot) * n_obj;
@@ -1489,10 +1487,8 @@ struct SampleResult {
 /// grid of samples.
 /// `dir` (optional): the sample's direction, already made by
 /// sample_direction for these cells (render_tile's batch): not made again.
-[[gnu::always_inline]] inline SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell,
-                                                       int side, Seeds* seeds,
-                                                       PixelExplanation* trace, const BatchedCell* pre = nullptr,
-                                                       const double* dir = nullptr) {
+SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell, int side, Seeds* seeds,
+                          PixelExplanation* trace, const BatchedCell* pre = nullptr, const double* dir = nullptr) {
     Ray ray;
     if (dir) {
         for (int a = 0; a < 3; ++a) {
