@@ -440,6 +440,9 @@ struct ObjectRoots {
     bool seeded = false;
     bool complete = false;   // status Ok, finite, every disc verified
     bool have_dd = false;
+    // ray.origin holds the object's plan origin (a primary ray's, as fill
+    // and primary_ray_polynomial write it): fill need not copy it again.
+    bool origin_is_plan = false;
     RayCoefficients<DoubleDouble> poly_dd;
 
     /// The discs as a RootsResult refine may change: own, holding a copy
@@ -648,11 +651,14 @@ public:
             }
         }
         if (all || o.clipped) {
-            const FramePlan::ObjectPlan& op = plan_.objects[obj];
-            for (int a = 0; a < 3; ++a) {
-                r.ray.origin[a] = op.origin[a];
-                r.ray.direction[a] = Ball(p.dir[a][c], p.dir_rad[a][c]);
+            if (!r.origin_is_plan) {
+                const FramePlan::ObjectPlan& op = plan_.objects[obj];
+                for (int a = 0; a < 3; ++a) r.ray.origin[a] = op.origin[a];
+                r.origin_is_plan = true;
             }
+            r.ray.direction[0] = Ball(p.dir[0][c], p.dir_rad[0][c]);
+            r.ray.direction[1] = Ball(p.dir[1][c], p.dir_rad[1][c]);
+            r.ray.direction[2] = Ball(p.dir[2][c], p.dir_rad[2][c]);
         }
         r.seeded = false;
         if (o.skip[c]) {
@@ -742,6 +748,7 @@ public:
             }
             if (primary) detail::primary_ray_polynomial(s, plan_.objects[obj], d, r.poly, r.ray);
             else detail::general_ray_polynomial(s, o, d, r.poly, r.ray);
+            r.origin_is_plan = primary;
             r.have_dd = false;
             const bool use_seed = seeds && seeds[obj].valid && plan_.params.seed_from_neighbour && s.degree > 4;
             solve(r, s.degree, use_seed ? seeds + obj : nullptr);
