@@ -1494,8 +1494,11 @@ struct SampleResult {
 /// grid of samples.
 /// `dir` (optional): the sample's direction, already made by
 /// sample_direction for these cells (render_tile's batch): not made again.
-SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell, int side, Seeds* seeds,
-                          PixelExplanation* trace, const BatchedCell* pre = nullptr, const double* dir = nullptr) {
+/// (Inlined: render_tile's calls are specialised, trace and the rest
+/// known; see PixelAccumulator::add for what that asks of add.)
+[[gnu::always_inline]] inline SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell,
+                                                       int side, Seeds* seeds, PixelExplanation* trace,
+                                                       const BatchedCell* pre = nullptr, const double* dir = nullptr) {
     Ray ray;
     if (dir) {
         for (int a = 0; a < 3; ++a) {
@@ -1527,7 +1530,13 @@ struct PixelAccumulator {
     bool shown_hit = false;
     HitInfo shown;   // the shown sample: the hitting sample of least |t|, else the first
 
-    void add(const SampleResult& s) {
+    // (Not inlined: with trace_sample inlined into render_tile, GCC 12 -O2
+    // compiled add()'s rgb[a] += s.rgb[a] for a = 0, 1 as one cvtpd2ps
+    // for the store of s.rgb and an addpd of the unrounded doubles, i.e.
+    // it dropped the float rounding of the sample's colour: the 4-sample
+    // frames' rgba moved in the last bit. Reading s.rgb here, behind a
+    // call, keeps the rounding.)
+    [[gnu::noinline]] void add(const SampleResult& s) {
         for (int a = 0; a < 3; ++a) rgb[a] += s.rgb[a];
         hits += s.hit.hit;
         certified += s.hit.status == kCertified;
