@@ -601,12 +601,16 @@ public:
             // What fill's ObjectRoots::complete was (status Ok, every disc
             // verified), once per cell here.
             for (int c = 0; c < cells; ++c) {
-                std::uint8_t complete = !o.skip[c] && o.status[c] == Status::Ok;
+                bool complete = !o.skip[c] && o.status[c] == Status::Ok;
                 if (complete) {
-                    const RootsResult& res = o.res[c];
-                    for (int i = 0; i < res.n_discs; ++i) complete &= static_cast<std::uint8_t>(res.discs[i].verified);
+                    const RootDisc* dd = o.res[c].discs;
+                    const int nd = o.res[c].n_discs;
+                    int i = 0;
+                    for (; i + 4 <= nd; i += 4)
+                        complete &= dd[i].verified & dd[i + 1].verified & dd[i + 2].verified & dd[i + 3].verified;
+                    for (; i < nd; ++i) complete &= dd[i].verified;
                 }
-                o.complete[c] = complete;
+                o.complete[c] = complete ? 1 : 0;
             }
             if (!o.seeded) continue;
             // These samples' roots seed the samples below them (as the
