@@ -194,11 +194,15 @@ struct ShadePlan {
         bool identity = false;            // linear is the identity, bit for bit (see linear_apply)
     };
     std::vector<Object> objects;
-    std::vector<std::array<double, 3>> light_dir;  // directional lights: normalize3(vector)
-    // l.intensity * l.color[a]: shade's `l.intensity * l.color[a] * (...)`
-    // parses as (l.intensity * l.color[a]) * (...), so the product formed
-    // once per frame is the same double.
-    std::vector<std::array<double, 3>> light_ic;
+    struct LightRec {
+        double dir[3];  // a directional light's normalize3(vector)
+        // l.intensity * l.color[a]: shade's `l.intensity * l.color[a] * (...)`
+        // parses as (l.intensity * l.color[a]) * (...), so the product formed
+        // once per frame is the same double.
+        double ic[3];
+        bool directional;
+    };
+    std::vector<LightRec> lights;  // the scene's, in order
     // Some light is a point light, or some object bounces rays: shade
     // needs the hit point.
     bool need_point = false;
@@ -278,12 +282,12 @@ struct ShadePlan {
             static const double kIdentity[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
             ob.identity = std::memcmp(s.linear, kIdentity, sizeof kIdentity) == 0;  // +0 entries, not -0
         }
-        light_dir.assign(sc.lights.size(), {0.0, 0.0, 0.0});
-        light_ic.assign(sc.lights.size(), {0.0, 0.0, 0.0});
+        lights.assign(sc.lights.size(), LightRec{});
         for (std::size_t i = 0; i < sc.lights.size(); ++i) {
-            for (int a = 0; a < 3; ++a) light_dir[i][a] = sc.lights[i].vector[a];
-            normalize3(light_dir[i].data());
-            for (int a = 0; a < 3; ++a) light_ic[i][a] = sc.lights[i].intensity * sc.lights[i].color[a];
+            for (int a = 0; a < 3; ++a) lights[i].dir[a] = sc.lights[i].vector[a];
+            normalize3(lights[i].dir);
+            for (int a = 0; a < 3; ++a) lights[i].ic[a] = sc.lights[i].intensity * sc.lights[i].color[a];
+            lights[i].directional = sc.lights[i].directional;
             need_point = need_point || !sc.lights[i].directional;
         }
         for (const SurfaceSpec& s : sc.objects)
@@ -921,16 +925,17 @@ public:
         double local[3] = {0, 0, 0};
         const double ambient = 0.12;
         for (int a = 0; a < 3; ++a) local[a] = ambient * base[a];
-        for (std::size_t li = 0; li < sc.lights.size(); ++li) {
-            const Light& l = sc.lights[li];
+        const std::size_t n_lights = shading_.lights.size();
+        for (std::size_t li = 0; li < n_lights; ++li) {
+            const ShadePlan::LightRec& rec = shading_.lights[li];
             double L[3];
-            if (l.directional && !ref) {
-                for (int a = 0; a < 3; ++a) L[a] = shading_.light_dir[li][a];  // normalize3(vector), once
-            } else if (l.directional) {
-                for (int a = 0; a < 3; ++a) L[a] = l.vector[a];
+            if (rec.directional && !ref) {
+                for (int a = 0; a < 3; ++a) L[a] = rec.dir[a];  // normalize3(vector), once
+            } else if (rec.directional) {
+                for (int a = 0; a < 3; ++a) L[a] = sc.lights[li].vector[a];
                 normalize3(L);
             } else {
-                for (int a = 0; a < 3; ++a) L[a] = l.vector[a] - p[a];
+                for (int a = 0; a < 3; ++a) L[a] = sc.lights[li].vector[a] - p[a];
                 normalize3(L);
             }
             const double ndl = dot3(n, L);
@@ -939,12 +944,13 @@ public:
             for (int a = 0; a < 3; ++a) R[a] = 2 * ndl * n[a] - L[a];
             const double rv = std::max(0.0, -dot3(R, d));
             if (ref) {
+                const Light& l = sc.lights[li];
                 const double spec = m.specular * std::pow(rv, m.shininess);
                 for (int a = 0; a < 3; ++a)
                     local[a] += l.intensity * l.color[a] * (m.diffuse * ndl * base[a] + spec);
                 continue;
             }
-            const double* ic = shading_.light_ic[li].data();  // l.intensity * l.color[a], once
+            const double* ic = rec.ic;  // l.intensity * l.color[a], once
             // The diffuse terms m.diffuse * ndl * base[a], as parsed.
             const double dn = m.diffuse * ndl;
             const double diffuse[3] = {dn * base[0], dn * base[1], dn * base[2]};
