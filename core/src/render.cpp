@@ -110,18 +110,6 @@ inline double argument_of(double y, double x) {
     return std::atan2(y, x);
 }
 
-/// The exponent e of a finite normal double, 2^e <= |x| < 2^(e + 1) (its
-/// ilogb), read from the bits; false for a zero, a subnormal, an infinity
-/// or a NaN.
-inline bool normal_exponent(double x, int& e) {
-    std::uint64_t b;
-    std::memcpy(&b, &x, sizeof b);
-    const int f = static_cast<int>((b >> 52) & 0x7ff);
-    if (f == 0 || f == 0x7ff) return false;
-    e = f - 1023;
-    return true;
-}
-
 /// True when spec = specular * pow(rv, shininess) is so small that
 /// diffuse[a] + spec == diffuse[a] (round to nearest) for a = 0, 1, 2, so
 /// that shade may leave spec (and pow) out with the same bits. For
