@@ -76,6 +76,15 @@ def main(path: str) -> int:
     hits = int(np.count_nonzero(tile.rgba[..., 3] > 0))
     if hits == 0:
         problems.append("whitney: the tile has no hit")
+    # render_frame's path: tiles of 10 (partial ones at the edges) written
+    # straight into the frame's arrays (render_tile_frame), the same pixels.
+    from argand.render import render_frame
+
+    frame = render_frame(load_scene("whitney"), params, tile=10, workers=2)
+    if not np.array_equal(frame.rgba, tile.rgba) or any(
+        not np.array_equal(frame.aovs[k], tile.aovs[k]) for k in tile.aovs
+    ):
+        problems.append("whitney: render_frame's tiles differ from the one-tile render")
     # More objects than the renderer's old 16-entry stack array held (ASan
     # found the overflow with this scene): rendered in full, or refused with
     # a ValueError by a scene limit below 20; never a memory error.
@@ -95,7 +104,7 @@ def main(path: str) -> int:
     for p in problems:
         print("FAIL:", p)
     print(f"sanitizer smoke: {len(polynomials)} polynomials x 4 methods, a batch of {len(batch)}, "
-          f"2 tiles: {'ok' if not problems else f'{len(problems)} problems'}")
+          f"2 tiles and a frame of 6: {'ok' if not problems else f'{len(problems)} problems'}")
     return 1 if problems else 0
 
 #: More objects than the renderer's per-ray stack array once held (16).

@@ -224,6 +224,39 @@ def test_render_tile_into_writes_in_place_or_refuses():
         render_tile_into(fplan, TileRect(0, 0, 16, 16), out, 30, 20)
 
 
+def test_render_tile_frame_writes_the_tiles_pixels_into_the_frame_or_refuses():
+    """render_frame's path (_core.render_tile_frame) writes exactly the
+    tile's pixels of the frame's arrays, the values render_tile returns,
+    and touches nothing else; arrays of the wrong shape, dtype or layout,
+    and tiles outside the frame, are refused."""
+    from argand.render.frames import AOV_CHANNELS, TileRect, plan, render_tile_planned
+
+    params = FrameParams(delta=0.2, width=40, height=30, samples=4)
+    fplan = plan(to_core_scene(load_scene("steiner")), params)
+    planes = [np.full((30, 40, 4), -7.0, np.float32)] + [
+        np.full((30, 40), 7, dt)
+        for dt in (np.float32, np.float32, np.float32, np.float32, np.int32, np.uint8, np.uint8, np.float32)
+    ]
+    esc, calls = _core.render_tile_frame(fplan, 8, 4, 35, 21, *planes)
+    tile = render_tile_planned(fplan, TileRect(8, 4, 35, 21))
+    assert calls == tile.root_calls and esc == tile.escalations
+    for name, plane, want in zip(("rgba",) + AOV_CHANNELS, planes, [tile.rgba] + [tile.aovs[n] for n in AOV_CHANNELS]):
+        assert np.array_equal(plane[4:21, 8:35], want, equal_nan=True), name
+        rest = plane.copy()
+        rest[4:21, 8:35] = plane.flat[0]
+        assert (rest == plane.flat[0]).all(), name
+    with pytest.raises(TypeError):
+        _core.render_tile_frame(fplan, 0, 0, 8, 8, planes[0].astype(np.float64), *planes[1:])
+    with pytest.raises(TypeError):
+        _core.render_tile_frame(fplan, 0, 0, 8, 8, *planes[:5], planes[5].astype(np.int64), *planes[6:])
+    with pytest.raises(TypeError):  # (a view, not C-contiguous)
+        _core.render_tile_frame(fplan, 0, 0, 8, 8, planes[0][:, :20], *planes[1:])
+    with pytest.raises(ValueError, match="must be a C-contiguous"):
+        _core.render_tile_frame(fplan, 0, 0, 8, 8, np.ascontiguousarray(planes[0][:, :20]), *planes[1:])
+    with pytest.raises(ValueError, match="not inside"):
+        _core.render_tile_frame(fplan, 32, 0, 48, 8, *planes)
+
+
 def test_every_offered_exr_compression_writes_what_it_says_and_loses_nothing(tmp_path):
     """Each compression this installation offers is really used (OpenImageIO
     silently writes zip for a name its OpenEXR lacks) and the frame reads

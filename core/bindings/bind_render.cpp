@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl_bind.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <complex>
@@ -338,15 +339,6 @@ constexpr const char* kInterleavedNames[] = {"R",     "G",      "B",          "A
                                              "count", "status", "escalation", "certified_share"};
 constexpr int kInterleavedChannels = sizeof(kInterleavedNames) / sizeof(kInterleavedNames[0]);
 
-template <class T>
-py::array_t<T> as_image(const std::vector<T>& v, int h, int w, int channels) {
-    std::vector<py::ssize_t> shape = {h, w};
-    if (channels > 1) shape.push_back(channels);
-    py::array_t<T> a(shape);
-    std::copy(v.begin(), v.end(), a.mutable_data());
-    return a;
-}
-
 /// The exact tier's hook around a Python callable `fn(frame, query) ->
 /// dict` (argand.render.exact.decide_pixel): called from render_tile with
 /// the GIL released, it takes the GIL for the call. `frame` (the objects,
@@ -464,27 +456,108 @@ void init_render(py::module_& m) {
     m.def(
         "render_tile",
         [](const FramePlan& plan, int x0, int y0, int x1, int y1, const py::object& exact) {
-            TileAOVs t;
+            // The tile's arrays are made here, unset, and render_tile writes
+            // every pixel of every AOV straight into them (no tile vectors
+            // to fill and copy).
+            const TileRect r{std::max(0, x0), std::max(0, y0), std::min(plan.params.width, x1),
+                             std::min(plan.params.height, y1)};
+            const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
+            const std::vector<py::ssize_t> plane = {h, w}, quad = {h, w, 4};
+            py::array_t<float> rgba(quad), z(plane), arg(plane), re(plane), im(plane), share(plane);
+            py::array_t<std::int32_t> count(plane);
+            py::array_t<std::uint8_t> status(plane), escalation(plane);
+            TileView v;
+            v.stride = w;
+            v.rgba = rgba.mutable_data();
+            v.modulus = z.mutable_data();
+            v.argument = arg.mutable_data();
+            v.re = re.mutable_data();
+            v.im = im.mutable_data();
+            v.count = count.mutable_data();
+            v.status = status.mutable_data();
+            v.escalation = escalation.mutable_data();
+            v.certified_share = share.mutable_data();
             ExactHook hook(exact);
             {
                 py::gil_scoped_release release;
-                render_tile(plan, TileRect{x0, y0, x1, y1}, t, hook.get());
+                render_tile(plan, r, v, hook.get());
             }
             py::dict out;
-            out["rgba"] = as_image(t.rgba, t.height, t.width, 4);
-            out["Z"] = as_image(t.modulus, t.height, t.width, 1);
-            out["arg"] = as_image(t.argument, t.height, t.width, 1);
-            out["re"] = as_image(t.re, t.height, t.width, 1);
-            out["im"] = as_image(t.im, t.height, t.width, 1);
-            out["count"] = as_image(t.count, t.height, t.width, 1);
-            out["status"] = as_image(t.status, t.height, t.width, 1);
-            out["escalation"] = as_image(t.escalation, t.height, t.width, 1);
-            out["certified_share"] = as_image(t.certified_share, t.height, t.width, 1);
-            out["escalations"] = t.escalations;
-            out["root_calls"] = t.root_calls;
+            out["rgba"] = rgba;
+            out["Z"] = z;
+            out["arg"] = arg;
+            out["re"] = re;
+            out["im"] = im;
+            out["count"] = count;
+            out["status"] = status;
+            out["escalation"] = escalation;
+            out["certified_share"] = share;
+            out["escalations"] = v.escalations;
+            out["root_calls"] = v.root_calls;
             return out;
         },
         py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("exact") = py::none());
+    m.def(
+        "render_tile_frame",
+        [](const FramePlan& plan, int x0, int y0, int x1, int y1, py::array_t<float, py::array::c_style> rgba,
+           py::array_t<float, py::array::c_style> z, py::array_t<float, py::array::c_style> arg,
+           py::array_t<float, py::array::c_style> re, py::array_t<float, py::array::c_style> im,
+           py::array_t<std::int32_t, py::array::c_style> count, py::array_t<std::uint8_t, py::array::c_style> status,
+           py::array_t<std::uint8_t, py::array::c_style> escalation,
+           py::array_t<float, py::array::c_style> share, const py::object& exact) {
+            // render_frame's layout: the frame's own arrays, written in
+            // place at the tile's pixels (no tile arrays to allocate, fill
+            // and copy into the frame). The arrays are taken without
+            // conversion: a converted copy would take the pixels and be
+            // thrown away.
+            const int W = plan.params.width, H = plan.params.height;
+            if (!(0 <= x0 && x0 < x1 && x1 <= W && 0 <= y0 && y0 < y1 && y1 <= H))
+                throw py::value_error("tile [" + std::to_string(x0) + ", " + std::to_string(x1) + ") x [" +
+                                      std::to_string(y0) + ", " + std::to_string(y1) + ") is not inside the " +
+                                      std::to_string(W) + "x" + std::to_string(H) + " frame");
+            auto check = [H, W](const py::array& a, const char* name, int channels) {
+                const bool ok = channels == 1 ? a.ndim() == 2 && a.shape(0) == H && a.shape(1) == W
+                                              : a.ndim() == 3 && a.shape(0) == H && a.shape(1) == W &&
+                                                    a.shape(2) == channels;
+                if (!ok)
+                    throw py::value_error(std::string(name) + " must be a C-contiguous (" + std::to_string(H) + ", " +
+                                          std::to_string(W) + (channels == 1 ? "" : ", 4") + ") array");
+            };
+            check(rgba, "rgba", 4);
+            check(z, "Z", 1);
+            check(arg, "arg", 1);
+            check(re, "re", 1);
+            check(im, "im", 1);
+            check(count, "count", 1);
+            check(status, "status", 1);
+            check(escalation, "escalation", 1);
+            check(share, "certified_share", 1);
+            const std::size_t at = static_cast<std::size_t>(y0) * W + x0;
+            TileView v;
+            v.stride = W;
+            v.rgba = rgba.mutable_data() + 4 * at;
+            v.modulus = z.mutable_data() + at;
+            v.argument = arg.mutable_data() + at;
+            v.re = re.mutable_data() + at;
+            v.im = im.mutable_data() + at;
+            v.count = count.mutable_data() + at;
+            v.status = status.mutable_data() + at;
+            v.escalation = escalation.mutable_data() + at;
+            v.certified_share = share.mutable_data() + at;
+            ExactHook hook(exact);
+            {
+                py::gil_scoped_release release;
+                render_tile(plan, TileRect{x0, y0, x1, y1}, v, hook.get());
+            }
+            return py::make_tuple(v.escalations, v.root_calls);
+        },
+        "Renders the tile [x0, x1) x [y0, y1) straight into the frame's arrays (rgba (H, W, 4) float32; Z, arg, re, "
+        "im, certified_share (H, W) float32; count (H, W) int32; status, escalation (H, W) uint8; C-contiguous), "
+        "at the tile's pixels: the values render_tile returns. Returns (escalations, root_calls).",
+        py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("rgba").noconvert(),
+        py::arg("Z").noconvert(), py::arg("arg").noconvert(), py::arg("re").noconvert(), py::arg("im").noconvert(),
+        py::arg("count").noconvert(), py::arg("status").noconvert(), py::arg("escalation").noconvert(),
+        py::arg("certified_share").noconvert(), py::arg("exact") = py::none());
     m.def(
         "render_tile_into",
         [](const FramePlan& plan, int x0, int y0, int x1, int y1, py::array_t<float, py::array::c_style> out, int ox,

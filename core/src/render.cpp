@@ -110,16 +110,41 @@ inline double argument_of(double y, double x) {
     return std::atan2(y, x);
 }
 
-/// The exponent e of a finite normal double, 2^e <= |x| < 2^(e + 1) (its
-/// ilogb), read from the bits; false for a zero, a subnormal, an infinity
-/// or a NaN.
-inline bool normal_exponent(double x, int& e) {
-    std::uint64_t b;
-    std::memcpy(&b, &x, sizeof b);
-    const int f = static_cast<int>((b >> 52) & 0x7ff);
-    if (f == 0 || f == 0x7ff) return false;
-    e = f - 1023;
-    return true;
+/// True when spec = specular * pow(rv, shininess) is so small that
+/// diffuse[a] + spec == diffuse[a] (round to nearest) for a = 0, 1, 2, so
+/// that shade may leave spec (and pow) out with the same bits. For
+/// 0 < rv <= 1 and shininess >= k >= 1 (k <= 64): pow(rv, shininess) <=
+/// rv^k (1 + 2^-52) (glibc's pow is within 1 ulp), and rv^k <= q (1 + 2^-48)
+/// + 2^-1070 for q = rv^k by binary powering (at most 14 roundings, each
+/// within a factor 1 + 2^-53 or, below the normal range, 2^-1075 of the
+/// product; every factor is at most 1, so no error grows). So
+/// |spec| < |specular| (4 q + 2^-1000) / 2 when that is finite, and the
+/// test below keeps |spec| under a quarter of half an ulp of the least
+/// |diffuse[a]| (2^(e - 53), 2^e <= |diffuse[a]| < 2^(e + 1), each normal):
+/// x + s rounds to x for |s| below half the spacing of the doubles next to
+/// x, which is at least 2^(e - 53) / 2 on either side. A NaN or an
+/// infinity anywhere fails a comparison: pow.
+inline bool specular_negligible(int k, double rv, double specular, const double* diffuse) {
+    double q = 1.0, b = rv;
+    for (;;) {
+        if (k & 1) q = q * b;
+        k >>= 1;
+        if (k == 0) break;
+        b = b * b;
+    }
+    std::uint64_t bits[3];
+    std::memcpy(bits, diffuse, sizeof bits);
+    std::uint64_t f = 0x7ff;
+    for (int a = 0; a < 3; ++a) f = std::min(f, (bits[a] >> 52) & 0x7ff);
+    // (f = 0: a zero or subnormal; 0x7ff: not finite; f - 1023 - 53 >= -1000
+    // keeps 2^(e - 53) normal and far above the 2^-1000 slack.)
+    bool finite = true;
+    for (int a = 0; a < 3; ++a) finite &= ((bits[a] >> 52) & 0x7ff) != 0x7ff;
+    if (!finite || f < 1023 + 53 - 1000 + 64) return false;
+    double half_ulp;
+    const std::uint64_t hb = (f - 53) << 52;
+    std::memcpy(&half_ulp, &hb, sizeof half_ulp);
+    return std::fabs(specular) * (4.0 * q + 0x1p-1000) < half_ulp;
 }
 
 /// One term of the gradient, flattened: d/d axis of coeff x^ex y^ey z^ez is
@@ -141,15 +166,34 @@ struct ShadePlan {
         int k_top = 0;                    // max of k_max
         bool real_ok = false;             // every ce finite and nonzero (gradient_real may run)
         int ce_lo = 0, ce_hi = 0;         // ilogb range of the ce
+        // gradient_real's range check, per coordinate (see there): the
+        // biased exponent field f of every x_a in [real_f_lo, real_f_hi]
+        // (real_ok false where no x passes).
+        std::uint32_t real_f_lo = 1, real_f_hi = 0;
+        // spec_k >= 1: shade may skip pow(rv, shininess) for 0 < rv <= 1
+        // when its product with the specular factor cannot change the
+        // diffuse terms it is added to (rv^shininess <= rv^spec_k there);
+        // 0: always pow.
+        int spec_k = 0;
+        // specular_negligible cannot hold for rv > spec_rv_cut (a filter
+        // only: that test decides).
+        double spec_rv_cut = 0.0;
         double eye_object[3];             // to_object(eye): the primary rays' origin in object space
         bool identity = false;            // linear is the identity, bit for bit (see linear_apply)
     };
     std::vector<Object> objects;
-    std::vector<std::array<double, 3>> light_dir;  // directional lights: normalize3(vector)
-    // l.intensity * l.color[a]: shade's `l.intensity * l.color[a] * (...)`
-    // parses as (l.intensity * l.color[a]) * (...), so the product formed
-    // once per frame is the same double.
-    std::vector<std::array<double, 3>> light_ic;
+    struct LightRec {
+        double dir[3];  // a directional light's normalize3(vector)
+        // l.intensity * l.color[a]: shade's `l.intensity * l.color[a] * (...)`
+        // parses as (l.intensity * l.color[a]) * (...), so the product formed
+        // once per frame is the same double.
+        double ic[3];
+        bool directional;
+    };
+    std::vector<LightRec> lights;  // the scene's, in order
+    // Some light is a point light, or some object bounces rays: shade
+    // needs the hit point.
+    bool need_point = false;
     // ARGAND_SHADE=reference: shade() runs its plain per-pixel code
     // (gradient(), std::pow, std::exp, std::atan2 always), the reference
     // the fast paths are tested against to the bit (tests/test_render.py).
@@ -184,17 +228,58 @@ struct ShadePlan {
                 }
             }
             ob.k_top = std::max(ob.k_max[0], std::max(ob.k_max[1], ob.k_max[2]));
+            // gradient_real's condition on (lo, hi) (lo = min(0, min l_a),
+            // hi = max(0, max l_a + 1), l_a = ilogb x_a): A(lo) and B(hi),
+            // A true from some lo_min <= 0 upward, B up to some hi_max >= 0
+            // (monotone in lo and hi; D >= 1). So it holds iff every l_a is
+            // in [lo_min, hi_max - 1] (if A(0) and B(0) hold at all), read
+            // as a range of the biased exponent field (1..0x7fe: normal).
+            {
+                const long D = s.degree;
+                const auto A = [&](long lo) { return ob.ce_lo + D * lo - 1 >= -1021 && D * lo - 1 >= -1021; };
+                const auto B = [&](long hi) { return ob.ce_hi + D * hi + 2 <= 1023 && D * hi + 1 <= 1023; };
+                if (D >= 1 && A(0) && B(0)) {
+                    long lo = 0, hi = 0;
+                    while (A(lo - 1)) --lo;
+                    while (B(hi + 1)) ++hi;
+                    const long f_lo = std::max(1L, lo + 1023), f_hi = std::min(0x7feL, hi - 1 + 1023);
+                    if (f_lo <= f_hi) {
+                        ob.real_f_lo = static_cast<std::uint32_t>(f_lo);
+                        ob.real_f_hi = static_cast<std::uint32_t>(f_hi);
+                    } else {
+                        ob.real_ok = false;
+                    }
+                } else {
+                    ob.real_ok = false;
+                }
+            }
+            const double sh = s.material.shininess;
+            ob.spec_k = sh >= 1.0 ? static_cast<int>(std::min(64.0, std::floor(sh))) : 0;
+            // |diffuse[a]| <= |m.diffuse| |ndl| max(1, |color|) (base <= 1
+            // with hues; |ndl| <= 1 but for rounding), and the test needs
+            // 4 |specular| rv^k < 2^-53 min |diffuse[a]|.
+            if (ob.spec_k > 0) {
+                const Material& mt = s.material;
+                double cmax = 1.0;
+                for (int a = 0; a < 3; ++a) cmax = std::max(cmax, std::fabs(mt.color[a]));
+                const double room = std::fabs(mt.diffuse) * cmax * 1.01 * 0x1p-53 / (4.0 * std::fabs(mt.specular));
+                const double cut = std::pow(room, 1.0 / ob.spec_k) * 1.01;
+                ob.spec_rv_cut = std::isnan(cut) ? 1.0 : cut;
+            }
             to_object(s, plan.eye, ob.eye_object);
             static const double kIdentity[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
             ob.identity = std::memcmp(s.linear, kIdentity, sizeof kIdentity) == 0;  // +0 entries, not -0
         }
-        light_dir.assign(sc.lights.size(), {0.0, 0.0, 0.0});
-        light_ic.assign(sc.lights.size(), {0.0, 0.0, 0.0});
+        lights.assign(sc.lights.size(), LightRec{});
         for (std::size_t i = 0; i < sc.lights.size(); ++i) {
-            for (int a = 0; a < 3; ++a) light_dir[i][a] = sc.lights[i].vector[a];
-            normalize3(light_dir[i].data());
-            for (int a = 0; a < 3; ++a) light_ic[i][a] = sc.lights[i].intensity * sc.lights[i].color[a];
+            for (int a = 0; a < 3; ++a) lights[i].dir[a] = sc.lights[i].vector[a];
+            normalize3(lights[i].dir);
+            for (int a = 0; a < 3; ++a) lights[i].ic[a] = sc.lights[i].intensity * sc.lights[i].color[a];
+            lights[i].directional = sc.lights[i].directional;
+            need_point = need_point || !sc.lights[i].directional;
         }
+        for (const SurfaceSpec& s : sc.objects)
+            need_point = need_point || s.material.reflectivity > 0 || s.material.transparency > 0;
     }
 };
 
@@ -209,7 +294,8 @@ struct ShadePlan {
 /// exactly for every nonzero x. So every sum, in either order, is v_r to the
 /// bit. A zero v_r (whose sign the sum may change), an infinity or a NaN
 /// (0 * inf = NaN) takes the products.
-inline void linear_apply(const SurfaceSpec& s, bool identity, bool transpose, const double* v, double* out) {
+[[gnu::always_inline]] inline void linear_apply(const SurfaceSpec& s, bool identity, bool transpose, const double* v,
+                                                double* out) {
     // From the bits: with the sign shifted out, a finite nonzero double is
     // 0 < b << 1 < 0x7ff << 53 (zero: 0; infinity: 0x7ff << 53; NaN: above),
     // i.e. (b << 1) - 1 < (0x7ff << 53) - 1 in unsigned arithmetic.
@@ -269,18 +355,18 @@ void gradient_flat(const ShadePlan::Object& ob, const Complex<double>* z, double
 /// induction over the chain: each partial product has a subset of the
 /// factors, inside the same range since L <= 0 <= H), and likewise
 /// D L - 1 >= -1021, D H + 1 <= 1023 for the powers alone.
-bool gradient_real(const ShadePlan::Object& ob, int degree, const double* x, double* grad_re) {
+bool gradient_real(const ShadePlan::Object& ob, const double* x, double* grad_re) {
     if (!ob.real_ok) return false;
-    int lo = 0, hi = 0;
-    for (int a = 0; a < 3; ++a) {
-        int l;
-        if (!normal_exponent(x[a], l)) return false;  // (a zero, subnormal or non-finite x_a: the complex path)
-        lo = std::min(lo, l);
-        hi = std::max(hi, l + 1);
-    }
-    const long D = degree;
-    if (ob.ce_lo + D * lo - 1 < -1021 || ob.ce_hi + D * hi + 2 > 1023 || D * lo - 1 < -1021 || D * hi + 1 > 1023)
-        return false;
+    // The check above, per coordinate (ShadePlan::build): the biased
+    // exponent f of x_a in [real_f_lo, real_f_hi] (within 1..0x7fe, so a
+    // zero, subnormal or non-finite x_a takes the complex path).
+    std::uint64_t b[3];
+    std::memcpy(b, x, sizeof b);
+    const std::uint32_t span = ob.real_f_hi - ob.real_f_lo;
+    bool in = true;
+    for (int a = 0; a < 3; ++a)
+        in &= static_cast<std::uint32_t>((b[a] >> 52) & 0x7ff) - ob.real_f_lo <= span;
+    if (!in) return false;
     // The powers k = 1..max k_max, the three axes side by side (an axis's
     // powers beyond its k_max are formed but never read; each one read is
     // the same chain pw[a][k - 1] * x[a] as before, so the same double).
@@ -334,6 +420,10 @@ struct RootsView {
 /// batched object is never solved again by solve() (seeded is false), so
 /// its poly is not needed there.
 struct ObjectRoots {
+    // (User-provided: a Tracer's slots are not zeroed first, some 2 KB of
+    // discs and coefficients each; every field is written before it is
+    // read, as for RootsResult.)
+    ObjectRoots() {}
     RayCoefficients<double> poly;
     ObjectRay ray;
     RootsView res;      // what the decisions read
@@ -342,6 +432,9 @@ struct ObjectRoots {
     bool seeded = false;
     bool complete = false;   // status Ok, finite, every disc verified
     bool have_dd = false;
+    // ray.origin holds the object's plan origin (a primary ray's, as fill
+    // and primary_ray_polynomial write it): fill need not copy it again.
+    bool origin_is_plan = false;
     RayCoefficients<DoubleDouble> poly_dd;
 
     /// The discs as a RootsResult refine may change: own, holding a copy
@@ -501,8 +594,14 @@ public:
             // verified), once per cell here.
             for (int c = 0; c < cells; ++c) {
                 bool complete = !o.skip[c] && o.status[c] == Status::Ok;
-                const RootsResult& res = o.res[c];
-                for (int i = 0; i < res.n_discs && complete; ++i) complete = res.discs[i].verified;
+                if (complete) {
+                    const RootDisc* dd = o.res[c].discs;
+                    const int nd = o.res[c].n_discs;
+                    int i = 0;
+                    for (; i + 4 <= nd; i += 4)
+                        complete &= dd[i].verified & dd[i + 1].verified & dd[i + 2].verified & dd[i + 3].verified;
+                    for (; i < nd; ++i) complete &= dd[i].verified;
+                }
                 o.complete[c] = complete ? 1 : 0;
             }
             if (!o.seeded) continue;
@@ -548,11 +647,14 @@ public:
             }
         }
         if (all || o.clipped) {
-            const FramePlan::ObjectPlan& op = plan_.objects[obj];
-            for (int a = 0; a < 3; ++a) {
-                r.ray.origin[a] = op.origin[a];
-                r.ray.direction[a] = Ball(p.dir[a][c], p.dir_rad[a][c]);
+            if (!r.origin_is_plan) {
+                const FramePlan::ObjectPlan& op = plan_.objects[obj];
+                for (int a = 0; a < 3; ++a) r.ray.origin[a] = op.origin[a];
+                r.origin_is_plan = true;
             }
+            r.ray.direction[0] = Ball(p.dir[0][c], p.dir_rad[0][c]);
+            r.ray.direction[1] = Ball(p.dir[1][c], p.dir_rad[1][c]);
+            r.ray.direction[2] = Ball(p.dir[2][c], p.dir_rad[2][c]);
         }
         r.seeded = false;
         if (o.skip[c]) {
@@ -570,6 +672,10 @@ public:
 
 private:
     struct Object {
+        // (User-provided: objects_ is not zeroed first, some 70 KB per
+        // object per tile; res, status and complete are written by solve
+        // before fill reads them, run by primary_ray_polynomial_run.)
+        Object() {}
         bool batched = false;
         bool seeded = false;   // lanes start from the roots of the sample above
         detail::PrimaryRun run;  // the cells' ray polynomials (structure of arrays)
@@ -604,8 +710,10 @@ public:
         const char* mode = std::getenv("ARGAND_DECIDE");
         full_only_ = mode != nullptr && std::string(mode) == "full";
         classify_ = detail::classify_discs_best(mode != nullptr && std::string(mode) == "fast-scalar");
-        for (const SurfaceSpec& s : plan.scene.objects)
+        for (const SurfaceSpec& s : plan.scene.objects) {
             classify_plans_.push_back(detail::classify_plan(plan, s.complex_space, s.clip_radius));
+            seed_objects_ = seed_objects_ || (s.degree > 4 && plan.params.seed_from_neighbour);
+        }
     }
 
     std::int64_t root_calls = 0;
@@ -637,6 +745,7 @@ public:
             }
             if (primary) detail::primary_ray_polynomial(s, plan_.objects[obj], d, r.poly, r.ray);
             else detail::general_ray_polynomial(s, o, d, r.poly, r.ray);
+            r.origin_is_plan = primary;
             r.have_dd = false;
             const bool use_seed = seeds && seeds[obj].valid && plan_.params.seed_from_neighbour && s.degree > 4;
             solve(r, s.degree, use_seed ? seeds + obj : nullptr);
@@ -657,7 +766,6 @@ public:
         const bool exact_tier = h.status != kCertified && primary && exact_ && *exact_ &&
                                 plan_.params.exact_pixels_per_tile > 0 && plan_.params.method != Method::Unverified &&
                                 (trace != nullptr || !explaining_);
-        ExactAnswer answer;
         bool exact_ran = false;
         if (exact_tier) {
             // Level 4: the exact tier, within the tile's budget (--explain
@@ -671,7 +779,9 @@ public:
                     q.ray.origin[a] = o[a];
                     q.ray.direction[a] = d[a];
                 }
-                answer = (*exact_)(plan_, q);
+                // (The answer, strings and all, exists only here: not
+                // made and destroyed for every ray.)
+                ExactAnswer answer = (*exact_)(plan_, q);
                 exact_ran = true;
                 level = answer.multiple ? kLevelExactMultiple : kLevelExact;
                 h.status = answer.status;
@@ -687,10 +797,11 @@ public:
                         h.modulus = kInf;
                     }
                 }
+                if (trace) trace->exact = std::move(answer);
             }
         }
         h.level = level;
-        if (seeds) {
+        if (seeds && seed_objects_) {
             // Only for the objects whose seeds a later sample may read: the
             // scalar path's (intersect's use_seed: degree > 4 and
             // seed_from_neighbour), and not those this batch solves (the
@@ -715,7 +826,7 @@ public:
         if (trace) {
             record(roots, infos, h, trace);
             trace->exact_ran = exact_ran;
-            trace->exact = std::move(answer);
+            if (!exact_ran) trace->exact = ExactAnswer{};
             if (exact_ran && trace->exact.decided) trace->chosen = -1;  // the root is the exact tier's
             trace->root_re = h.disc.re;
             trace->root_im = h.disc.im;
@@ -738,15 +849,18 @@ public:
         const SurfaceSpec& s = sc.objects[hit.object];
         const ShadePlan::Object& sob = shading_.objects[hit.object];
         const Material& m = s.material;
+        const bool ref = shading_.reference;
         // Hit point: distance |t| along the ray (a real point for every root).
+        // (Read only by a point light and the bounces: formed only where
+        // one of them may read it.)
         double p[3];
-        for (int a = 0; a < 3; ++a) p[a] = o[a] + hit.modulus * d[a];
+        if (ref || shading_.need_point) for (int a = 0; a < 3; ++a) p[a] = o[a] + hit.modulus * d[a];
         // Normal: real part of grad F at the complex point o' + t d'.
         // (The primary rays' origin, the eye, is in object space once per
-        // frame: the same to_object, the same bits.)
-        const bool ref = shading_.reference;
+        // frame: the same to_object, the same bits. Depth 0 is a primary
+        // ray, whose origin is the eye's doubles: trace_sample.)
         double oo[3], od[3];
-        if (!ref && std::memcmp(o, plan_.eye, sizeof oo) == 0) {
+        if (!ref && (depth == 0 || std::memcmp(o, plan_.eye, sizeof oo) == 0)) {
             for (int a = 0; a < 3; ++a) oo[a] = sob.eye_object[a];
         } else {
             to_object(s, o, oo);
@@ -770,7 +884,7 @@ public:
             // where gradient_real proves the bits are gradient()'s.
             double x[3];
             for (int a = 0; a < 3; ++a) x[a] = oo[a] + hit.disc.re * od[a];
-            real_done = gradient_real(sob, s.degree, x, gobj);
+            real_done = gradient_real(sob, x, gobj);
         }
         if (!real_done) {
             const Complex<double> t(hit.disc.re, hit.disc.im);
@@ -800,16 +914,17 @@ public:
         double local[3] = {0, 0, 0};
         const double ambient = 0.12;
         for (int a = 0; a < 3; ++a) local[a] = ambient * base[a];
-        for (std::size_t li = 0; li < sc.lights.size(); ++li) {
-            const Light& l = sc.lights[li];
+        const std::size_t n_lights = shading_.lights.size();
+        for (std::size_t li = 0; li < n_lights; ++li) {
+            const ShadePlan::LightRec& rec = shading_.lights[li];
             double L[3];
-            if (l.directional && !ref) {
-                for (int a = 0; a < 3; ++a) L[a] = shading_.light_dir[li][a];  // normalize3(vector), once
-            } else if (l.directional) {
-                for (int a = 0; a < 3; ++a) L[a] = l.vector[a];
+            if (rec.directional && !ref) {
+                for (int a = 0; a < 3; ++a) L[a] = rec.dir[a];  // normalize3(vector), once
+            } else if (rec.directional) {
+                for (int a = 0; a < 3; ++a) L[a] = sc.lights[li].vector[a];
                 normalize3(L);
             } else {
-                for (int a = 0; a < 3; ++a) L[a] = l.vector[a] - p[a];
+                for (int a = 0; a < 3; ++a) L[a] = sc.lights[li].vector[a] - p[a];
                 normalize3(L);
             }
             const double ndl = dot3(n, L);
@@ -817,16 +932,26 @@ public:
             double R[3];
             for (int a = 0; a < 3; ++a) R[a] = 2 * ndl * n[a] - L[a];
             const double rv = std::max(0.0, -dot3(R, d));
-            // pow(+0, y) = +0 for every y > 0 (C11 F.10.4.4): no call.
-            const double spec =
-                m.specular * (!ref && rv == 0.0 && m.shininess > 0 ? 0.0 : std::pow(rv, m.shininess));
             if (ref) {
+                const Light& l = sc.lights[li];
+                const double spec = m.specular * std::pow(rv, m.shininess);
                 for (int a = 0; a < 3; ++a)
                     local[a] += l.intensity * l.color[a] * (m.diffuse * ndl * base[a] + spec);
-            } else {
-                const double* ic = shading_.light_ic[li].data();  // l.intensity * l.color[a], once
-                for (int a = 0; a < 3; ++a) local[a] += ic[a] * (m.diffuse * ndl * base[a] + spec);
+                continue;
             }
+            const double* ic = rec.ic;  // l.intensity * l.color[a], once
+            // The diffuse terms m.diffuse * ndl * base[a], as parsed.
+            const double dn = m.diffuse * ndl;
+            const double diffuse[3] = {dn * base[0], dn * base[1], dn * base[2]};
+            if (rv > 0.0 && rv <= 1.0 && rv <= sob.spec_rv_cut &&
+                specular_negligible(sob.spec_k, rv, m.specular, diffuse)) {
+                // diffuse[a] + spec == diffuse[a] for every a: no pow.
+                for (int a = 0; a < 3; ++a) local[a] += ic[a] * diffuse[a];
+                continue;
+            }
+            // pow(+0, y) = +0 for every y > 0 (C11 F.10.4.4): no call.
+            const double spec = m.specular * (rv == 0.0 && m.shininess > 0 ? 0.0 : std::pow(rv, m.shininess));
+            for (int a = 0; a < 3; ++a) local[a] += ic[a] * (diffuse[a] + spec);
         }
         // Depth cue from the modulus (the paper colours by the minimum
         // modulus): roots nearer than the scene's centre are brighter.
@@ -1221,6 +1346,7 @@ private:
     bool full_only_ = false;  // ARGAND_DECIDE=full: decide_full for every pixel (the reference)
     std::vector<detail::ClassifyPlan> classify_plans_;  // per object: band and sphere constants of decide_fast
     detail::ClassifyDiscs classify_ = nullptr;  // decide_fast's verdicts (ARGAND_DECIDE=fast-scalar: the scalar form)
+    bool seed_objects_ = false;  // some object's Seeds are kept (degree > 4, seed_from_neighbour)
 };
 
 }  // namespace
@@ -1344,8 +1470,11 @@ struct SampleResult {
 /// grid of samples.
 /// `dir` (optional): the sample's direction, already made by
 /// sample_direction for these cells (render_tile's batch): not made again.
-SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell, int side, Seeds* seeds,
-                          PixelExplanation* trace, const BatchedCell* pre = nullptr, const double* dir = nullptr) {
+/// (Inlined: render_tile's calls are specialised, trace and the rest
+/// known; see PixelAccumulator::add for what that asks of add.)
+[[gnu::always_inline]] inline SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell,
+                                                       int side, Seeds* seeds, PixelExplanation* trace,
+                                                       const BatchedCell* pre = nullptr, const double* dir = nullptr) {
     Ray ray;
     if (dir) {
         for (int a = 0; a < 3; ++a) {
@@ -1377,7 +1506,13 @@ struct PixelAccumulator {
     bool shown_hit = false;
     HitInfo shown;   // the shown sample: the hitting sample of least |t|, else the first
 
-    void add(const SampleResult& s) {
+    // (Not inlined: with trace_sample inlined into render_tile, GCC 12 -O2
+    // compiled add()'s rgb[a] += s.rgb[a] for a = 0, 1 as one cvtpd2ps
+    // for the store of s.rgb and an addpd of the unrounded doubles, i.e.
+    // it dropped the float rounding of the sample's colour: the 4-sample
+    // frames' rgba moved in the last bit. Reading s.rgb here, behind a
+    // call, keeps the rounding.)
+    [[gnu::noinline]] void add(const SampleResult& s) {
         for (int a = 0; a < 3; ++a) rgb[a] += s.rgb[a];
         hits += s.hit.hit;
         certified += s.hit.status == kCertified;
@@ -1390,7 +1525,7 @@ struct PixelAccumulator {
         ++seen;
     }
 
-    void write(TileAOVs& out, std::size_t i) const {
+    void write(TileView& out, std::size_t i) const {
         const double n = seen;
         const float rgb_mean[3] = {static_cast<float>(rgb[0] / n), static_cast<float>(rgb[1] / n),
                                    static_cast<float>(rgb[2] / n)};
@@ -1398,8 +1533,9 @@ struct PixelAccumulator {
                     shown, shown_hit);
     }
 
-    /// Writes pixel i of the tile's AOVs (the one place that does).
-    static void write_pixel(TileAOVs& out, std::size_t i, const float* rgb, float alpha, std::uint8_t status,
+    /// Writes pixel i (y * out.stride + x) of the tile's AOVs (the one
+    /// place that does).
+    static void write_pixel(TileView& out, std::size_t i, const float* rgb, float alpha, std::uint8_t status,
                             std::uint8_t level, float certified_share, const HitInfo& shown, bool shown_hit) {
         for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = rgb[a];
         out.rgba[4 * i + 3] = alpha;
@@ -1408,7 +1544,7 @@ struct PixelAccumulator {
         out.certified_share[i] = certified_share;
         out.count[i] = shown.eligible;
         if (level > kLevelFirst) ++out.escalations;
-        if (!shown_hit) {  // a miss (allocate() leaves the AOVs unset: every one is written here)
+        if (!shown_hit) {  // a miss (the planes come unset: every AOV is written here)
             out.modulus[i] = std::numeric_limits<float>::infinity();
             out.argument[i] = 0.0f;
             out.re[i] = 0.0f;
@@ -1424,18 +1560,19 @@ struct PixelAccumulator {
     /// A pixel of one sample, written as add() then write() would (the
     /// same values to the bit: a mean of one is the value), without the
     /// accumulator's copies.
-    static void write_single(TileAOVs& out, std::size_t i, const SampleResult& s) {
+    static void write_single(TileView& out, std::size_t i, const SampleResult& s) {
         const bool certified = s.hit.status == kCertified;
         write_pixel(out, i, s.rgb, s.hit.hit ? 1.0f : 0.0f, s.hit.status, s.hit.level, certified ? 1.0f : 0.0f,
                     s.hit, s.hit.hit);
     }
 };
 
-/// Sizes the tile's AOVs. Their values are not set here: render_tile
-/// writes every pixel through write_pixel, which writes every AOV (a miss
-/// included), so one fill pass of nine (resize: a zeroing memset on fresh
-/// vectors) is all the setup costs.
-void allocate(TileAOVs& out, int w, int h) {
+/// Sizes the tile's AOVs and returns the view of them render_tile writes
+/// through. Their values are not set here: render_tile writes every pixel
+/// through write_pixel, which writes every AOV (a miss included), so one
+/// fill pass of nine (resize: a zeroing memset on fresh vectors) is all the
+/// setup costs.
+TileView allocate(TileAOVs& out, int w, int h) {
     out.width = w;
     out.height = h;
     const std::size_t np = static_cast<std::size_t>(w) * h;
@@ -1450,6 +1587,18 @@ void allocate(TileAOVs& out, int w, int h) {
     out.certified_share.resize(np);
     out.escalations = 0;
     out.root_calls = 0;
+    TileView v;
+    v.stride = w;
+    v.rgba = out.rgba.data();
+    v.modulus = out.modulus.data();
+    v.argument = out.argument.data();
+    v.re = out.re.data();
+    v.im = out.im.data();
+    v.count = out.count.data();
+    v.status = out.status.data();
+    v.escalation = out.escalation.data();
+    v.certified_share = out.certified_share.data();
+    return v;
 }
 
 const char* status_reason(std::uint8_t status) {
@@ -1463,11 +1612,31 @@ const char* status_reason(std::uint8_t status) {
 
 }  // namespace
 
-void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, const ExactSolver* exact) {
+namespace {
+TileRect clamp_rect(const FramePlan& plan, const TileRect& rect_in) {
     const FrameParams& fp = plan.params;
-    TileRect r{std::max(0, rect_in.x0), std::max(0, rect_in.y0), std::min(fp.width, rect_in.x1), std::min(fp.height, rect_in.y1)};
+    return TileRect{std::max(0, rect_in.x0), std::max(0, rect_in.y0), std::min(fp.width, rect_in.x1),
+                    std::min(fp.height, rect_in.y1)};
+}
+}  // namespace
+
+void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, const ExactSolver* exact) {
+    const TileRect r = clamp_rect(plan, rect_in);
+    TileView v = allocate(out, std::max(0, r.x1 - r.x0), std::max(0, r.y1 - r.y0));
+    render_tile(plan, r, v, exact);
+    out.escalations = v.escalations;
+    out.root_calls = v.root_calls;
+}
+
+void render_tile(const FramePlan& plan, const TileRect& rect_in, TileView& out, const ExactSolver* exact) {
+    const FrameParams& fp = plan.params;
+    const TileRect r = clamp_rect(plan, rect_in);
     const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
-    allocate(out, w, h);
+    out.width = w;
+    out.height = h;
+    out.escalations = 0;
+    out.root_calls = 0;
+    const std::size_t stride = static_cast<std::size_t>(out.stride);
     const int side = sample_side(fp.samples);
     if (side == 0) throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples));
     Tracer tracer(plan, exact);
@@ -1514,13 +1683,13 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
                                                              batch.any() ? dir : nullptr);
                     // One sample per pixel: straight to the AOVs (the same
                     // bits as add() then write(), without the copies).
-                    if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * w + (sx - r.x0), sample);
+                    if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * stride + (sx - r.x0), sample);
                     else row[sx / side - r.x0].add(sample);
                 }
             }
         }
         if (side > 1)
-            for (int x = 0; x < w; ++x) row[x].write(out, static_cast<std::size_t>(y - r.y0) * w + x);
+            for (int x = 0; x < w; ++x) row[x].write(out, static_cast<std::size_t>(y - r.y0) * stride + x);
     }
     out.root_calls = tracer.root_calls;
 }

@@ -14,6 +14,7 @@
 // p_k = sum_{|a| = k} G_a d'^a.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -194,6 +195,30 @@ struct TileAOVs {
     std::int64_t root_calls = 0;
 };
 
+/// Where render_tile writes a tile's AOVs (TileAOVs's meaning, pixel by
+/// pixel): each plane's pixel (x, y) of the tile (0-based, y < height,
+/// x < width) at [y * stride + x] (rgba: 4 floats from 4 * (y * stride +
+/// x)). stride >= width: a tile inside a frame's planes is their pixel
+/// (x0, y0) with stride the frame's width, so render_tile writes straight
+/// into the frame (no tile arrays to allocate, fill and copy). Every pixel
+/// of the tile is written, every AOV (a miss included).
+struct TileView {
+    int width = 0, height = 0;
+    std::ptrdiff_t stride = 0;  // pixels per row of every plane
+    float* rgba = nullptr;
+    float* modulus = nullptr;
+    float* argument = nullptr;
+    float* re = nullptr;
+    float* im = nullptr;
+    std::int32_t* count = nullptr;
+    std::uint8_t* status = nullptr;
+    std::uint8_t* escalation = nullptr;
+    float* certified_share = nullptr;
+    // Figures (TileAOVs's).
+    std::int64_t escalations = 0;
+    std::int64_t root_calls = 0;
+};
+
 /// A ray: exact double origin and (unit, up to rounding) direction.
 struct Ray {
     double origin[3];
@@ -279,6 +304,13 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params);
 /// (optional) is called for primary rays still unproven after level 3, at
 /// most params.exact_pixels_per_tile times per tile.
 void render_tile(const FramePlan& plan, const TileRect& rect, TileAOVs& out, const ExactSolver* exact = nullptr);
+/// The same pixels into `out`'s planes (the bits render_tile into a
+/// TileAOVs gives): out's pointers are the tile's pixel (0, 0), of the
+/// clamped rect (x0, y0); width and height are set here from the clamped
+/// rect, and the figures (escalations, root_calls) too. The planes must
+/// hold the tile's rows at out.stride pixels apart (stride >= the clamped
+/// width).
+void render_tile(const FramePlan& plan, const TileRect& rect, TileView& out, const ExactSolver* exact = nullptr);
 
 /// The primary ray of sample `sample` (0..samples - 1) of pixel (x, y):
 /// the very doubles render_tile uses.

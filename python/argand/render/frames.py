@@ -231,39 +231,46 @@ def render_frame(
     start = time.perf_counter()
     frame_plan = plan(to_core_scene(scene), params)
     w, h = params.width, params.height
-    rgba = np.zeros((h, w, 4), np.float32)
+    # The tiles cover the frame and each writes every AOV of its pixels
+    # straight into these arrays (_core.render_tile_frame): no tile arrays,
+    # no copies, so the arrays start unset.
+    rgba = np.empty((h, w, 4), np.float32)
     aovs = {
-        "Z": np.full((h, w), np.inf, np.float32),
-        "arg": np.zeros((h, w), np.float32),
-        "re": np.zeros((h, w), np.float32),
-        "im": np.zeros((h, w), np.float32),
-        "count": np.zeros((h, w), np.int32),
-        "status": np.zeros((h, w), np.uint8),
-        "escalation": np.zeros((h, w), np.uint8),
-        "certified_share": np.ones((h, w), np.float32),
+        "Z": np.empty((h, w), np.float32),
+        "arg": np.empty((h, w), np.float32),
+        "re": np.empty((h, w), np.float32),
+        "im": np.empty((h, w), np.float32),
+        "count": np.empty((h, w), np.int32),
+        "status": np.empty((h, w), np.uint8),
+        "escalation": np.empty((h, w), np.uint8),
+        "certified_share": np.empty((h, w), np.float32),
     }
+    planes = (rgba,) + tuple(aovs[name] for name in AOV_CHANNELS)
     escalations = calls = 0
     rects = tiles(w, h, tile)
     n_workers = max(1, workers or os.cpu_count() or 1)
 
-    def place(t: TileAOVs) -> None:
+    def render(r: TileRect) -> tuple[TileRect, int, int]:
+        esc, n_calls = _core.render_tile_frame(frame_plan, r.x0, r.y0, r.x1, r.y1, *planes, exact=decide_pixel)
+        return r, int(esc), int(n_calls)
+
+    def place(done: tuple[TileRect, int, int]) -> None:
         nonlocal escalations, calls
-        r = t.rect
-        rgba[r.y0 : r.y1, r.x0 : r.x1] = t.rgba
-        for name in AOV_CHANNELS:
-            aovs[name][r.y0 : r.y1, r.x0 : r.x1] = t.aovs[name]
-        escalations += t.escalations
-        calls += t.root_calls
+        r, esc, n_calls = done
+        escalations += esc
+        calls += n_calls
         if on_tile:
-            on_tile(t)
+            # (Views of the frame's arrays: the tile's pixels, as rendered.)
+            on_tile(TileAOVs(r, rgba[r.y0 : r.y1, r.x0 : r.x1],
+                             {name: aovs[name][r.y0 : r.y1, r.x0 : r.x1] for name in AOV_CHANNELS}, esc, n_calls))
 
     if n_workers == 1:
         for r in rects:
-            place(render_tile_planned(frame_plan, r))
+            place(render(r))
     else:
         with ThreadPoolExecutor(n_workers) as pool:
-            for t in pool.map(lambda r: render_tile_planned(frame_plan, r), rects):
-                place(t)
+            for done in pool.map(render, rects):
+                place(done)
     seconds = time.perf_counter() - start
     result = FrameResult(params, rgba, aovs, seconds, escalations, calls)
     result.figures = frame_figures(result)
