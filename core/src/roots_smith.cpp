@@ -256,7 +256,15 @@ void solve_smith(const double* c, const double* rad, int n, Method method, const
                 nd = nt;
                 for (int i = 0; i < nt; ++i) out.discs[i] = trial[i];
             }
-            if (!all_isolated(nd, n) && nt > 0) respread_clusters(xd, n, trial, nt);
+            if (all_isolated(nd, n) || nt == 0) continue;
+            // The coefficient radii hold the rest together even at these
+            // (double-double, converged) approximations: a re-spread round
+            // would prove nothing more (over the frames of frames.py it never
+            // did, and its Aberth sweeps often ran all 60 from the re-spread).
+            Complex<double> xs[kMaxDegree];
+            for (int i = 0; i < n; ++i) xs[i] = to_double(xd[i]);
+            if (family_limited(c, rad, n, xs, nd)) break;
+            respread_clusters(xd, n, trial, nt);
         }
         for (int i = 0; i < n; ++i) x[i] = to_double(xd[i]);
     }
