@@ -55,7 +55,16 @@ bool smith_members(const double* c, const double* rad, int n, Complex<T>* x, Mem
             moved = true;
         }
     }
-    if (moved && (has_duplicate(x, n) || !smith_radii(c, n, x, r, nullptr, rad))) {
+    // (Two approximations of a conjugate pair that are not exact mirror
+    // images, as double-double ones often are not, land next to each other
+    // on the axis: distinct, but their radii explode and merge every disc.
+    // Keep the first discs then.)
+    bool worse = false;
+    if (moved && !has_duplicate(x, n) && smith_radii(c, n, x, r, nullptr, rad))
+        for (int i = 0; i < n; ++i) worse = worse || !(r[i] <= 4.0 * first_r[i]);
+    else
+        worse = moved;
+    if (worse) {
         for (int i = 0; i < n; ++i) {
             x[i] = first[i];
             r[i] = first_r[i];
