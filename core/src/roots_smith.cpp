@@ -55,7 +55,16 @@ bool smith_members(const double* c, const double* rad, int n, Complex<T>* x, Mem
             moved = true;
         }
     }
-    if (moved && (has_duplicate(x, n) || !smith_radii(c, n, x, r, nullptr, rad))) {
+    // (Two approximations of a conjugate pair that are not exact mirror
+    // images, as double-double ones often are not, land next to each other
+    // on the axis: distinct, but their radii explode and merge every disc.
+    // Keep the first discs then.)
+    bool worse = false;
+    if (moved && !has_duplicate(x, n) && smith_radii(c, n, x, r, nullptr, rad))
+        for (int i = 0; i < n; ++i) worse = worse || !(r[i] <= 4.0 * first_r[i]);
+    else
+        worse = moved;
+    if (worse) {
         for (int i = 0; i < n; ++i) {
             x[i] = first[i];
             r[i] = first_r[i];
@@ -169,6 +178,43 @@ void write_unverified(const double* c, int n, const Complex<double>* x, KernelRe
 
 bool all_isolated(int n_discs, int n) { return n_discs == n && n > 0; }
 
+/// Margin of family_limited: the discs that the coefficient radii alone
+/// force are shrunk by this factor before the test, room for the
+/// approximations to move (a pair whose family discs just touch may
+/// separate once double-double places it better: over the frames of
+/// /work/notes/frames.py, 1.0 skipped one rung that proved an extra disc,
+/// 1.25 none, while it still skips 4 in 5 of the futile ones).
+constexpr double kFamilyMargin = 1.25;
+
+/// True when no sharper approximation can isolate more roots than
+/// discs[0..nd) do (nd < n): Smith's radius of an approximation x_i is at
+/// least its family term n sum_k rad_k |x_i|^k / (|c_n| prod_j |x_i - x_j|)
+/// (the numerator's other terms, |p(x_i)| and the rounding bound, are >= 0,
+/// and only they shrink in double-double), so if the discs D(x_i, family
+/// term / kFamilyMargin) still group into at most nd components, the
+/// double-double rung would prove no more discs, only cost (the coefficient
+/// radii, not the working precision, hold the roots together). A heuristic
+/// about speed only (approximate arithmetic; no claim rests on it: what is
+/// proven is whatever smith_discs proved).
+bool family_limited(const double* c, const double* rad, int n, const Complex<double>* x, int nd) {
+    if (rad == nullptr || nd <= 0 || nd >= n) return false;
+    MemberDisc members[kMaxDegree];
+    const double lead = std::fabs(c[n]);
+    for (int i = 0; i < n; ++i) {
+        const double ax = std::fabs(x[i].re) + std::fabs(x[i].im);
+        double fam = rad[n];
+        for (int k = n - 1; k >= 0; --k) fam = fam * ax + rad[k];
+        double den = lead;
+        for (int j = 0; j < n; ++j)
+            if (j != i) den *= std::hypot(x[i].re - x[j].re, x[i].im - x[j].im);
+        const double rf = n * fam / (kFamilyMargin * den);
+        if (!(rf <= 0x1p1000) || !is_finite(x[i])) return false;  // (NaN, or den 0: no opinion)
+        members[i] = {x[i].re, x[i].im, rf, 1};
+    }
+    RootDisc groups[kMaxDegree];
+    return enclose_and_merge(members, n, /*real_axis_centers=*/true, groups) <= nd;
+}
+
 }  // namespace
 
 void solve_smith(const double* c, const double* rad, int n, Method method, const Complex<double>* seed,
@@ -202,8 +248,9 @@ void solve_smith(const double* c, const double* rad, int n, Method method, const
         }
     }
 
-    // Double-double (section 2.6), only where double could not isolate.
-    if (method == Method::Auto && !all_isolated(nd, n)) {
+    // Double-double (section 2.6), only where double could not isolate and
+    // the coefficient radii do not already forbid it.
+    if (method == Method::Auto && !all_isolated(nd, n) && !family_limited(c, rad, n, x, nd)) {
         out.escalation = 1;
         Complex<DoubleDouble> xd[kMaxDegree];
         for (int i = 0; i < n; ++i) xd[i] = Complex<DoubleDouble>(DoubleDouble(x[i].re), DoubleDouble(x[i].im));
@@ -218,7 +265,15 @@ void solve_smith(const double* c, const double* rad, int n, Method method, const
                 nd = nt;
                 for (int i = 0; i < nt; ++i) out.discs[i] = trial[i];
             }
-            if (!all_isolated(nd, n) && nt > 0) respread_clusters(xd, n, trial, nt);
+            if (all_isolated(nd, n) || nt == 0) continue;
+            // The coefficient radii hold the rest together even at these
+            // (double-double, converged) approximations: a re-spread round
+            // would prove nothing more (over the frames of frames.py it never
+            // did, and its Aberth sweeps often ran all 60 from the re-spread).
+            Complex<double> xs[kMaxDegree];
+            for (int i = 0; i < n; ++i) xs[i] = to_double(xd[i]);
+            if (family_limited(c, rad, n, xs, nd)) break;
+            respread_clusters(xd, n, trial, nt);
         }
         for (int i = 0; i < n; ++i) x[i] = to_double(xd[i]);
     }
