@@ -125,63 +125,28 @@ py::dict find_roots_batch_py(F64 matrix, const std::string& method, const std::s
     py::array_t<std::int64_t> count({rows, n});
     py::array_t<bool> verified({rows, n}), real({rows, n}), wants_exact(rows);
     py::array_t<std::int32_t> n_infinite(rows), escalation(rows);
-    auto C = center.mutable_unchecked<2>();
-    auto Rd = radius.mutable_unchecked<2>();
-    auto K = count.mutable_unchecked<2>();
-    auto V = verified.mutable_unchecked<2>();
-    auto Re = real.mutable_unchecked<2>();
-    auto W = wants_exact.mutable_unchecked<1>();
-    auto NI = n_infinite.mutable_unchecked<1>();
-    auto E = escalation.mutable_unchecked<1>();
+    argand::RowsOut sink;
+    static_assert(sizeof(std::complex<double>) == 2 * sizeof(double), "complex128 is two doubles");
+    sink.center = reinterpret_cast<double*>(center.mutable_data());
+    sink.radius = radius.mutable_data();
+    sink.count = count.mutable_data();
+    sink.verified = verified.mutable_data();
+    sink.real = real.mutable_data();
+    sink.wants_exact = wants_exact.mutable_data();
+    sink.n_infinite = n_infinite.mutable_data();
+    sink.escalation = escalation.mutable_data();
     const double* data = matrix.data();
-    py::ssize_t bad_row = -1;
+    std::int64_t bad_row = -1;
     Status bad = Status::Ok;
     argand::BatchCounters counters;
     {
         py::gil_scoped_release release;
-        // Rows are solved in chunks whose results are copied out (a
-        // RootsResult has room for kMaxDegree discs).
-        // The buffer is kept per thread: a fresh one per call cost page
-        // faults that were a good part of a batch of quartics' time.
-        constexpr py::ssize_t kChunk = 256;
-        thread_local std::vector<RootsResult> res(static_cast<std::size_t>(kChunk));
-        const double nan = std::numeric_limits<double>::quiet_NaN();
-        for (py::ssize_t start = 0; start < rows && bad == Status::Ok; start += kChunk) {
-            const py::ssize_t stop = std::min(rows, start + kChunk);
-            std::int64_t bad_local = -1;
-            const Status s = argand::find_roots_rows(data + start * cols, stop - start, static_cast<int>(cols), m,
-                                                     res.data(), &bad_local, isa, &counters,
-                                                     rad_data != nullptr ? rad_data + start * cols : nullptr);
-            const py::ssize_t done = s == Status::Ok ? stop : start + bad_local;
-            if (s != Status::Ok) {
-                bad = s;
-                bad_row = start + bad_local;
-            }
-            for (py::ssize_t r = start; r < done; ++r) {
-                const RootsResult& rr = res[static_cast<std::size_t>(r - start)];
-                for (py::ssize_t i = 0; i < n; ++i) {
-                    if (i < rr.n_discs) {
-                        const auto& d = rr.discs[i];
-                        C(r, i) = {d.re, d.im};
-                        Rd(r, i) = d.radius;
-                        K(r, i) = d.count;
-                        V(r, i) = d.verified;
-                        Re(r, i) = d.real;
-                    } else {
-                        C(r, i) = {nan, nan};
-                        Rd(r, i) = nan;
-                        K(r, i) = 0;
-                        V(r, i) = false;
-                        Re(r, i) = false;
-                    }
-                }
-                W(r) = rr.wants_exact;
-                NI(r) = rr.n_infinite;
-                E(r) = rr.escalation;
-            }
-        }
+        // Every answered row is written straight into the arrays (no
+        // RootsResult per row, no second pass).
+        bad = argand::find_roots_rows_into(data, rows, static_cast<int>(cols), m, sink, &bad_row, isa, &counters,
+                                           rad_data);
     }
-    raise_status(bad, bad_row);
+    raise_status(bad, static_cast<py::ssize_t>(bad_row));
     py::dict out;
     out["center"] = center;
     out["radius"] = radius;
