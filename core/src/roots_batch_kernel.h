@@ -423,7 +423,9 @@ ARGAND_LANES
         // 2^-8 relative from sweep kRealNudgeSweep on steps off
         // the axis by 2^-6 relative (alternating sides); one
         // converging from a seed is far below that by then.
-        const bool stray = nudge_now & (ni == 0.0) & (wr * wr + wi * wi > 0x1p-16 * (nr * nr));
+        // (Only degrees 5 to 8 ever nudge: nudge_now is false below.)
+        bool stray = false;
+        if constexpr (N >= 5) stray = nudge_now & (ni == 0.0) & (wr * wr + wi * wi > 0x1p-16 * (nr * nr));
         const double side = i % 2 == 0 ? 0x1p-6 : -0x1p-6;
         const double ni2 = stray ? side * (nr != 0.0 ? std::fabs(nr) : 1.0) : ni;
         const bool act = done[i][l] == 0.0;
@@ -433,6 +435,15 @@ ARGAND_LANES
         const bool conv = small | (ok_w & (wr * wr + wi * wi <= stop_rel2 * (nr * nr + ni * ni)));
         done[i][l] = (!act | conv) ? 1.0 : 0.0;
     }
+}
+
+/// Nonzero iff some of done[0..CW) is 0.0 (open); done holds 0.0 or 1.0
+/// only. An OR of integers, which vectorises (a count of doubles did not).
+template <int CW>
+inline std::uint64_t open_bits(const double* done) {
+    std::uint64_t acc = 0;
+    for (int l = 0; l < CW; ++l) acc |= bits_of(done[l]) ^ 0x3ff0000000000000ULL;
+    return acc;
 }
 
 /// Aberth-Ehrlich sweeps (Gauss-Seidel over the roots, all lanes at once),
@@ -453,7 +464,7 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
         for (int l = 0; l < L; ++l) done[i][l] = b.active[l] ? 0.0 : 1.0;
     int it = 0;
     for (; it < max_iter; ++it) {
-        int left = 0;
+        std::uint64_t left = 0;  // nonzero while some root of some lane is open
         // (Degrees 5 to 8 only: those take the ray caster's seeds; the
         // closed-form starts of n <= 4 put a complex pair off the axis.)
         const bool nudge_now = (N >= 5) & (it >= kRealNudgeSweep);
@@ -465,7 +476,7 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
 #pragma GCC unroll 8
             for (int i = 0; i < N; ++i) {
                 sweep_root<N, true, L>(b, i, 0, done, nudge_now);
-                for (int l = 0; l < L; ++l) left += done[i][l] == 0.0;
+                left |= open_bits<L>(done[i]);
             }
         } else {
             // Chunk by chunk (one vector of W lanes); a chunk where root i
@@ -474,11 +485,9 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
 #pragma GCC unroll 8
             for (int i = 0; i < N; ++i) {
                 for (int l0 = 0; l0 < L; l0 += W) {
-                    double open = 0.0;
-                    for (int l = l0; l < l0 + W; ++l) open += done[i][l] == 0.0 ? 1.0 : 0.0;
-                    if (open == 0.0) continue;
+                    if (open_bits<W>(done[i] + l0) == 0) continue;
                     sweep_root<N, false, W>(b, i, l0, done, nudge_now);
-                    for (int l = l0; l < l0 + W; ++l) left += done[i][l] == 0.0;
+                    left |= open_bits<W>(done[i] + l0);
                 }
             }
         }
@@ -487,11 +496,11 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
             break;
         }
     }
-    for (int l = 0; l < L; ++l) {
-        int left = 0;
-        for (int i = 0; i < N; ++i) left += done[i][l] == 0.0;
-        b.converged[l] = left == 0 ? 1.0 : 0.0;
-    }
+    // converged: 1.0 iff every root of the lane stopped (a product of 0.0s
+    // and 1.0s, exact).
+    for (int l = 0; l < L; ++l) b.converged[l] = done[0][l];
+    for (int i = 1; i < N; ++i)
+        for (int l = 0; l < L; ++l) b.converged[l] *= done[i][l];
     return it;
 }
 
