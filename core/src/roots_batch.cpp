@@ -47,6 +47,20 @@ Kernel kernel_for(BatchIsa isa) {
     }
 }
 
+using Admit = int (*)(BatchBlock&);
+
+/// The admission test of the kernel that select_kernel picks for isa.
+Admit admit_for(BatchIsa isa) {
+    if (isa == BatchIsa::Auto) isa = batch_isa_best();
+    switch (isa) {
+#ifdef ARGAND_BATCH_X86
+        case BatchIsa::Avx2: return &batch_avx2::admit_block;
+        case BatchIsa::Avx512: return &batch_avx512::admit_block;
+#endif
+        default: return &batch_generic::admit_block;
+    }
+}
+
 /// Admits row c (degree n) to lane l: finite coefficients with c_0 and c_n
 /// nonzero (no exact zero roots, no roots at infinity). The kernel scales
 /// the lane and sends it back when that is not exact.
@@ -306,6 +320,11 @@ struct SoaSink {
         write_lane_fast(b, N, l, verify, out[j]);
         status[j] = Status::Ok;
     }
+    /// Every lane of the block kept, rows j0..j0 + kBatchLanes - 1.
+    template <int N>
+    void whole(const BatchBlock& b, std::int64_t j0, bool verify) {
+        for (int l = 0; l < kBatchLanes; ++l) lane<N>(b, l, j0 + l, verify);
+    }
     Status scalar(std::int64_t j, const double* c, int nc, Method method, const double* r) {
         return status[j] = find_roots(c, nc, method, out[j], nullptr, nullptr, r);
     }
@@ -339,6 +358,35 @@ struct RowsSink {
         out.wants_exact[j] = false;
         out.n_infinite[j] = 0;
         out.escalation[j] = 0;
+    }
+    /// Every lane of the block kept, rows j0..j0 + kBatchLanes - 1 (one
+    /// contiguous stretch of every array).
+    template <int N>
+    void whole(const BatchBlock& b, std::int64_t j0, bool verify) {
+        const std::int64_t base = j0 * N;
+        double* center = out.center + 2 * base;
+        double* radius = out.radius + base;
+        bool* real = out.real + base;
+        // (Count 1 everywhere: copied from a block of ones, not stored one by one.)
+        static const struct Ones {
+            std::int64_t v[kBatchLanes * kBatchMaxDegree];
+            Ones() { for (auto& x : v) x = 1; }
+        } ones;
+        std::memcpy(out.count + base, ones.v, sizeof(std::int64_t) * kBatchLanes * N);
+        std::memset(out.verified + base, verify ? 1 : 0, kBatchLanes * N);
+        for (int l = 0; l < kBatchLanes; ++l) {
+#pragma GCC unroll 8
+            for (int i = 0; i < N; ++i) {
+                const double xi = b.xi[i][l];
+                center[2 * (l * N + i)] = b.xr[i][l];
+                center[2 * (l * N + i) + 1] = xi;
+                radius[l * N + i] = b.r[i][l];
+                real[l * N + i] = verify & is_zero(xi);
+            }
+        }
+        std::memset(out.wants_exact + j0, 0, kBatchLanes);
+        std::memset(out.n_infinite + j0, 0, sizeof(std::int32_t) * kBatchLanes);
+        std::memset(out.escalation + j0, 0, sizeof(std::int32_t) * kBatchLanes);
     }
     Status scalar(std::int64_t j, const double* c, int nc, Method method, const double* r) {
         const Status s = find_roots(c, nc, method, tmp, nullptr, nullptr, r);
@@ -387,47 +435,28 @@ std::int64_t blocks(const Source& in, Method method, Sink& sink, Status* bad, Ba
     const std::int64_t start_stride = in.start_stride != 0 ? in.start_stride : in.stride;
     const bool verify = method != Method::Unverified;
     const bool has_radius = in.radius != nullptr;
-    (void)isa;
+    const Admit admit = admit_for(isa);
     BatchBlock block;
     init_block(block, n, has_radius, in.start_re != nullptr && in.start_im != nullptr);
     for (std::int64_t j0 = 0; j0 < in.rows; j0 += kBatchLanes) {
         const int m = static_cast<int>(std::min<std::int64_t>(kBatchLanes, in.rows - j0));
-        // Admission, lane by lane (find_roots_rows' admit): not skipped,
-        // c_0 and c_n nonzero, every coefficient finite, every radius
-        // finite and >= 0 (NaN fails every comparison). The rows go into
-        // the block as they are. z = sum_k 0 c_k (+ sum_k 0 rad_k) is 0 iff
-        // every one is finite (0 inf and 0 NaN are NaN, and NaN stays);
-        // low = min_k rad_k (a NaN radius already makes z NaN).
-        double admitted[kBatchLanes];
-        int used = 0, first = -1;
+        // The rows go into the block as they are (lanes past the last row
+        // hold 1.0: finite, never admitted); admission (find_roots_rows'
+        // admit: not skipped, c_0 and c_n nonzero, every coefficient
+        // finite, every radius finite and >= 0) is the kernel's
+        // admit_block, vectorised over the block.
         if constexpr (RowMajor) {
             for (int l = 0; l < m; ++l) {
                 const double* c = in.coeffs + (j0 + l) * (n + 1);
-                double z = 0.0;
 #pragma GCC unroll 9
-                for (int k = 0; k <= n; ++k) {
-                    const double v = c[k];
-                    block.c[k][l] = v;
-                    z += 0.0 * v;
-                }
-                bool ok = (z == 0.0) & (c[0] != 0.0) & (c[n] != 0.0);
-                if (has_radius) {
-                    const double* r = in.radius + (j0 + l) * (n + 1);
-                    double low = 0.0;
-#pragma GCC unroll 9
-                    for (int k = 0; k <= n; ++k) {
-                        const double v = r[k];
-                        block.rad[k][l] = v;
-                        z += 0.0 * v;
-                        low = v < low ? v : low;
-                    }
-                    ok = ok & (z == 0.0) & (low >= 0.0);
-                }
-                if (in.skip != nullptr) ok = ok & (in.skip[j0 + l] == 0);
-                admitted[l] = ok ? 1.0 : 0.0;
-                used += ok;
-                first = (first < 0) & ok ? l : first;
+                for (int k = 0; k <= n; ++k) block.c[k][l] = c[k];
             }
+            if (has_radius)
+                for (int l = 0; l < m; ++l) {
+                    const double* r = in.radius + (j0 + l) * (n + 1);
+#pragma GCC unroll 9
+                    for (int k = 0; k <= n; ++k) block.rad[k][l] = r[k];
+                }
         } else {
 #pragma GCC unroll 9
             for (int k = 0; k <= n; ++k) std::memcpy(block.c[k], in.coeffs + k * stride + j0, sizeof(double) * m);
@@ -435,25 +464,22 @@ std::int64_t blocks(const Source& in, Method method, Sink& sink, Status* bad, Ba
 #pragma GCC unroll 9
                 for (int k = 0; k <= n; ++k)
                     std::memcpy(block.rad[k], in.radius + k * stride + j0, sizeof(double) * m);
-            for (int l = 0; l < m; ++l) {
-                double z = 0.0, low = 0.0;
-#pragma GCC unroll 9
-                for (int k = 0; k <= n; ++k) z += 0.0 * block.c[k][l];
-                if (has_radius)
-#pragma GCC unroll 9
-                    for (int k = 0; k <= n; ++k) {
-                        const double v = block.rad[k][l];
-                        z += 0.0 * v;
-                        low = v < low ? v : low;
-                    }
-                bool ok = (z == 0.0) & (low >= 0.0) & (block.c[0][l] != 0.0) & (block.c[n][l] != 0.0);
-                if (in.skip != nullptr) ok = ok & (in.skip[j0 + l] == 0);
-                admitted[l] = ok ? 1.0 : 0.0;
-                used += ok;
-                first = (first < 0) & ok ? l : first;
-            }
         }
-        for (int l = m; l < kBatchLanes; ++l) admitted[l] = 0.0;
+        if (m < kBatchLanes)
+            for (int k = 0; k <= n; ++k)
+                for (int l = m; l < kBatchLanes; ++l) {
+                    block.c[k][l] = 1.0;
+                    block.rad[k][l] = 0.0;
+                }
+        for (int l = 0; l < kBatchLanes; ++l)
+            block.active[l] = l < m && (in.skip == nullptr || in.skip[j0 + l] == 0) ? 1.0 : 0.0;
+        int used = admit(block), first = -1;
+        double admitted[kBatchLanes];
+        std::memcpy(admitted, block.active, sizeof admitted);
+        if (used < kBatchLanes)
+            for (int l = kBatchLanes - 1; l >= 0; --l) first = admitted[l] != 0.0 ? l : first;
+        else
+            first = 0;
         // Rows not admitted (and not skipped): find_roots. A sink that
         // stops at a bad row still gets the admitted rows before it.
         int stop = -1;
@@ -478,7 +504,7 @@ std::int64_t blocks(const Source& in, Method method, Sink& sink, Status* bad, Ba
             if (used == 0) return j0 + stop;
         }
         if (used == 0) continue;
-        std::memcpy(block.active, admitted, sizeof admitted);
+        std::memcpy(block.active, admitted, sizeof admitted);  // (as the stop left them)
         // Lanes without an admitted row: a copy of the first admitted lane
         // (finite), inactive.
         if (used < kBatchLanes)
@@ -508,6 +534,25 @@ std::int64_t blocks(const Source& in, Method method, Sink& sink, Status* bad, Ba
         cnt.sweeps += kernel(block, verify);
         ++cnt.blocks;
         cnt.lanes += used;
+        if (used == kBatchLanes) {
+            // Every lane admitted (the common block): kept lanes go out in
+            // one pass when the kernel kept them all.
+            // (ok and converged hold 0.0 or 1.0: an OR of bits is 0 iff all are 1.0.)
+            std::uint64_t off = 0;
+            for (int l = 0; l < kBatchLanes; ++l) {
+                std::uint64_t ok, conv;
+                std::memcpy(&ok, &block.ok[l], sizeof ok);
+                std::memcpy(&conv, &block.converged[l], sizeof conv);
+                off |= (ok ^ 0x3ff0000000000000ULL) | (verify ? 0 : conv ^ 0x3ff0000000000000ULL);
+            }
+            if (off == 0) {
+                sink.template whole<N>(block, j0, verify);
+                cnt.rows += kBatchLanes;
+                cnt.kept += kBatchLanes;
+                if (Sink::kStops && stop >= 0) return j0 + stop;
+                continue;
+            }
+        }
         for (int l = 0; l < m; ++l) {
             if (admitted[l] == 0.0) continue;
             const std::int64_t j = j0 + l;

@@ -720,7 +720,58 @@ int solve_block_n(BatchBlock& b, bool verify) {
     return sweeps;
 }
 
+/// The driver's admission rule (roots_batch.cpp), lane by lane over the
+/// whole block: a lane stays active (active[l] = 1.0 on entry: a row that
+/// is there and not skipped) iff every coefficient is finite, c_0 and c_n
+/// are nonzero and, with radii, every radius is finite and >= 0. z = sum_k
+/// 0 c_k (+ sum_k 0 rad_k) is 0 iff every one is finite (0 inf and 0 NaN
+/// are NaN, and NaN stays); low = min(0, rad_k) (a NaN radius already makes
+/// z NaN). Returns the lanes admitted.
+template <int N, bool has_radius>
+int admit_lanes(BatchBlock& b) {
+ARGAND_LANES
+    for (int l = 0; l < L; ++l) {
+        double z = 0.0, low = 0.0;
+#pragma GCC unroll 9
+        for (int k = 0; k <= N; ++k) z += 0.0 * b.c[k][l];
+        if constexpr (has_radius) {
+#pragma GCC unroll 9
+            for (int k = 0; k <= N; ++k) {
+                const double v = b.rad[k][l];
+                z += 0.0 * v;
+                low = v < low ? v : low;
+            }
+        }
+        const bool ok = (b.active[l] != 0.0) & (z == 0.0) & (low >= 0.0) & (b.c[0][l] != 0.0) & (b.c[N][l] != 0.0);
+        b.active[l] = ok ? 1.0 : 0.0;
+    }
+    std::uint64_t count = 0;
+    for (int l = 0; l < L; ++l) count += bits_of(b.active[l]) >> 61;  // (1.0 is 0x3ff0...: 1; 0.0: 0)
+    return static_cast<int>(count);
+}
+
+template <int N>
+int admit_n(BatchBlock& b) {
+    return b.has_radius != 0 ? admit_lanes<N, true>(b) : admit_lanes<N, false>(b);
+}
+
 }  // namespace
+
+/// Admission (see admit_lanes) for the block's degree; returns the lanes
+/// admitted.
+int admit_block(BatchBlock& b) {
+    switch (b.n) {
+        case 1: return admit_n<1>(b);
+        case 2: return admit_n<2>(b);
+        case 3: return admit_n<3>(b);
+        case 4: return admit_n<4>(b);
+        case 5: return admit_n<5>(b);
+        case 6: return admit_n<6>(b);
+        case 7: return admit_n<7>(b);
+        case 8: return admit_n<8>(b);
+        default: return 0;
+    }
+}
 
 /// The entry point of this instruction set's kernel: solves the block in
 /// place (see BatchBlock); returns the Aberth sweeps done.
