@@ -471,8 +471,10 @@ std::int64_t blocks(const Source& in, Method method, Sink& sink, Status* bad, Ba
                     block.c[k][l] = 1.0;
                     block.rad[k][l] = 0.0;
                 }
-        for (int l = 0; l < kBatchLanes; ++l)
-            block.active[l] = l < m && (in.skip == nullptr || in.skip[j0 + l] == 0) ? 1.0 : 0.0;
+        if (in.skip == nullptr)
+            for (int l = 0; l < kBatchLanes; ++l) block.active[l] = l < m ? 1.0 : 0.0;
+        else
+            for (int l = 0; l < kBatchLanes; ++l) block.active[l] = (l < m) & (in.skip[j0 + (l < m ? l : 0)] == 0) ? 1.0 : 0.0;
         int used = admit(block), first = -1;
         double admitted[kBatchLanes];
         std::memcpy(admitted, block.active, sizeof admitted);
@@ -540,11 +542,16 @@ std::int64_t blocks(const Source& in, Method method, Sink& sink, Status* bad, Ba
             // (ok and converged hold 0.0 or 1.0: an OR of bits is 0 iff all are 1.0.)
             std::uint64_t off = 0;
             for (int l = 0; l < kBatchLanes; ++l) {
-                std::uint64_t ok, conv;
+                std::uint64_t ok;
                 std::memcpy(&ok, &block.ok[l], sizeof ok);
-                std::memcpy(&conv, &block.converged[l], sizeof conv);
-                off |= (ok ^ 0x3ff0000000000000ULL) | (verify ? 0 : conv ^ 0x3ff0000000000000ULL);
+                off |= ok ^ 0x3ff0000000000000ULL;
             }
+            if (!verify)
+                for (int l = 0; l < kBatchLanes; ++l) {
+                    std::uint64_t conv;
+                    std::memcpy(&conv, &block.converged[l], sizeof conv);
+                    off |= conv ^ 0x3ff0000000000000ULL;
+                }
             if (off == 0) {
                 sink.template whole<N>(block, j0, verify);
                 cnt.rows += kBatchLanes;
