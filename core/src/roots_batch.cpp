@@ -105,7 +105,10 @@ void init_block(BatchBlock& block, int n, bool has_radius, bool has_start) {
     // The circle starts of every degree, computed once.
     struct Circles {
         double re[kBatchMaxDegree + 1][kBatchMaxDegree], im[kBatchMaxDegree + 1][kBatchMaxDegree];
+        double slack[kBatchMaxDegree + 1];
         Circles() {
+            // smith_radii_lanes_reference's slack: n 2^max(8n - 1070, -1014).
+            for (int d = 0; d <= kBatchMaxDegree; ++d) slack[d] = d * std::ldexp(1.0, std::max(8 * d - 1070, -1014));
             for (int d = 1; d <= kBatchMaxDegree; ++d)
                 for (int i = 0; i < d; ++i) {
                     const double angle = 2.0 * 3.14159265358979323846 * i / d + 0.4;
@@ -121,8 +124,7 @@ void init_block(BatchBlock& block, int n, bool has_radius, bool has_start) {
     if (!has_radius)  // (with radii, every lane's are written before each block)
         for (int k = 0; k <= n; ++k)
             for (int l = 0; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
-    // smith_radii_lanes_reference's slack: n 2^max(8n - 1070, -1014).
-    block.slack = n * std::ldexp(1.0, std::max(8 * n - 1070, -1014));
+    block.slack = circles.slack[n];
     for (int i = 0; i < n; ++i) {
         block.circle_re[i] = circles.re[n][i];
         block.circle_im[i] = circles.im[n][i];
