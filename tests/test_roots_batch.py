@@ -277,3 +277,22 @@ def test_blocks_mixing_easy_and_hard_lanes(n):
             if found:
                 problems.append(f"{reproducer(matrix[r], method)} (lane {r % 16}): {found}")
     assert not problems, f"{len(problems)} rows with false claims:\n" + "\n".join(problems[:10])
+
+
+def test_results_survive_later_calls():
+    """The result arrays share one recycled buffer (bind_roots.cpp): it goes
+    back to the pool only when every array of the result has died, so a
+    kept result, or a single kept array of one, is never overwritten."""
+    rng = np.random.default_rng([SEED, 99])
+    a_mat, b_mat = rng.standard_normal((100, 5)), rng.standard_normal((100, 5))
+    a = find_roots_batch(a_mat, "auto")
+    kept = {f: getattr(a, f).copy() for f in ("center", "radius", "count", "verified", "real", "n_infinite")}
+    count_only = find_roots_batch(a_mat, "smith").count
+    count_kept = count_only.copy()
+    for _ in range(8):
+        b = find_roots_batch(b_mat, "auto")
+        b.center[:] = 0.0
+        del b
+    for f, v in kept.items():
+        assert np.array_equal(getattr(a, f), v, equal_nan=True), f
+    assert np.array_equal(count_only, count_kept)

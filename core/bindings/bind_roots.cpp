@@ -4,6 +4,10 @@
 
 #include <algorithm>
 #include <complex>
+#include <cstdlib>
+#include <cstring>
+#include <mutex>
+#include <new>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -38,6 +42,60 @@ void raise_status(Status s, py::ssize_t row) {
 }
 
 using F64 = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// Output buffers of find_roots_batch, recycled: one allocation holds all
+// eight result arrays (views with a capsule as their base), and when the
+// last of them dies the buffer goes back to a small pool instead of the
+// system. A fresh allocation of the ~2.7 MB a batch of 20000 quartics
+// returns is mmapped and page-faulted on first touch, which cost about as
+// much as solving the batch; a recycled one is already mapped. At most
+// kPoolBuffers buffers, kPoolBytes in all, are kept.
+constexpr std::size_t kPoolHeader = 64, kPoolBuffers = 4, kPoolBytes = std::size_t{64} << 20;
+struct BufferPool {
+    std::mutex mutex;
+    std::vector<unsigned char*> free;  // raw blocks, capacity in their header
+    std::size_t held = 0;
+};
+BufferPool& buffer_pool() {
+    static BufferPool* pool = new BufferPool;  // (never destroyed: capsules may die at exit)
+    return *pool;
+}
+void* buffer_acquire(std::size_t bytes) {
+    bytes = (bytes + 63) / 64 * 64;
+    BufferPool& pool = buffer_pool();
+    {
+        std::lock_guard<std::mutex> lock(pool.mutex);
+        for (std::size_t i = 0; i < pool.free.size(); ++i) {
+            std::size_t cap;
+            std::memcpy(&cap, pool.free[i], sizeof cap);
+            if (cap >= bytes && cap <= 2 * bytes + 65536) {
+                unsigned char* raw = pool.free[i];
+                pool.free.erase(pool.free.begin() + static_cast<std::ptrdiff_t>(i));
+                pool.held -= cap;
+                return raw + kPoolHeader;
+            }
+        }
+    }
+    auto* raw = static_cast<unsigned char*>(std::aligned_alloc(64, kPoolHeader + bytes));
+    if (raw == nullptr) throw std::bad_alloc();
+    std::memcpy(raw, &bytes, sizeof bytes);
+    return raw + kPoolHeader;
+}
+void buffer_release(void* data) {
+    unsigned char* raw = static_cast<unsigned char*>(data) - kPoolHeader;
+    std::size_t cap;
+    std::memcpy(&cap, raw, sizeof cap);
+    BufferPool& pool = buffer_pool();
+    {
+        std::lock_guard<std::mutex> lock(pool.mutex);
+        if (pool.free.size() < kPoolBuffers && pool.held + cap <= kPoolBytes) {
+            pool.free.push_back(raw);
+            pool.held += cap;
+            return;
+        }
+    }
+    std::free(raw);
+}
 
 // One polynomial: returns (center, radius, count, verified, real, n_infinite,
 // wants_exact, escalation) with arrays of length n_discs.
@@ -120,68 +178,46 @@ py::dict find_roots_batch_py(F64 matrix, const std::string& method, const std::s
     if (cols - 1 > argand::kMaxDegree)
         throw py::value_error("degree above the supported maximum of " + std::to_string(argand::kMaxDegree));
     const py::ssize_t n = cols - 1;
-    py::array_t<std::complex<double>> center({rows, n});
-    py::array_t<double> radius({rows, n});
-    py::array_t<std::int64_t> count({rows, n});
-    py::array_t<bool> verified({rows, n}), real({rows, n}), wants_exact(rows);
-    py::array_t<std::int32_t> n_infinite(rows), escalation(rows);
-    auto C = center.mutable_unchecked<2>();
-    auto Rd = radius.mutable_unchecked<2>();
-    auto K = count.mutable_unchecked<2>();
-    auto V = verified.mutable_unchecked<2>();
-    auto Re = real.mutable_unchecked<2>();
-    auto W = wants_exact.mutable_unchecked<1>();
-    auto NI = n_infinite.mutable_unchecked<1>();
-    auto E = escalation.mutable_unchecked<1>();
+    // The eight arrays in one recycled buffer (see buffer_acquire).
+    const std::size_t entries = static_cast<std::size_t>(rows) * static_cast<std::size_t>(n);
+    const std::size_t nrows = static_cast<std::size_t>(rows);
+    auto align = [](std::size_t b) { return (b + 63) / 64 * 64; };
+    const std::size_t off_radius = align(entries * 16), off_count = off_radius + align(entries * 8),
+                      off_verified = off_count + align(entries * 8), off_real = off_verified + align(entries),
+                      off_wants = off_real + align(entries), off_ninf = off_wants + align(nrows),
+                      off_esc = off_ninf + align(nrows * 4), total = off_esc + align(nrows * 4);
+    auto* buf = static_cast<unsigned char*>(buffer_acquire(total));
+    py::capsule owner(buf, [](void* p) { buffer_release(p); });
+    py::array_t<std::complex<double>> center({rows, n}, reinterpret_cast<std::complex<double>*>(buf), owner);
+    py::array_t<double> radius({rows, n}, reinterpret_cast<double*>(buf + off_radius), owner);
+    py::array_t<std::int64_t> count({rows, n}, reinterpret_cast<std::int64_t*>(buf + off_count), owner);
+    py::array_t<bool> verified({rows, n}, reinterpret_cast<bool*>(buf + off_verified), owner);
+    py::array_t<bool> real({rows, n}, reinterpret_cast<bool*>(buf + off_real), owner);
+    py::array_t<bool> wants_exact({rows}, reinterpret_cast<bool*>(buf + off_wants), owner);
+    py::array_t<std::int32_t> n_infinite({rows}, reinterpret_cast<std::int32_t*>(buf + off_ninf), owner);
+    py::array_t<std::int32_t> escalation({rows}, reinterpret_cast<std::int32_t*>(buf + off_esc), owner);
+    argand::RowsOut sink;
+    static_assert(sizeof(std::complex<double>) == 2 * sizeof(double), "complex128 is two doubles");
+    sink.center = reinterpret_cast<double*>(center.mutable_data());
+    sink.radius = radius.mutable_data();
+    sink.count = count.mutable_data();
+    sink.verified = verified.mutable_data();
+    sink.real = real.mutable_data();
+    sink.wants_exact = wants_exact.mutable_data();
+    sink.n_infinite = n_infinite.mutable_data();
+    sink.escalation = escalation.mutable_data();
     const double* data = matrix.data();
-    py::ssize_t bad_row = -1;
+    std::int64_t bad_row = -1;
     Status bad = Status::Ok;
     argand::BatchCounters counters;
     {
         py::gil_scoped_release release;
-        // Rows are solved in chunks whose results are copied out (a
-        // RootsResult has room for kMaxDegree discs).
-        // The buffer is kept per thread: a fresh one per call cost page
-        // faults that were a good part of a batch of quartics' time.
-        constexpr py::ssize_t kChunk = 256;
-        thread_local std::vector<RootsResult> res(static_cast<std::size_t>(kChunk));
-        const double nan = std::numeric_limits<double>::quiet_NaN();
-        for (py::ssize_t start = 0; start < rows && bad == Status::Ok; start += kChunk) {
-            const py::ssize_t stop = std::min(rows, start + kChunk);
-            std::int64_t bad_local = -1;
-            const Status s = argand::find_roots_rows(data + start * cols, stop - start, static_cast<int>(cols), m,
-                                                     res.data(), &bad_local, isa, &counters,
-                                                     rad_data != nullptr ? rad_data + start * cols : nullptr);
-            const py::ssize_t done = s == Status::Ok ? stop : start + bad_local;
-            if (s != Status::Ok) {
-                bad = s;
-                bad_row = start + bad_local;
-            }
-            for (py::ssize_t r = start; r < done; ++r) {
-                const RootsResult& rr = res[static_cast<std::size_t>(r - start)];
-                for (py::ssize_t i = 0; i < n; ++i) {
-                    if (i < rr.n_discs) {
-                        const auto& d = rr.discs[i];
-                        C(r, i) = {d.re, d.im};
-                        Rd(r, i) = d.radius;
-                        K(r, i) = d.count;
-                        V(r, i) = d.verified;
-                        Re(r, i) = d.real;
-                    } else {
-                        C(r, i) = {nan, nan};
-                        Rd(r, i) = nan;
-                        K(r, i) = 0;
-                        V(r, i) = false;
-                        Re(r, i) = false;
-                    }
-                }
-                W(r) = rr.wants_exact;
-                NI(r) = rr.n_infinite;
-                E(r) = rr.escalation;
-            }
-        }
+        // Every answered row is written straight into the arrays (no
+        // RootsResult per row, no second pass).
+        bad = argand::find_roots_rows_into(data, rows, static_cast<int>(cols), m, sink, &bad_row, isa, &counters,
+                                           rad_data);
     }
-    raise_status(bad, bad_row);
+    raise_status(bad, static_cast<py::ssize_t>(bad_row));
     py::dict out;
     out["center"] = center;
     out["radius"] = radius;

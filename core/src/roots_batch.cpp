@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstddef>
 #include <cstring>
 #include <limits>
 
@@ -43,6 +44,20 @@ Kernel kernel_for(BatchIsa isa) {
         case BatchIsa::Avx512: return &batch_avx512::solve_block;
 #endif
         default: return nullptr;
+    }
+}
+
+using Admit = int (*)(BatchBlock&);
+
+/// The admission test of the kernel that select_kernel picks for isa.
+Admit admit_for(BatchIsa isa) {
+    if (isa == BatchIsa::Auto) isa = batch_isa_best();
+    switch (isa) {
+#ifdef ARGAND_BATCH_X86
+        case BatchIsa::Avx2: return &batch_avx2::admit_block;
+        case BatchIsa::Avx512: return &batch_avx512::admit_block;
+#endif
+        default: return &batch_generic::admit_block;
     }
 }
 
@@ -90,7 +105,10 @@ void init_block(BatchBlock& block, int n, bool has_radius, bool has_start) {
     // The circle starts of every degree, computed once.
     struct Circles {
         double re[kBatchMaxDegree + 1][kBatchMaxDegree], im[kBatchMaxDegree + 1][kBatchMaxDegree];
+        double slack[kBatchMaxDegree + 1];
         Circles() {
+            // smith_radii_lanes_reference's slack: n 2^max(8n - 1070, -1014).
+            for (int d = 0; d <= kBatchMaxDegree; ++d) slack[d] = d * std::ldexp(1.0, std::max(8 * d - 1070, -1014));
             for (int d = 1; d <= kBatchMaxDegree; ++d)
                 for (int i = 0; i < d; ++i) {
                     const double angle = 2.0 * 3.14159265358979323846 * i / d + 0.4;
@@ -106,8 +124,7 @@ void init_block(BatchBlock& block, int n, bool has_radius, bool has_start) {
     if (!has_radius)  // (with radii, every lane's are written before each block)
         for (int k = 0; k <= n; ++k)
             for (int l = 0; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
-    // smith_radii_lanes_reference's slack: n 2^max(8n - 1070, -1014).
-    block.slack = n * std::ldexp(1.0, std::max(8 * n - 1070, -1014));
+    block.slack = circles.slack[n];
     for (int i = 0; i < n; ++i) {
         block.circle_re[i] = circles.re[n][i];
         block.circle_im[i] = circles.im[n][i];
@@ -246,121 +263,407 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
     return Status::Ok;
 }
 
-void find_roots_soa(const SoaRows& in, Method method, RootsResult* out, Status* status, BatchIsa isa,
-                    BatchCounters* counters) {
-    BatchCounters local;
-    BatchCounters& cnt = counters ? *counters : local;
-    const int nc = in.n_coeffs, n = nc - 1;
+namespace {
+
+/// Writes lane l of a solved block (ok: proven or estimated, mapped back
+/// exactly by the kernel) as a row result: write_lane's fields, each disc's
+/// count, verified, real and padding as one 8-byte store.
+/// xi == 0.0 (either zero) as an integer test (no flags, no branch).
+inline bool is_zero(double v) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    return (bits << 1) == 0;
+}
+
+inline void write_lane_fast(const BatchBlock& b, int n, int l, bool verify, RootsResult& res) {
+    static_assert(sizeof(RootDisc) == 32 && offsetof(RootDisc, count) == 24 && offsetof(RootDisc, verified) == 28 &&
+                      offsetof(RootDisc, real) == 29,
+                  "RootDisc's layout");
+    const std::uint64_t tail = 1u | (verify ? (std::uint64_t{1} << 32) : 0u);
+#pragma GCC unroll 8
+    for (int i = 0; i < n; ++i) {
+        RootDisc& d = res.discs[i];
+        const double xi = b.xi[i][l];
+        d.re = b.xr[i][l];
+        d.im = xi;
+        d.radius = b.r[i][l];
+        const std::uint64_t real = static_cast<std::uint64_t>(verify & is_zero(xi)) << 40;
+        const std::uint64_t t = tail | real;
+        std::memcpy(reinterpret_cast<unsigned char*>(&d) + 24, &t, sizeof t);
+    }
+    res.n_discs = n;
+    res.n_infinite = 0;
+    res.wants_exact = false;
+    res.escalation = 0;
+}
+
+/// Where a driver's rows come from. RowMajor: coefficient k of row j at
+/// coeffs[j * n_coeffs + k] (find_roots_rows' layout, no starts);
+/// otherwise SoaRows' layout.
+struct Source {
+    const double* coeffs = nullptr;
+    const double* radius = nullptr;
+    const double* start_re = nullptr;
+    const double* start_im = nullptr;
+    const std::uint8_t* skip = nullptr;
+    std::int64_t rows = 0;
+    std::int64_t stride = 0;        // (structure of arrays)
+    std::int64_t start_stride = 0;  // (structure of arrays)
+    int n_coeffs = 0;
+};
+
+/// Sink of find_roots_soa: RootsResult and Status per row.
+struct SoaSink {
+    RootsResult* out;
+    Status* status;
+    static constexpr bool kStops = false;
+    template <int N>
+    void lane(const BatchBlock& b, int l, std::int64_t j, bool verify) {
+        write_lane_fast(b, N, l, verify, out[j]);
+        status[j] = Status::Ok;
+    }
+    /// Every lane of the block kept, rows j0..j0 + kBatchLanes - 1.
+    template <int N>
+    void whole(const BatchBlock& b, std::int64_t j0, bool verify) {
+        for (int l = 0; l < kBatchLanes; ++l) lane<N>(b, l, j0 + l, verify);
+    }
+    Status scalar(std::int64_t j, const double* c, int nc, Method method, const double* r) {
+        return status[j] = find_roots(c, nc, method, out[j], nullptr, nullptr, r);
+    }
+};
+
+/// Sink of find_roots_rows_into: straight into the row-major arrays.
+struct RowsSink {
+    const RowsOut& out;
+    int n;  // entries per row
+    RootsResult tmp;
+    static constexpr bool kStops = true;
+    RowsSink(const RowsOut& o, int entries) : out(o), n(entries) {}
+    template <int N>
+    void lane(const BatchBlock& b, int l, std::int64_t j, bool verify) {
+        const std::int64_t base = j * N;
+        double* center = out.center + 2 * base;
+        double* radius = out.radius + base;
+        std::int64_t* count = out.count + base;
+        bool* verified = out.verified + base;
+        bool* real = out.real + base;
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            const double xi = b.xi[i][l];
+            center[2 * i] = b.xr[i][l];
+            center[2 * i + 1] = xi;
+            radius[i] = b.r[i][l];
+            count[i] = 1;
+            verified[i] = verify;
+            real[i] = verify & is_zero(xi);
+        }
+        out.wants_exact[j] = false;
+        out.n_infinite[j] = 0;
+        out.escalation[j] = 0;
+    }
+    /// Every lane of the block kept, rows j0..j0 + kBatchLanes - 1 (one
+    /// contiguous stretch of every array).
+    template <int N>
+    void whole(const BatchBlock& b, std::int64_t j0, bool verify) {
+        const std::int64_t base = j0 * N;
+        double* center = out.center + 2 * base;
+        double* radius = out.radius + base;
+        bool* real = out.real + base;
+        // (Count 1 everywhere: copied from a block of ones, not stored one by one.)
+        static const struct Ones {
+            std::int64_t v[kBatchLanes * kBatchMaxDegree];
+            Ones() { for (auto& x : v) x = 1; }
+        } ones;
+        std::memcpy(out.count + base, ones.v, sizeof(std::int64_t) * kBatchLanes * N);
+        std::memset(out.verified + base, verify ? 1 : 0, kBatchLanes * N);
+        for (int l = 0; l < kBatchLanes; ++l) {
+#pragma GCC unroll 8
+            for (int i = 0; i < N; ++i) {
+                const double xi = b.xi[i][l];
+                center[2 * (l * N + i)] = b.xr[i][l];
+                center[2 * (l * N + i) + 1] = xi;
+                radius[l * N + i] = b.r[i][l];
+                real[l * N + i] = verify & is_zero(xi);
+            }
+        }
+        std::memset(out.wants_exact + j0, 0, kBatchLanes);
+        std::memset(out.n_infinite + j0, 0, sizeof(std::int32_t) * kBatchLanes);
+        std::memset(out.escalation + j0, 0, sizeof(std::int32_t) * kBatchLanes);
+    }
+    Status scalar(std::int64_t j, const double* c, int nc, Method method, const double* r) {
+        const Status s = find_roots(c, nc, method, tmp, nullptr, nullptr, r);
+        if (s == Status::Ok) put(j, tmp);
+        return s;
+    }
+    void put(std::int64_t j, const RootsResult& res) {
+        const std::int64_t base = j * n;
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        for (int i = 0; i < n; ++i) {
+            if (i < res.n_discs) {
+                const RootDisc& d = res.discs[i];
+                out.center[2 * (base + i)] = d.re;
+                out.center[2 * (base + i) + 1] = d.im;
+                out.radius[base + i] = d.radius;
+                out.count[base + i] = d.count;
+                out.verified[base + i] = d.verified;
+                out.real[base + i] = d.real;
+            } else {
+                out.center[2 * (base + i)] = nan;
+                out.center[2 * (base + i) + 1] = nan;
+                out.radius[base + i] = nan;
+                out.count[base + i] = 0;
+                out.verified[base + i] = false;
+                out.real[base + i] = false;
+            }
+        }
+        out.wants_exact[j] = res.wants_exact;
+        out.n_infinite[j] = res.n_infinite;
+        out.escalation[j] = res.escalation;
+    }
+};
+
+/// The block driver of find_roots_soa and find_roots_rows_into: rows go to
+/// the kernel block by block of kBatchLanes in place (row j in lane j mod 16
+/// of block j / 16); rows not admitted leave their lane inactive and are
+/// solved by find_roots, as are admitted rows whose lane is not kept.
+/// Returns the first row whose status is not Ok when the sink stops there
+/// (-1 otherwise), with its status in *bad.
+/// The blocks of degree N (see drive).
+template <bool RowMajor, int N, class Sink, class Scalar>
+std::int64_t blocks(const Source& in, Method method, Sink& sink, Status* bad, BatchIsa isa, BatchCounters& cnt,
+                    Kernel kernel, Scalar& scalar) {
+    constexpr int n = N;
     const std::int64_t stride = in.stride;
     const std::int64_t start_stride = in.start_stride != 0 ? in.start_stride : in.stride;
-    const Kernel kernel = select_kernel(isa, method, n);
     const bool verify = method != Method::Unverified;
     const bool has_radius = in.radius != nullptr;
-    // A row the lanes do not answer: find_roots on a gathered copy of it.
-    auto scalar = [&](std::int64_t j) {
-        double c[kMaxDegree + 1], r[kMaxDegree + 1];
-        for (int k = 0; k < nc; ++k) {
-            c[k] = in.coeffs[k * stride + j];
-            if (has_radius) r[k] = in.radius[k * stride + j];
-        }
-        status[j] = find_roots(c, nc, method, out[j], nullptr, nullptr, has_radius ? r : nullptr);
-        ++cnt.rows;
-        ++cnt.scalar;
-    };
-    if (kernel == nullptr || nc > kMaxDegree + 1) {
-        for (std::int64_t j = 0; j < in.rows; ++j)
-            if (in.skip == nullptr || in.skip[j] == 0) scalar(j);
-        return;
-    }
+    const Admit admit = admit_for(isa);
     BatchBlock block;
     init_block(block, n, has_radius, in.start_re != nullptr && in.start_im != nullptr);
     for (std::int64_t j0 = 0; j0 < in.rows; j0 += kBatchLanes) {
         const int m = static_cast<int>(std::min<std::int64_t>(kBatchLanes, in.rows - j0));
-        // Admission, lane by lane (find_roots_rows' admit): not skipped,
-        // c_0 and c_n nonzero, every coefficient finite, every radius
-        // finite and >= 0 (NaN fails every comparison). The rows go into
-        // the block as they are (lanes past the last row hold 1.0: finite,
-        // never admitted); the tests are loops over all 16 lanes.
-        for (int k = 0; k <= n; ++k) {
-            std::memcpy(block.c[k], in.coeffs + k * stride + j0, sizeof(double) * m);
-            for (int l = m; l < kBatchLanes; ++l) block.c[k][l] = 1.0;
-        }
-        if (has_radius)
-            for (int k = 0; k <= n; ++k) {
-                std::memcpy(block.rad[k], in.radius + k * stride + j0, sizeof(double) * m);
-                for (int l = m; l < kBatchLanes; ++l) block.rad[k][l] = 0.0;
+        // The rows go into the block as they are (lanes past the last row
+        // hold 1.0: finite, never admitted); admission (find_roots_rows'
+        // admit: not skipped, c_0 and c_n nonzero, every coefficient
+        // finite, every radius finite and >= 0) is the kernel's
+        // admit_block, vectorised over the block.
+        if constexpr (RowMajor) {
+            for (int l = 0; l < m; ++l) {
+                const double* c = in.coeffs + (j0 + l) * (n + 1);
+#pragma GCC unroll 9
+                for (int k = 0; k <= n; ++k) block.c[k][l] = c[k];
             }
-        // z[l] = sum_k 0 c_k (+ sum_k 0 rad_k) is 0 iff every one is finite
-        // (0 inf and 0 NaN are NaN, and NaN stays); low[l] = min_k rad_k
-        // (a NaN radius already makes z NaN).
-        double z[kBatchLanes], low[kBatchLanes];
-        for (int l = 0; l < kBatchLanes; ++l) {
-            z[l] = 0.0;
-            low[l] = 0.0;
-        }
-        for (int k = 0; k <= n; ++k)
-            for (int l = 0; l < kBatchLanes; ++l) z[l] += 0.0 * block.c[k][l];
-        if (has_radius)
-            for (int k = 0; k <= n; ++k)
-                for (int l = 0; l < kBatchLanes; ++l) {
-                    const double v = block.rad[k][l];
-                    z[l] += 0.0 * v;
-                    low[l] = v < low[l] ? v : low[l];
+            if (has_radius)
+                for (int l = 0; l < m; ++l) {
+                    const double* r = in.radius + (j0 + l) * (n + 1);
+#pragma GCC unroll 9
+                    for (int k = 0; k <= n; ++k) block.rad[k][l] = r[k];
                 }
-        bool admitted[kBatchLanes];
-        for (int l = 0; l < kBatchLanes; ++l)
-            admitted[l] = l < m && (in.skip == nullptr || in.skip[j0 + l] == 0) && z[l] == 0.0 && low[l] >= 0.0 &&
-                          block.c[0][l] != 0.0 && block.c[n][l] != 0.0;
-        int first = -1, used = 0;
-        for (int l = 0; l < kBatchLanes; ++l) {
-            if (admitted[l]) {
-                if (first < 0) first = l;
-                ++used;
-            } else if (l < m && (in.skip == nullptr || in.skip[j0 + l] == 0)) {
-                scalar(j0 + l);
+        } else {
+#pragma GCC unroll 9
+            for (int k = 0; k <= n; ++k) std::memcpy(block.c[k], in.coeffs + k * stride + j0, sizeof(double) * m);
+            if (has_radius)
+#pragma GCC unroll 9
+                for (int k = 0; k <= n; ++k)
+                    std::memcpy(block.rad[k], in.radius + k * stride + j0, sizeof(double) * m);
+        }
+        if (m < kBatchLanes)
+            for (int k = 0; k <= n; ++k)
+                for (int l = m; l < kBatchLanes; ++l) {
+                    block.c[k][l] = 1.0;
+                    block.rad[k][l] = 0.0;
+                }
+        if (in.skip == nullptr)
+            for (int l = 0; l < kBatchLanes; ++l) block.active[l] = l < m ? 1.0 : 0.0;
+        else
+            for (int l = 0; l < kBatchLanes; ++l) block.active[l] = (l < m) & (in.skip[j0 + (l < m ? l : 0)] == 0) ? 1.0 : 0.0;
+        int used = admit(block), first = -1;
+        double admitted[kBatchLanes];
+        std::memcpy(admitted, block.active, sizeof admitted);
+        if (used < kBatchLanes)
+            for (int l = kBatchLanes - 1; l >= 0; --l) first = admitted[l] != 0.0 ? l : first;
+        else
+            first = 0;
+        // Rows not admitted (and not skipped): find_roots. A sink that
+        // stops at a bad row still gets the admitted rows before it.
+        int stop = -1;
+        if (used < m)
+            for (int l = 0; l < m; ++l) {
+                if (admitted[l] != 0.0 || (in.skip != nullptr && in.skip[j0 + l] != 0)) continue;
+                const Status s = scalar(j0 + l);
+                if (Sink::kStops && s != Status::Ok) {
+                    --cnt.rows;
+                    --cnt.scalar;
+                    *bad = s;
+                    stop = l;
+                    break;
+                }
             }
+        if (Sink::kStops && stop >= 0) {
+            used = 0;
+            for (int l = 0; l < kBatchLanes; ++l) {
+                admitted[l] = l < stop ? admitted[l] : 0.0;
+                used += admitted[l] != 0.0;
+            }
+            if (used == 0) return j0 + stop;
         }
         if (used == 0) continue;
+        std::memcpy(block.active, admitted, sizeof admitted);  // (as the stop left them)
         // Lanes without an admitted row: a copy of the first admitted lane
         // (finite), inactive.
-        for (int l = 0; l < kBatchLanes; ++l) {
-            block.active[l] = admitted[l] ? 1.0 : 0.0;
-            if (admitted[l]) continue;
-            for (int k = 0; k <= n; ++k) {
-                block.c[k][l] = block.c[k][first];
-                block.rad[k][l] = block.rad[k][first];
-            }
-            block.start_ok[l] = 0.0;
-        }
-        if (block.has_start != 0)
+        if (used < kBatchLanes)
             for (int l = 0; l < kBatchLanes; ++l) {
-                if (!admitted[l]) continue;
-                bool finite = true;
-                for (int i = 0; i < n; ++i) {
-                    const double re = in.start_re[i * start_stride + j0 + l], im = in.start_im[i * start_stride + j0 + l];
-                    finite = finite && std::isfinite(re) && std::isfinite(im);
-                    block.start_re[i][l] = finite ? re : 0.0;
-                    block.start_im[i][l] = finite ? im : 0.0;
+                if (admitted[l] != 0.0) continue;
+                for (int k = 0; k <= n; ++k) {
+                    block.c[k][l] = block.c[k][first];
+                    block.rad[k][l] = block.rad[k][first];
                 }
-                block.start_ok[l] = finite ? 1.0 : 0.0;
+                block.start_ok[l] = 0.0;
             }
+        if constexpr (!RowMajor && N >= 5) {
+            if (block.has_start != 0)
+                for (int l = 0; l < m; ++l) {
+                    if (admitted[l] == 0.0) continue;
+                    bool finite = true;
+                    for (int i = 0; i < n; ++i) {
+                        const double re = in.start_re[i * start_stride + j0 + l];
+                        const double im = in.start_im[i * start_stride + j0 + l];
+                        finite = finite && std::isfinite(re) && std::isfinite(im);
+                        block.start_re[i][l] = finite ? re : 0.0;
+                        block.start_im[i][l] = finite ? im : 0.0;
+                    }
+                    block.start_ok[l] = finite ? 1.0 : 0.0;
+                }
+        }
         cnt.sweeps += kernel(block, verify);
         ++cnt.blocks;
         cnt.lanes += used;
-        cnt.rows += used;
-        for (int l = 0; l < kBatchLanes; ++l) {
-            if (!admitted[l]) continue;
-            const std::int64_t j = j0 + l;
-            if (block.ok[l] != 0.0 && (verify || block.converged[l] != 0.0)) {
-                write_lane(block, l, verify, out[j]);
-                status[j] = Status::Ok;
-                ++cnt.kept;
-            } else {
-                --cnt.rows;  // (scalar() counts it)
-                scalar(j);   // all finite: Ok
+        if (used == kBatchLanes) {
+            // Every lane admitted (the common block): kept lanes go out in
+            // one pass when the kernel kept them all.
+            // (ok and converged hold 0.0 or 1.0: an OR of bits is 0 iff all are 1.0.)
+            std::uint64_t off = 0;
+            for (int l = 0; l < kBatchLanes; ++l) {
+                std::uint64_t ok;
+                std::memcpy(&ok, &block.ok[l], sizeof ok);
+                off |= ok ^ 0x3ff0000000000000ULL;
+            }
+            if (!verify)
+                for (int l = 0; l < kBatchLanes; ++l) {
+                    std::uint64_t conv;
+                    std::memcpy(&conv, &block.converged[l], sizeof conv);
+                    off |= conv ^ 0x3ff0000000000000ULL;
+                }
+            if (off == 0) {
+                sink.template whole<N>(block, j0, verify);
+                cnt.rows += kBatchLanes;
+                cnt.kept += kBatchLanes;
+                if (Sink::kStops && stop >= 0) return j0 + stop;
+                continue;
             }
         }
+        for (int l = 0; l < m; ++l) {
+            if (admitted[l] == 0.0) continue;
+            const std::int64_t j = j0 + l;
+            if (block.ok[l] != 0.0 && (verify || block.converged[l] != 0.0)) {
+                sink.template lane<N>(block, l, j, verify);
+                ++cnt.rows;
+                ++cnt.kept;
+            } else {
+                scalar(j);  // all finite: Ok
+            }
+        }
+        if (Sink::kStops && stop >= 0) return j0 + stop;
     }
+    return -1;
+}
+
+/// The block driver of find_roots_soa and find_roots_rows_into: rows go to
+/// the kernel block by block of kBatchLanes in place (row j in lane j mod 16
+/// of block j / 16); rows not admitted leave their lane inactive and are
+/// solved by find_roots, as are admitted rows whose lane is not kept.
+/// Returns the first row whose status is not Ok when the sink stops there
+/// (-1 otherwise), with its status in *bad.
+template <bool RowMajor, class Sink>
+std::int64_t drive(const Source& in, Method method, Sink& sink, Status* bad, BatchIsa isa, BatchCounters& cnt) {
+    const int nc = in.n_coeffs, n = nc - 1;
+    const std::int64_t stride = in.stride;
+    const Kernel kernel = select_kernel(isa, method, n);
+    const bool has_radius = in.radius != nullptr;
+    // A row the lanes do not answer: find_roots on it (a gathered copy of
+    // it in structure-of-arrays form).
+    auto scalar = [&](std::int64_t j) -> Status {
+        ++cnt.rows;
+        ++cnt.scalar;
+        if constexpr (RowMajor) {
+            return sink.scalar(j, in.coeffs + j * nc, nc, method, has_radius ? in.radius + j * nc : nullptr);
+        } else {
+            double c[kMaxDegree + 1], r[kMaxDegree + 1];
+            for (int k = 0; k < nc; ++k) {
+                c[k] = in.coeffs[k * stride + j];
+                if (has_radius) r[k] = in.radius[k * stride + j];
+            }
+            return sink.scalar(j, c, nc, method, has_radius ? r : nullptr);
+        }
+    };
+    if (kernel == nullptr || nc > kMaxDegree + 1) {
+        for (std::int64_t j = 0; j < in.rows; ++j)
+            if (in.skip == nullptr || in.skip[j] == 0) {
+                const Status s = scalar(j);
+                if (Sink::kStops && s != Status::Ok) {
+                    --cnt.rows;
+                    --cnt.scalar;
+                    *bad = s;
+                    return j;
+                }
+            }
+        return -1;
+    }
+    switch (n) {
+        case 1: return blocks<RowMajor, 1>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        case 2: return blocks<RowMajor, 2>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        case 3: return blocks<RowMajor, 3>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        case 4: return blocks<RowMajor, 4>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        case 5: return blocks<RowMajor, 5>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        case 6: return blocks<RowMajor, 6>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        case 7: return blocks<RowMajor, 7>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        default: return blocks<RowMajor, 8>(in, method, sink, bad, isa, cnt, kernel, scalar);
+    }
+}
+
+}  // namespace
+
+void find_roots_soa(const SoaRows& in, Method method, RootsResult* out, Status* status, BatchIsa isa,
+                    BatchCounters* counters) {
+    BatchCounters local;
+    Source src;
+    src.coeffs = in.coeffs;
+    src.radius = in.radius;
+    src.start_re = in.start_re;
+    src.start_im = in.start_im;
+    src.skip = in.skip;
+    src.rows = in.rows;
+    src.stride = in.stride;
+    src.start_stride = in.start_stride;
+    src.n_coeffs = in.n_coeffs;
+    SoaSink sink{out, status};
+    Status bad = Status::Ok;
+    drive<false>(src, method, sink, &bad, isa, counters ? *counters : local);
+}
+
+Status find_roots_rows_into(const double* coeffs, std::int64_t rows, int n_coeffs, Method method, const RowsOut& out,
+                            std::int64_t* bad_row, BatchIsa isa, BatchCounters* counters, const double* radius) {
+    BatchCounters local;
+    Source src;
+    src.coeffs = coeffs;
+    src.radius = radius;
+    src.rows = rows;
+    src.n_coeffs = n_coeffs;
+    RowsSink sink(out, n_coeffs - 1);
+    Status bad = Status::Ok;
+    const std::int64_t r = drive<true>(src, method, sink, &bad, isa, counters ? *counters : local);
+    if (bad_row) *bad_row = r;
+    return r < 0 ? Status::Ok : bad;
 }
 
 }  // namespace argand

@@ -55,9 +55,11 @@ struct alignas(64) BatchBlock {
     alignas(64) double converged[kBatchLanes];  // Aberth stopped every root (diagnostic)
 };
 
-// One kernel per instruction set (roots_batch_{generic,avx2,avx512}.cpp).
-namespace batch_generic { int solve_block(BatchBlock& b, bool verify); }
-namespace batch_avx2 { int solve_block(BatchBlock& b, bool verify); }
-namespace batch_avx512 { int solve_block(BatchBlock& b, bool verify); }
+// One kernel per instruction set (roots_batch_{generic,avx2,avx512}.cpp):
+// solve_block, and admit_block (the driver's admission test over the block:
+// active[l] on entry = row present, on exit = admitted; returns the count).
+namespace batch_generic { int solve_block(BatchBlock& b, bool verify); int admit_block(BatchBlock& b); }
+namespace batch_avx2 { int solve_block(BatchBlock& b, bool verify); int admit_block(BatchBlock& b); }
+namespace batch_avx512 { int solve_block(BatchBlock& b, bool verify); int admit_block(BatchBlock& b); }
 
 }  // namespace argand

@@ -423,7 +423,9 @@ ARGAND_LANES
         // 2^-8 relative from sweep kRealNudgeSweep on steps off
         // the axis by 2^-6 relative (alternating sides); one
         // converging from a seed is far below that by then.
-        const bool stray = nudge_now & (ni == 0.0) & (wr * wr + wi * wi > 0x1p-16 * (nr * nr));
+        // (Only degrees 5 to 8 ever nudge: nudge_now is false below.)
+        bool stray = false;
+        if constexpr (N >= 5) stray = nudge_now & (ni == 0.0) & (wr * wr + wi * wi > 0x1p-16 * (nr * nr));
         const double side = i % 2 == 0 ? 0x1p-6 : -0x1p-6;
         const double ni2 = stray ? side * (nr != 0.0 ? std::fabs(nr) : 1.0) : ni;
         const bool act = done[i][l] == 0.0;
@@ -433,6 +435,15 @@ ARGAND_LANES
         const bool conv = small | (ok_w & (wr * wr + wi * wi <= stop_rel2 * (nr * nr + ni * ni)));
         done[i][l] = (!act | conv) ? 1.0 : 0.0;
     }
+}
+
+/// Nonzero iff some of done[0..CW) is 0.0 (open); done holds 0.0 or 1.0
+/// only. An OR of integers, which vectorises (a count of doubles did not).
+template <int CW>
+inline std::uint64_t open_bits(const double* done) {
+    std::uint64_t acc = 0;
+    for (int l = 0; l < CW; ++l) acc |= bits_of(done[l]) ^ 0x3ff0000000000000ULL;
+    return acc;
 }
 
 /// Aberth-Ehrlich sweeps (Gauss-Seidel over the roots, all lanes at once),
@@ -453,7 +464,7 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
         for (int l = 0; l < L; ++l) done[i][l] = b.active[l] ? 0.0 : 1.0;
     int it = 0;
     for (; it < max_iter; ++it) {
-        int left = 0;
+        std::uint64_t left = 0;  // nonzero while some root of some lane is open
         // (Degrees 5 to 8 only: those take the ray caster's seeds; the
         // closed-form starts of n <= 4 put a complex pair off the axis.)
         const bool nudge_now = (N >= 5) & (it >= kRealNudgeSweep);
@@ -465,7 +476,7 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
 #pragma GCC unroll 8
             for (int i = 0; i < N; ++i) {
                 sweep_root<N, true, L>(b, i, 0, done, nudge_now);
-                for (int l = 0; l < L; ++l) left += done[i][l] == 0.0;
+                left |= open_bits<L>(done[i]);
             }
         } else {
             // Chunk by chunk (one vector of W lanes); a chunk where root i
@@ -474,11 +485,9 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
 #pragma GCC unroll 8
             for (int i = 0; i < N; ++i) {
                 for (int l0 = 0; l0 < L; l0 += W) {
-                    double open = 0.0;
-                    for (int l = l0; l < l0 + W; ++l) open += done[i][l] == 0.0 ? 1.0 : 0.0;
-                    if (open == 0.0) continue;
+                    if (open_bits<W>(done[i] + l0) == 0) continue;
                     sweep_root<N, false, W>(b, i, l0, done, nudge_now);
-                    for (int l = l0; l < l0 + W; ++l) left += done[i][l] == 0.0;
+                    left |= open_bits<W>(done[i] + l0);
                 }
             }
         }
@@ -487,11 +496,11 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
             break;
         }
     }
-    for (int l = 0; l < L; ++l) {
-        int left = 0;
-        for (int i = 0; i < N; ++i) left += done[i][l] == 0.0;
-        b.converged[l] = left == 0 ? 1.0 : 0.0;
-    }
+    // converged: 1.0 iff every root of the lane stopped (a product of 0.0s
+    // and 1.0s, exact).
+    for (int l = 0; l < L; ++l) b.converged[l] = done[0][l];
+    for (int i = 1; i < N; ++i)
+        for (int l = 0; l < L; ++l) b.converged[l] *= done[i][l];
     return it;
 }
 
@@ -711,7 +720,58 @@ int solve_block_n(BatchBlock& b, bool verify) {
     return sweeps;
 }
 
+/// The driver's admission rule (roots_batch.cpp), lane by lane over the
+/// whole block: a lane stays active (active[l] = 1.0 on entry: a row that
+/// is there and not skipped) iff every coefficient is finite, c_0 and c_n
+/// are nonzero and, with radii, every radius is finite and >= 0. z = sum_k
+/// 0 c_k (+ sum_k 0 rad_k) is 0 iff every one is finite (0 inf and 0 NaN
+/// are NaN, and NaN stays); low = min(0, rad_k) (a NaN radius already makes
+/// z NaN). Returns the lanes admitted.
+template <int N, bool has_radius>
+int admit_lanes(BatchBlock& b) {
+ARGAND_LANES
+    for (int l = 0; l < L; ++l) {
+        double z = 0.0, low = 0.0;
+#pragma GCC unroll 9
+        for (int k = 0; k <= N; ++k) z += 0.0 * b.c[k][l];
+        if constexpr (has_radius) {
+#pragma GCC unroll 9
+            for (int k = 0; k <= N; ++k) {
+                const double v = b.rad[k][l];
+                z += 0.0 * v;
+                low = v < low ? v : low;
+            }
+        }
+        const bool ok = (b.active[l] != 0.0) & (z == 0.0) & (low >= 0.0) & (b.c[0][l] != 0.0) & (b.c[N][l] != 0.0);
+        b.active[l] = ok ? 1.0 : 0.0;
+    }
+    std::uint64_t count = 0;
+    for (int l = 0; l < L; ++l) count += bits_of(b.active[l]) >> 61;  // (1.0 is 0x3ff0...: 1; 0.0: 0)
+    return static_cast<int>(count);
+}
+
+template <int N>
+int admit_n(BatchBlock& b) {
+    return b.has_radius != 0 ? admit_lanes<N, true>(b) : admit_lanes<N, false>(b);
+}
+
 }  // namespace
+
+/// Admission (see admit_lanes) for the block's degree; returns the lanes
+/// admitted.
+int admit_block(BatchBlock& b) {
+    switch (b.n) {
+        case 1: return admit_n<1>(b);
+        case 2: return admit_n<2>(b);
+        case 3: return admit_n<3>(b);
+        case 4: return admit_n<4>(b);
+        case 5: return admit_n<5>(b);
+        case 6: return admit_n<6>(b);
+        case 7: return admit_n<7>(b);
+        case 8: return admit_n<8>(b);
+        default: return 0;
+    }
+}
 
 /// The entry point of this instruction set's kernel: solves the block in
 /// place (see BatchBlock); returns the Aberth sweeps done.

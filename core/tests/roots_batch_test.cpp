@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -707,6 +708,112 @@ static void closed_form_blocks_mixed() {
                 lanes, kept, checked);
 }
 
+// find_roots_rows_into (the Python binding's path: rows straight into
+// row-major arrays, blocks in place) against find_roots_rows, bit for bit:
+// every method, degrees 1 to 9 (9: no kernel), with and without coefficient
+// radii, rows the lanes refuse among them, and the stop at the first bad row.
+static void rows_into_matches_rows() {
+    std::mt19937_64 rng(4242);
+    std::normal_distribution<double> normal;
+    long compared = 0;
+    for (int n = 1; n <= kBatchMaxDegree + 1; ++n) {
+        const int nc = n + 1;
+        for (int trial = 0; trial < 6; ++trial) {
+            const int rows = 1 + (int)(rng() % 70);
+            std::vector<double> m(rows * nc), rad(rows * nc);
+            for (int r = 0; r < rows; ++r) {
+                const int kind = (int)(rng() % 8);
+                for (int k = 0; k < nc; ++k) {
+                    double v = normal(rng);
+                    if (kind == 1 && k == 0) v = 0.0;                           // exact zero root
+                    if (kind == 2 && k == n) v = 0.0;                           // root at infinity
+                    if (kind == 3 && k == 1) v = 4.9406564584124654e-324 * 7;   // subnormal
+                    if (kind == 4) v = std::ldexp(v, 900 - 300 * k);            // huge range
+                    m[r * nc + k] = v;
+                    rad[r * nc + k] = kind == 5 ? 0.0 : std::fabs(v) * std::ldexp(1.0, -40 - (int)(rng() % 20));
+                }
+                if (kind == 6) {  // a double root
+                    std::vector<double> c = {1.0};
+                    const double z = std::ldexp((double)(rng() % 9) - 4.0, -2);
+                    for (int j = 0; j < n; ++j) {
+                        const double root = j < 2 ? z : normal(rng);
+                        std::vector<double> nx(c.size() + 1, 0.0);
+                        for (std::size_t a = 0; a < c.size(); ++a) { nx[a] -= root * c[a]; nx[a + 1] += c[a]; }
+                        c = nx;
+                    }
+                    for (int k = 0; k < nc; ++k) m[r * nc + k] = c[k];
+                }
+            }
+            const bool with_bad = trial == 5;
+            if (with_bad) m[(rows / 2) * nc + (int)(rng() % nc)] = std::nan("");
+            for (Method meth : {Method::Auto, Method::Smith, Method::Unverified, Method::Paper}) {
+                for (int family = 0; family < 2; ++family) {
+                    const double* rp = family ? rad.data() : nullptr;
+                    std::vector<RootsResult> ref(rows);
+                    std::int64_t bad_ref = -2, bad_got = -2;
+                    BatchCounters cr, cg;
+                    const Status sr = find_roots_rows(m.data(), rows, nc, meth, ref.data(), &bad_ref, BatchIsa::Auto,
+                                                      &cr, rp);
+                    std::vector<double> center(2 * rows * n, -7.0), radius(rows * n, -7.0);
+                    std::vector<std::int64_t> count(rows * n, -7);
+                    std::unique_ptr<bool[]> verified(new bool[rows * n]), real(new bool[rows * n]),
+                        wants(new bool[rows]);
+                    std::vector<std::int32_t> n_inf(rows, -7), esc(rows, -7);
+                    RowsOut out;
+                    out.center = center.data();
+                    out.radius = radius.data();
+                    out.count = count.data();
+                    out.verified = verified.get();
+                    out.real = real.get();
+                    out.wants_exact = wants.get();
+                    out.n_infinite = n_inf.data();
+                    out.escalation = esc.data();
+                    const Status sg = find_roots_rows_into(m.data(), rows, nc, meth, out, &bad_got, BatchIsa::Auto,
+                                                           &cg, rp);
+                    CHECK(sr == sg && bad_ref == bad_got, "rows_into degree %d: status %d/%d bad %ld/%ld", n, (int)sr,
+                          (int)sg, (long)bad_ref, (long)bad_got);
+                    if (sr == Status::Ok)
+                        CHECK(cr.rows == cg.rows && cr.kept == cg.kept && cr.lanes == cg.lanes && cr.scalar == cg.scalar,
+                              "rows_into degree %d: counters", n);
+                    const int upto = sr == Status::Ok ? rows : (int)bad_ref;
+                    for (int r = 0; r < upto; ++r) {
+                        const RootsResult& a = ref[r];
+                        bool same = a.n_infinite == n_inf[r] && a.escalation == esc[r] && a.wants_exact == wants[r];
+                        for (int i = 0; i < n; ++i) {
+                            const int e = r * n + i;
+                            if (i < a.n_discs) {
+                                const RootDisc& d = a.discs[i];
+                                same = same && same_bits(d.re, center[2 * e]) && same_bits(d.im, center[2 * e + 1]) &&
+                                       same_bits(d.radius, radius[e]) && d.count == count[e] &&
+                                       d.verified == verified[e] && d.real == real[e];
+                            } else {
+                                same = same && std::isnan(center[2 * e]) && std::isnan(center[2 * e + 1]) &&
+                                       std::isnan(radius[e]) && count[e] == 0 && !verified[e] && !real[e];
+                            }
+                        }
+                        if (!same && failures < 3) {
+                            std::printf("ref: ndisc %d ninf %d esc %d wants %d; got ninf %d esc %d wants %d\n", a.n_discs,
+                                        a.n_infinite, a.escalation, (int)a.wants_exact, n_inf[r], esc[r], (int)wants[r]);
+                            for (int i = 0; i < n; ++i)
+                                std::printf("  %d: ref %a %a %a %d %d %d got %a %a %a %ld %d %d\n", i,
+                                            i < a.n_discs ? a.discs[i].re : 0.0, i < a.n_discs ? a.discs[i].im : 0.0,
+                                            i < a.n_discs ? a.discs[i].radius : 0.0, i < a.n_discs ? a.discs[i].count : -1,
+                                            i < a.n_discs ? (int)a.discs[i].verified : -1,
+                                            i < a.n_discs ? (int)a.discs[i].real : -1, center[2 * (r * n + i)],
+                                            center[2 * (r * n + i) + 1], radius[r * n + i], (long)count[r * n + i],
+                                            (int)verified[r * n + i], (int)real[r * n + i]);
+                        }
+                        CHECK(same, "rows_into degree %d method %d family %d row %d (of %d, trial %d, status %d bad %ld) differs from find_roots_rows", n,
+                              (int)meth, family, r, rows, trial, (int)sr, (long)bad_ref);
+                        ++compared;
+                    }
+                }
+            }
+        }
+    }
+    std::printf("find_roots_rows_into: %ld rows bit-identical to find_roots_rows\n", compared);
+}
+
 int main() {
     std::setvbuf(stdout, nullptr, _IOLBF, 0);
     std::printf("batched kernel: %s\n", batch_isa_name(BatchIsa::Auto));
@@ -716,6 +823,7 @@ int main() {
     real_seeds_of_complex_pairs_converge();
     kernel_matches_scalar_bound();
     mixed_batches();
+    rows_into_matches_rows();
     flush_to_zero_refused();
     if (failures) {
         std::printf("%d failures\n", failures);

@@ -68,6 +68,34 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
                        const double* radius = nullptr, const double* start_re = nullptr,
                        const double* start_im = nullptr);
 
+/// Row-major outputs of find_roots_rows_into for rows polynomials of
+/// degree n: entry i of row r at [r * n + i] (the centre as a (re, im) pair
+/// at center[2 (r n + i)], the layout of numpy's complex128), per-row
+/// values at [r]. Entries past a row's discs are padding: NaN centre and
+/// radius, count 0, verified and real false.
+struct RowsOut {
+    double* center = nullptr;
+    double* radius = nullptr;
+    std::int64_t* count = nullptr;
+    bool* verified = nullptr;
+    bool* real = nullptr;
+    bool* wants_exact = nullptr;
+    std::int32_t* n_infinite = nullptr;
+    std::int32_t* escalation = nullptr;
+};
+
+/// find_roots_rows (no starts) writing each answered row straight into
+/// `out` (no RootsResult per row): the same admission, kernel and scalar
+/// fallback, so the same answers to the bit. Rows go to the kernel block by
+/// block of kBatchLanes in place (row r in lane r mod 16 of block r / 16,
+/// rows not admitted leave their lane inactive; a lane's answer depends on
+/// its own row only). Stops at the first row whose status is not Ok:
+/// returns that status and sets *bad_row (rows after it are not answered;
+/// that row's entries are not written).
+Status find_roots_rows_into(const double* coeffs, std::int64_t rows, int n_coeffs, Method method,
+                            const RowsOut& out, std::int64_t* bad_row, BatchIsa isa = BatchIsa::Auto,
+                            BatchCounters* counters = nullptr, const double* radius = nullptr);
+
 /// Rows in structure-of-arrays form for find_roots_soa: coefficient k of row
 /// j at coeffs[k * stride + j] (k = 0..n_coeffs-1, j = 0..rows-1), its
 /// radius at radius[k * stride + j] (optional, as find_roots_rows' radius),
