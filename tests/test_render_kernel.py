@@ -22,7 +22,7 @@ import pytest
 
 from argand.core import _core
 from argand.render import FrameParams, render_frame
-from argand.scene import load_scene
+from argand.scene import load_scene, scene_from_dict
 from argand.scene.presets import CLASSIC_PRESETS, PAPER_PRESETS
 from pixel_truth import check_frame, sample_pixels
 
@@ -43,12 +43,12 @@ def render_with(kernel: str, scene, params: FrameParams):
             os.environ["ARGAND_KERNEL"] = old
 
 
-def explain_with(kernel: str, scene, params: FrameParams, x: int, y: int) -> dict:
+def explain_with(kernel: str, scene, params: FrameParams, x: int, y: int, sample: int = 0) -> dict:
     from argand.render.explain import explain_pixel
 
     os.environ["ARGAND_KERNEL"] = kernel
     try:
-        return explain_pixel(scene, params, x, y)
+        return explain_pixel(scene, params, x, y, sample=sample)
     finally:
         del os.environ["ARGAND_KERNEL"]
 
@@ -225,3 +225,36 @@ def test_refined_batched_pixels_replay():
             assert np.float32(e["root"].imag) == frame.aovs["im"][y, x]
     check = check_frame(scene, params, frame, [(int(x), int(y)) for y, x in np.argwhere(level == 3)])
     assert check.wrong == 0, check.disagreements[:3]
+
+
+@pytest.mark.parametrize("samples", [1, 4])
+@pytest.mark.parametrize("kernel", ["scalar", "best"])
+def test_non_finite_ray_polynomials_start_on_the_first_level(kernel, samples):
+    """A sample whose ray polynomial overflows (a coefficient not finite:
+    nothing solved, status unverified) is on the ladder's first level,
+    whatever the sample traced before it in the same slot had (here: the
+    root tier's double-double, on the exact double roots of a doubled plane).
+
+    The plane x + y + z = 1, doubled and scaled by 6.5e289, seen from the
+    origin in object units of 1e-9: the ray polynomial along a unit world
+    direction d is 6.5e289 (1 - 1e9 s t)^2 with s = dx + dy + dz, whose t^2
+    coefficient 6.5e307 s^2 overflows where s^2 > 2.77 (the middle of the
+    frame, s near sqrt 3) and is finite towards the edges (exact double
+    roots: status cluster after the root tier)."""
+    scene = scene_from_dict({
+        "objects": [{"surface": "6.5e289*(x + y + z - 1)^2", "transform": {"scale": 1e-9}}],
+        "camera": {"position": [0.0, 0.0, 0.0], "look_at": [1.0, 1.0, 1.0]},
+    })
+    params = FrameParams(width=16, height=16, samples=samples, exact_pixels_per_tile=0)
+    kernel = _core.batch_kernel() if kernel == "best" else kernel
+    frame = render_with(kernel, scene, params)
+    status, level = np.asarray(frame.aovs["status"]), np.asarray(frame.aovs["escalation"])
+    assert (level[status == 1] == 1).sum() >= 10, "the finite rays no longer climb to the root tier"
+    # The pixels every sample of which overflows (explain_pixel's roots
+    # status 1, NonFinite); a pixel with finite samples too may climb.
+    non_finite = [(y, x) for y, x in np.argwhere(status == 2)
+                  if all(explain_with(kernel, scene, params, int(x), int(y), s)["polynomials"][0]["roots_status"] == 1
+                         for s in range(samples))]
+    assert len(non_finite) >= 10, "no longer enough overflowing pixels"
+    for y, x in non_finite:
+        assert status[y, x] == 2 and level[y, x] == 0, (y, x, status[y, x], level[y, x])

@@ -452,6 +452,22 @@ struct ObjectRoots {
         }
         return own;
     }
+
+    /// A ray polynomial whose coefficients are not all finite: nothing is
+    /// solved or claimed. Every header field is defined (no discs, no
+    /// roots at infinity, no root tier, not seeded), so nothing of the
+    /// slot's previous sample (its escalation, say, which sets the pixel's
+    /// ladder level) is read for this one.
+    void set_non_finite() {
+        status = Status::NonFinite;
+        seeded = false;
+        complete = false;
+        own.n_discs = 0;
+        own.n_infinite = 0;
+        own.wants_exact = false;
+        own.escalation = 0;
+        res.bind(own);
+    }
 };
 
 /// Per-disc decisions of the current ray.
@@ -658,11 +674,7 @@ public:
         }
         r.seeded = false;
         if (o.skip[c]) {
-            // (As before the view: no discs, the rest of the header left
-            // as the slot's previous sample had it.)
-            r.status = Status::NonFinite;
-            r.res.n_discs = 0;
-            r.complete = false;
+            r.set_non_finite();
             return;
         }
         r.res.bind(o.res[c]);
@@ -1006,15 +1018,12 @@ public:
 private:
     /// find_roots on the object's ray polynomial (with its coefficient radii).
     void solve(ObjectRoots& r, int degree, const Seeds* seed) {
-        r.seeded = seed != nullptr;
         ++root_calls;
         if (!r.poly.finite) {
-            r.status = Status::NonFinite;
-            r.own.n_discs = 0;
-            r.res.bind(r.own);
-            r.complete = false;
+            r.set_non_finite();  // (not seeded: no seed was used, so no retry without)
             return;
         }
+        r.seeded = seed != nullptr;
         r.status = find_roots(r.poly.c, degree + 1, plan_.params.method, r.own, seed ? seed->re : nullptr,
                               seed ? seed->im : nullptr, r.poly.r);
         r.res.bind(r.own);
