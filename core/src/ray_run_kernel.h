@@ -22,6 +22,7 @@
 #include <cstring>
 
 #include "ray_polynomial.h"
+#include "simd_width.h"
 
 #if defined(__clang__)
 #define ARGAND_RAY_LANES _Pragma("clang loop vectorize(enable)")
@@ -41,13 +42,7 @@ namespace {
 // One native vector of V lanes (AVX-512: 8, AVX2: 4, SSE2: 2), U of them
 // side by side: W = U V = 8 lanes per chunk of the monomial loop, whose
 // accumulators stay in registers.
-#if defined(__AVX512F__)
-constexpr int V = 8;
-#elif defined(__AVX__)
-constexpr int V = 4;
-#else
-constexpr int V = 2;
-#endif
+constexpr int V = kSimdDoubles;
 constexpr int W = 8;
 constexpr int U = W / V;
 typedef double vd __attribute__((vector_size(V * sizeof(double))));

@@ -31,6 +31,7 @@
 #include <cstring>
 
 #include "roots_batch_block.h"
+#include "simd_width.h"
 
 // Masks are combined with & and | on bools on purpose: both sides are
 // always evaluated, which keeps the lane loops free of branches.
@@ -340,13 +341,7 @@ ARGAND_LANES
 /// Lanes per vector register of this instruction set: the lane loops of the
 /// Aberth sweeps run chunk by chunk, W lanes (one vector) at a time, and a
 /// chunk in which root i has stopped in every lane skips root i.
-#if defined(__AVX512F__)
-constexpr int W = 8;
-#elif defined(__AVX2__)
-constexpr int W = 4;
-#else
-constexpr int W = 2;
-#endif
+constexpr int W = detail::kSimdDoubles;
 static_assert(L % W == 0, "a block is whole vectors");
 /// From this sweep on (0-based), a real approximation whose correction is
 /// still large steps off the real axis (see aberth_lanes).
