@@ -364,31 +364,28 @@ void primary_ray_polynomial(const SurfaceSpec& s, const FramePlan::ObjectPlan& o
 
 namespace {
 
-using SumsFn = void (*)(const PrimaryRunInput&, PrimaryRun&);
-using DirsFn = void (*)(const SampleRowInput&, int, int, double*, double*, double*);
+/// One instruction set's lane-parallel functions (ray_run_kernel.h).
+struct RunKernels {
+    void (*sums)(const PrimaryRunInput&, PrimaryRun&);
+    void (*dirs)(const SampleRowInput&, int, int, double*, double*, double*);
+};
 
-BatchIsa run_isa(BatchIsa isa) {
-    if (isa == BatchIsa::Auto || isa == BatchIsa::Scalar || !batch_isa_supported(isa)) return batch_isa_best();
-    return isa;
-}
-
-SumsFn sums_for(BatchIsa isa) {
-    switch (run_isa(isa)) {
+constexpr RunKernels kRunGeneric{&ray_generic::primary_run_sums, &ray_generic::sample_direction_run};
 #if defined(__x86_64__) || defined(_M_X64)
-        case BatchIsa::Avx2: return &ray_avx2::primary_run_sums;
-        case BatchIsa::Avx512: return &ray_avx512::primary_run_sums;
+constexpr RunKernels kRunAvx2{&ray_avx2::primary_run_sums, &ray_avx2::sample_direction_run};
+constexpr RunKernels kRunAvx512{&ray_avx512::primary_run_sums, &ray_avx512::sample_direction_run};
 #endif
-        default: return &ray_generic::primary_run_sums;
-    }
-}
 
-DirsFn dirs_for(BatchIsa isa) {
-    switch (run_isa(isa)) {
+/// The functions for isa: Auto, Scalar or one this CPU does not run picks
+/// the widest it runs (batch_isa_best); SSE2 is the generic build.
+const RunKernels& run_kernels(BatchIsa isa) {
+    if (isa == BatchIsa::Auto || isa == BatchIsa::Scalar || !batch_isa_supported(isa)) isa = batch_isa_best();
+    switch (isa) {
 #if defined(__x86_64__) || defined(_M_X64)
-        case BatchIsa::Avx2: return &ray_avx2::sample_direction_run;
-        case BatchIsa::Avx512: return &ray_avx512::sample_direction_run;
+        case BatchIsa::Avx2: return kRunAvx2;
+        case BatchIsa::Avx512: return kRunAvx512;
 #endif
-        default: return &ray_generic::sample_direction_run;
+        default: return kRunGeneric;
     }
 }
 
@@ -433,7 +430,7 @@ void primary_ray_polynomial_run(const SurfaceSpec& s, const FramePlan::ObjectPla
     in.g_rad = op.g_rad.data();
     in.weight_factor = op.weight_factor.data();
     in.radius_factor = op.radius_factor.data();
-    sums_for(isa)(in, out);
+    run_kernels(isa).sums(in, out);
     // Underflow slack, lane by lane as primary_impl, for the lanes whose
     // smallest nonzero A is below the threshold (rare).
     const int n = s.degree;
@@ -457,7 +454,7 @@ void primary_ray_polynomial_run(const SurfaceSpec& s, const FramePlan::ObjectPla
 
 void sample_direction_run(const SampleRowInput& in, int first_cell, int cells, double* dx, double* dy, double* dz,
                           BatchIsa isa) {
-    dirs_for(isa)(in, first_cell, cells, dx, dy, dz);
+    run_kernels(isa).dirs(in, first_cell, cells, dx, dy, dz);
 }
 
 void primary_ray_polynomial_dd(const SurfaceSpec& s, const FramePlan::ObjectPlan& op, const double d[3],
