@@ -487,12 +487,66 @@ static bool mixed_lane(std::mt19937_64& rng, int n, int kind, Known& out) {
     return deg == n && exact_poly(roots, q, out);
 }
 
-static void mixed_blocks_with_seeds() {
-    std::mt19937_64 rng(1529);
-    std::normal_distribution<double> normal;
+// find_roots_rows (Method::Auto) on rows polynomials of degree n, row-major
+// in m, with seeds sr, si (n per row) or none, with every instruction set
+// this CPU runs: each keeps some lane, and all give the same bits. Returns
+// the first set's (generic) results; adds its lanes and kept lanes to
+// lanes and kept.
+static std::vector<RootsResult> rows_on_every_isa(const std::vector<double>& m, int rows, int n, const double* sr,
+                                                  const double* si, long& kept, long& lanes) {
     std::vector<BatchIsa> isas = {BatchIsa::Generic};
     if (batch_isa_supported(BatchIsa::Avx2)) isas.push_back(BatchIsa::Avx2);
     if (batch_isa_supported(BatchIsa::Avx512)) isas.push_back(BatchIsa::Avx512);
+    std::vector<std::vector<RootsResult>> per_isa;
+    for (BatchIsa isa : isas) {
+        std::vector<RootsResult> out(rows);
+        BatchCounters cnt;
+        const Status st = find_roots_rows(m.data(), rows, n + 1, Method::Auto, out.data(), nullptr, isa, &cnt, nullptr,
+                                          sr, si);
+        CHECK(st == Status::Ok, "degree %d %s: status", n, batch_isa_name(isa));
+        CHECK(cnt.kept > 0, "degree %d %s: no lane kept", n, batch_isa_name(isa));
+        if (per_isa.empty()) {
+            kept += cnt.kept;
+            lanes += cnt.lanes;
+        }
+        per_isa.push_back(out);
+    }
+    for (std::size_t a = 1; a < per_isa.size(); ++a)
+        for (int r = 0; r < rows; ++r) {
+            const RootsResult &x = per_isa[0][r], &y = per_isa[a][r];
+            bool same = x.n_discs == y.n_discs && x.n_infinite == y.n_infinite;
+            for (int i = 0; same && i < x.n_discs; ++i)
+                same = same_bits(x.discs[i].re, y.discs[i].re) && same_bits(x.discs[i].im, y.discs[i].im) &&
+                       same_bits(x.discs[i].radius, y.discs[i].radius) && x.discs[i].count == y.discs[i].count &&
+                       x.discs[i].verified == y.discs[i].verified && x.discs[i].real == y.discs[i].real;
+            CHECK(same, "degree %d row %d: %s and %s differ", n, r, batch_isa_name(isas[0]), batch_isa_name(isas[a]));
+        }
+    return per_isa[0];
+}
+
+// Every verified disc of res (row r, lane kind `kind`, degree n) holds
+// exactly as many of k's exact roots as it claims. Returns the discs
+// checked.
+static long check_verified_discs(const RootsResult& res, const Known& k, int n, int r, int kind) {
+    long checked = 0;
+    for (int i = 0; i < res.n_discs; ++i) {
+        const RootDisc& d = res.discs[i];
+        if (!d.verified) continue;
+        int in = 0;
+        for (int j = 0; j < n; ++j) {
+            bool sure = true;
+            in += inside(k.re[j], k.im[j], d, sure);
+        }
+        ++checked;
+        CHECK(in == d.count, "degree %d row %d (kind %d) disc %d D(%g%+gi, %g): holds %d roots, claims %d", n, r, kind, i,
+              d.re, d.im, d.radius, in, d.count);
+    }
+    return checked;
+}
+
+static void mixed_blocks_with_seeds() {
+    std::mt19937_64 rng(1529);
+    std::normal_distribution<double> normal;
     long checked = 0, kept = 0, lanes = 0;
     for (int n = 5; n <= kBatchMaxDegree; ++n) {
         const int rows = 96;  // six blocks; each block holds every lane kind and seed kind
@@ -526,50 +580,16 @@ static void mixed_blocks_with_seeds() {
                 si[r * n + i] = b;
             }
         }
-        std::vector<std::vector<RootsResult>> per_isa;
-        for (BatchIsa isa : isas) {
-            std::vector<RootsResult> out(rows);
-            BatchCounters cnt;
-            const Status st = find_roots_rows(m.data(), rows, n + 1, Method::Auto, out.data(), nullptr, isa, &cnt,
-                                              nullptr, sr.data(), si.data());
-            CHECK(st == Status::Ok, "degree %d %s: status", n, batch_isa_name(isa));
-            CHECK(cnt.kept > 0, "degree %d %s: no lane kept", n, batch_isa_name(isa));
-            if (per_isa.empty()) {
-                kept += cnt.kept;
-                lanes += cnt.lanes;
-            }
-            per_isa.push_back(out);
-        }
-        for (std::size_t a = 1; a < per_isa.size(); ++a)
-            for (int r = 0; r < rows; ++r) {
-                const RootsResult &x = per_isa[0][r], &y = per_isa[a][r];
-                bool same = x.n_discs == y.n_discs && x.n_infinite == y.n_infinite;
-                for (int i = 0; same && i < x.n_discs; ++i)
-                    same = same_bits(x.discs[i].re, y.discs[i].re) && same_bits(x.discs[i].im, y.discs[i].im) &&
-                           same_bits(x.discs[i].radius, y.discs[i].radius) && x.discs[i].count == y.discs[i].count &&
-                           x.discs[i].verified == y.discs[i].verified && x.discs[i].real == y.discs[i].real;
-                CHECK(same, "degree %d row %d: %s and %s differ", n, r, batch_isa_name(isas[0]), batch_isa_name(isas[a]));
-            }
+        const std::vector<RootsResult> got = rows_on_every_isa(m, rows, n, sr.data(), si.data(), kept, lanes);
         for (int r = 0; r < rows; ++r) {
-            const RootsResult& res = per_isa[0][r];
+            const RootsResult& res = got[r];
             RootsResult ref;
             find_roots(known[r].coeffs.data(), n + 1, Method::Auto, ref);
             int counted = 0, counted_ref = 0;
             for (int i = 0; i < res.n_discs; ++i) counted += res.discs[i].count;
             for (int i = 0; i < ref.n_discs; ++i) counted_ref += ref.discs[i].count;
             CHECK(counted + res.n_infinite == n && counted_ref + ref.n_infinite == n, "degree %d row %d: counts", n, r);
-            for (int i = 0; i < res.n_discs; ++i) {
-                const RootDisc& d = res.discs[i];
-                if (!d.verified) continue;
-                int in = 0;
-                for (int j = 0; j < n; ++j) {
-                    bool sure = true;
-                    in += inside(known[r].re[j], known[r].im[j], d, sure);
-                }
-                ++checked;
-                CHECK(in == d.count, "degree %d row %d (kind %d) disc %d D(%g%+gi, %g): holds %d roots, claims %d", n, r,
-                      r % 6, i, d.re, d.im, d.radius, in, d.count);
-            }
+            checked += check_verified_discs(res, known[r], n, r, r % 6);
         }
     }
     std::printf("mixed blocks with seeds: %ld lanes, %ld kept, %ld verified discs checked against exact roots\n", lanes,
@@ -635,9 +655,6 @@ static void real_seeds_of_complex_pairs_converge() {
 // fully verified.
 static void closed_form_blocks_mixed() {
     std::mt19937_64 rng(2718);
-    std::vector<BatchIsa> isas = {BatchIsa::Generic};
-    if (batch_isa_supported(BatchIsa::Avx2)) isas.push_back(BatchIsa::Avx2);
-    if (batch_isa_supported(BatchIsa::Avx512)) isas.push_back(BatchIsa::Avx512);
     long checked = 0, kept = 0, lanes = 0;
     for (int n = 2; n <= 4; ++n) {
         const int kinds = n == 2 ? 4 : 6;  // a cluster of three, or a pair beside a real root, needs n >= 3
@@ -656,31 +673,9 @@ static void closed_form_blocks_mixed() {
             kind_of.push_back(kind);
             m.insert(m.end(), k.coeffs.begin(), k.coeffs.end());
         }
-        std::vector<std::vector<RootsResult>> per_isa;
-        for (BatchIsa isa : isas) {
-            std::vector<RootsResult> out(rows);
-            BatchCounters cnt;
-            const Status st = find_roots_rows(m.data(), rows, n + 1, Method::Auto, out.data(), nullptr, isa, &cnt);
-            CHECK(st == Status::Ok, "degree %d %s: status", n, batch_isa_name(isa));
-            CHECK(cnt.kept > 0, "degree %d %s: no lane kept", n, batch_isa_name(isa));
-            if (per_isa.empty()) {
-                kept += cnt.kept;
-                lanes += cnt.lanes;
-            }
-            per_isa.push_back(out);
-        }
-        for (std::size_t a = 1; a < per_isa.size(); ++a)
-            for (int r = 0; r < rows; ++r) {
-                const RootsResult &x = per_isa[0][r], &y = per_isa[a][r];
-                bool same = x.n_discs == y.n_discs && x.n_infinite == y.n_infinite;
-                for (int i = 0; same && i < x.n_discs; ++i)
-                    same = same_bits(x.discs[i].re, y.discs[i].re) && same_bits(x.discs[i].im, y.discs[i].im) &&
-                           same_bits(x.discs[i].radius, y.discs[i].radius) && x.discs[i].count == y.discs[i].count &&
-                           x.discs[i].verified == y.discs[i].verified && x.discs[i].real == y.discs[i].real;
-                CHECK(same, "degree %d row %d: %s and %s differ", n, r, batch_isa_name(isas[0]), batch_isa_name(isas[a]));
-            }
+        const std::vector<RootsResult> got = rows_on_every_isa(m, rows, n, nullptr, nullptr, kept, lanes);
         for (int r = 0; r < rows; ++r) {
-            const RootsResult& res = per_isa[0][r];
+            const RootsResult& res = got[r];
             int counted = 0;
             bool all_verified = true;
             for (int i = 0; i < res.n_discs; ++i) {
@@ -689,18 +684,7 @@ static void closed_form_blocks_mixed() {
             }
             CHECK(counted + res.n_infinite == n, "degree %d row %d: counts", n, r);
             if (kind_of[r] <= 1) CHECK(all_verified && res.n_infinite == 0, "degree %d row %d: well separated, not verified", n, r);
-            for (int i = 0; i < res.n_discs; ++i) {
-                const RootDisc& d = res.discs[i];
-                if (!d.verified) continue;
-                int in = 0;
-                for (int j = 0; j < n; ++j) {
-                    bool sure = true;
-                    in += inside(known[r].re[j], known[r].im[j], d, sure);
-                }
-                ++checked;
-                CHECK(in == d.count, "degree %d row %d (kind %d) disc %d D(%g%+gi, %g): holds %d roots, claims %d", n, r,
-                      kind_of[r], i, d.re, d.im, d.radius, in, d.count);
-            }
+            checked += check_verified_discs(res, known[r], n, r, kind_of[r]);
         }
     }
     CHECK(kept >= lanes / 3, "closed-form blocks: only %ld of %ld lanes kept", kept, lanes);
