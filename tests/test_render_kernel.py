@@ -228,28 +228,31 @@ def test_refined_batched_pixels_replay():
 
 
 @pytest.mark.parametrize("samples", [1, 4])
-@pytest.mark.parametrize("kernel", ["scalar", "best"])
-def test_non_finite_ray_polynomials_start_on_the_first_level(kernel, samples):
+@pytest.mark.parametrize("power, coeff, scale, kernel", [(2, "6.5e289", 1e-9, "scalar"), (2, "6.5e289", 1e-9, "best"),
+                                                         (6, "1e200", 1.55e-18, "scalar")])
+def test_non_finite_ray_polynomials_start_on_the_first_level(power, coeff, scale, kernel, samples):
     """A sample whose ray polynomial overflows (a coefficient not finite:
     nothing solved, status unverified) is on the ladder's first level,
-    whatever the sample traced before it in the same slot had (here: the
-    root tier's double-double, on the exact double roots of a doubled plane).
+    whatever the sample traced before it in the same slot had: here the
+    root tier's double-double (the exact double roots of a doubled plane),
+    or, sixfold with the scalar kernel, the neighbour's seeds (a seeded
+    sample whose decision is not proven is retried without seeds; a
+    non-finite one used none).
 
-    The plane x + y + z = 1, doubled and scaled by 6.5e289, seen from the
-    origin in object units of 1e-9: the ray polynomial along a unit world
-    direction d is 6.5e289 (1 - 1e9 s t)^2 with s = dx + dy + dz, whose t^2
-    coefficient 6.5e307 s^2 overflows where s^2 > 2.77 (the middle of the
-    frame, s near sqrt 3) and is finite towards the edges (exact double
-    roots: status cluster after the root tier)."""
+    The plane x + y + z = 1, to the power 2 or 6 and scaled by a huge
+    coefficient, seen from the origin in tiny object units: along a unit
+    world direction d the ray polynomial is coeff (1 - s t / scale)^power
+    with s = dx + dy + dz, whose top coefficient overflows in the middle
+    of the frame (s near sqrt 3) and is finite towards the edges."""
     scene = scene_from_dict({
-        "objects": [{"surface": "6.5e289*(x + y + z - 1)^2", "transform": {"scale": 1e-9}}],
+        "objects": [{"surface": f"{coeff}*(x + y + z - 1)^{power}", "transform": {"scale": scale}}],
         "camera": {"position": [0.0, 0.0, 0.0], "look_at": [1.0, 1.0, 1.0]},
     })
     params = FrameParams(width=16, height=16, samples=samples, exact_pixels_per_tile=0)
     kernel = _core.batch_kernel() if kernel == "best" else kernel
     frame = render_with(kernel, scene, params)
     status, level = np.asarray(frame.aovs["status"]), np.asarray(frame.aovs["escalation"])
-    assert (level[status == 1] == 1).sum() >= 10, "the finite rays no longer climb to the root tier"
+    assert (level[status == 1] > 0).sum() >= 10, "the finite rays no longer climb the ladder"
     # The pixels every sample of which overflows (explain_pixel's roots
     # status 1, NonFinite); a pixel with finite samples too may climb.
     non_finite = [(y, x) for y, x in np.argwhere(status == 2)
