@@ -164,6 +164,42 @@ def test_bad_kernel_name_is_refused():
     assert "ARGAND_KERNEL=avx9000 names no root kernel" in run.stderr
 
 
+@pytest.mark.parametrize("samples", [1, 4])
+@pytest.mark.parametrize("power, coeff, scale, kernel", [(2, "6.5e289", 1e-9, "scalar"), (2, "6.5e289", 1e-9, "best"),
+                                                         (6, "1e200", 1.55e-18, "scalar")])
+def test_non_finite_ray_polynomials_start_on_the_first_level(power, coeff, scale, kernel, samples):
+    """A sample whose ray polynomial overflows (a coefficient not finite:
+    nothing solved, status unverified) is on the ladder's first level,
+    whatever the sample traced before it in the same slot had: here the
+    root tier's double-double (the exact double roots of a doubled plane),
+    or, sixfold with the scalar kernel, the neighbour's seeds (a seeded
+    sample whose decision is not proven is retried without seeds; a
+    non-finite one used none).
+
+    The plane x + y + z = 1, to the power 2 or 6 and scaled by a huge
+    coefficient, seen from the origin in tiny object units: along a unit
+    world direction d the ray polynomial is coeff (1 - s t / scale)^power
+    with s = dx + dy + dz, whose top coefficient overflows in the middle
+    of the frame (s near sqrt 3) and is finite towards the edges."""
+    scene = scene_from_dict({
+        "objects": [{"surface": f"{coeff}*(x + y + z - 1)^{power}", "transform": {"scale": scale}}],
+        "camera": {"position": [0.0, 0.0, 0.0], "look_at": [1.0, 1.0, 1.0]},
+    })
+    params = FrameParams(width=16, height=16, samples=samples, exact_pixels_per_tile=0)
+    kernel = _core.batch_kernel() if kernel == "best" else kernel
+    frame = render_with(kernel, scene, params)
+    status, level = np.asarray(frame.aovs["status"]), np.asarray(frame.aovs["escalation"])
+    assert (level[status == 1] > 0).sum() >= 10, "the finite rays no longer climb the ladder"
+    # The pixels every sample of which overflows (explain_pixel's roots
+    # status 1, NonFinite); a pixel with finite samples too may climb.
+    non_finite = [(y, x) for y, x in np.argwhere(status == 2)
+                  if all(explain_with(kernel, scene, params, int(x), int(y), s)["polynomials"][0]["roots_status"] == 1
+                         for s in range(samples))]
+    assert len(non_finite) >= 10, "no longer enough overflowing pixels"
+    for y, x in non_finite:
+        assert status[y, x] == 2 and level[y, x] == 0, (y, x, status[y, x], level[y, x])
+
+
 def test_lane_parallel_ray_polynomials_are_the_scalar_ones(tmp_path):
     """The batched path's ray polynomials come from
     primary_ray_polynomial_run (runs of 32 cells, lane by lane), the scalar
@@ -225,39 +261,3 @@ def test_refined_batched_pixels_replay():
             assert np.float32(e["root"].imag) == frame.aovs["im"][y, x]
     check = check_frame(scene, params, frame, [(int(x), int(y)) for y, x in np.argwhere(level == 3)])
     assert check.wrong == 0, check.disagreements[:3]
-
-
-@pytest.mark.parametrize("samples", [1, 4])
-@pytest.mark.parametrize("power, coeff, scale, kernel", [(2, "6.5e289", 1e-9, "scalar"), (2, "6.5e289", 1e-9, "best"),
-                                                         (6, "1e200", 1.55e-18, "scalar")])
-def test_non_finite_ray_polynomials_start_on_the_first_level(power, coeff, scale, kernel, samples):
-    """A sample whose ray polynomial overflows (a coefficient not finite:
-    nothing solved, status unverified) is on the ladder's first level,
-    whatever the sample traced before it in the same slot had: here the
-    root tier's double-double (the exact double roots of a doubled plane),
-    or, sixfold with the scalar kernel, the neighbour's seeds (a seeded
-    sample whose decision is not proven is retried without seeds; a
-    non-finite one used none).
-
-    The plane x + y + z = 1, to the power 2 or 6 and scaled by a huge
-    coefficient, seen from the origin in tiny object units: along a unit
-    world direction d the ray polynomial is coeff (1 - s t / scale)^power
-    with s = dx + dy + dz, whose top coefficient overflows in the middle
-    of the frame (s near sqrt 3) and is finite towards the edges."""
-    scene = scene_from_dict({
-        "objects": [{"surface": f"{coeff}*(x + y + z - 1)^{power}", "transform": {"scale": scale}}],
-        "camera": {"position": [0.0, 0.0, 0.0], "look_at": [1.0, 1.0, 1.0]},
-    })
-    params = FrameParams(width=16, height=16, samples=samples, exact_pixels_per_tile=0)
-    kernel = _core.batch_kernel() if kernel == "best" else kernel
-    frame = render_with(kernel, scene, params)
-    status, level = np.asarray(frame.aovs["status"]), np.asarray(frame.aovs["escalation"])
-    assert (level[status == 1] > 0).sum() >= 10, "the finite rays no longer climb the ladder"
-    # The pixels every sample of which overflows (explain_pixel's roots
-    # status 1, NonFinite); a pixel with finite samples too may climb.
-    non_finite = [(y, x) for y, x in np.argwhere(status == 2)
-                  if all(explain_with(kernel, scene, params, int(x), int(y), s)["polynomials"][0]["roots_status"] == 1
-                         for s in range(samples))]
-    assert len(non_finite) >= 10, "no longer enough overflowing pixels"
-    for y, x in non_finite:
-        assert status[y, x] == 2 and level[y, x] == 0, (y, x, status[y, x], level[y, x])
