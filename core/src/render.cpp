@@ -834,6 +834,32 @@ public:
         return h;
     }
 
+    /// intersect for a primary ray whose objects the batch solved, every
+    /// one of them (pre), in the common case: decide_fast certifies the
+    /// pixel. Then it does what intersect does for that ray (the batch's
+    /// roots into the depth-0 slots, the level, decide's result, the root
+    /// calls counted) without the rest of the ladder, and returns true with
+    /// h (default-constructed by the caller) exactly intersect's result.
+    /// Otherwise false (nothing counted, h unspecified): the caller runs
+    /// intersect, which fills the same slots again and decides in full.
+    bool intersect_batched(const BatchedCell& pre, HitInfo& h) {
+        if (full_only_) return false;
+        const int n_obj = static_cast<int>(plan_.scene.objects.size());
+        ObjectRoots* roots = scratch_.data();  // (depth 0's slots)
+        std::uint8_t level = kLevelFirst;
+        recording_ = false;
+        for (int obj = 0; obj < n_obj; ++obj) {
+            ObjectRoots& r = roots[obj];
+            pre.batch->fill(obj, pre.cell, r, false);
+            r.have_dd = false;
+            if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
+        }
+        if (!decide_fast(roots, h)) return false;
+        root_calls += n_obj;
+        h.level = level;
+        return true;
+    }
+
     /// Colour seen along a ray (recursion for real reflective / transparent
     /// objects). `hit` is the already computed intersection.
     void shade(const double* o, const double* d, const HitInfo& hit, int depth, double* rgb) {
@@ -1642,6 +1668,11 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileView& out, 
     Tracer tracer(plan, exact);
     PrimaryBatch batch(plan, kernel_from_environment());
     batch.begin_tile(side * w);
+    // Every object solved in the batch: a certified sample may take
+    // Tracer::intersect_batched (intersect's result, the ladder unneeded).
+    bool all_batched = batch.any();
+    for (std::size_t obj = 0; obj < plan.scene.objects.size(); ++obj)
+        all_batched = all_batched && batch.batched(static_cast<int>(obj));
     std::vector<Seeds> seeds(plan.scene.objects.size());
     std::vector<PixelAccumulator> row(static_cast<std::size_t>(w));
     alignas(64) double dx[PrimaryBatch::kCells], dy[PrimaryBatch::kCells], dz[PrimaryBatch::kCells];
@@ -1678,9 +1709,18 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileView& out, 
                     const int sx = b0 + c;
                     // (The run's directions are sample_direction's, to the bit.)
                     const double dir[3] = {dx[c], dy[c], dz[c]};
-                    const SampleResult sample = trace_sample(plan, tracer, sx, sy, side, seeds.data(), nullptr,
-                                                             batch.any() ? &pre : nullptr,
-                                                             batch.any() ? dir : nullptr);
+                    SampleResult sample;
+                    if (all_batched && tracer.intersect_batched(pre, sample.hit)) {
+                        // trace_sample's shading of the certified hit (the
+                        // ray's origin is the eye's doubles).
+                        double rgb[3];
+                        if (sample.hit.hit) tracer.shade(plan.eye, dir, sample.hit, 0, rgb);
+                        else for (int a = 0; a < 3; ++a) rgb[a] = plan.scene.background[a];
+                        for (int a = 0; a < 3; ++a) sample.rgb[a] = static_cast<float>(rgb[a]);
+                    } else {
+                        sample = trace_sample(plan, tracer, sx, sy, side, seeds.data(), nullptr,
+                                              batch.any() ? &pre : nullptr, batch.any() ? dir : nullptr);
+                    }
                     // One sample per pixel: straight to the AOVs (the same
                     // bits as add() then write(), without the copies).
                     if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * stride + (sx - r.x0), sample);
