@@ -154,6 +154,10 @@ struct GradientTerm {
     double ce;
     int axis;
     int k[3];
+    // gradient_real's factors: flat indices k[b] * 3 + b into its power
+    // table pw[k][b] of the axes b with k[b] != 0, in axis order, then 0
+    // (pw[0][0] = 1.0: a product by it is exact, v * 1.0 = v).
+    int f[3];
 };
 
 /// What shading needs that depends only on the frame (built once per
@@ -213,8 +217,10 @@ struct ShadePlan {
                 const int e[3] = {t.ex, t.ey, t.ez};
                 for (int a = 0; a < 3; ++a) {
                     if (e[a] == 0) continue;
-                    GradientTerm g{t.coeff * e[a], a, {e[0], e[1], e[2]}};
+                    GradientTerm g{t.coeff * e[a], a, {e[0], e[1], e[2]}, {0, 0, 0}};
                     g.k[a] -= 1;
+                    for (int b = 0, j = 0; b < 3; ++b)
+                        if (g.k[b] != 0) g.f[j++] = g.k[b] * 3 + b;
                     for (int b = 0; b < 3; ++b) ob.k_max[b] = std::max(ob.k_max[b], g.k[b]);
                     ob.terms.push_back(g);
                     if (!std::isfinite(g.ce) || g.ce == 0.0) {
@@ -375,11 +381,11 @@ bool gradient_real(const ShadePlan::Object& ob, const double* x, double* grad_re
     for (int k = 1; k <= ob.k_top; ++k)
         for (int a = 0; a < 3; ++a) pw[k][a] = pw[k - 1][a] * x[a];
     double g[3] = {0.0, 0.0, 0.0};
+    // (The factors by GradientTerm::f: the same products in the same order,
+    // and products by pw[0][0] = 1.0, exact, in place of the branches.)
+    const double* pwf = &pw[0][0];
     for (const GradientTerm& t : ob.terms) {
-        double v = t.ce;
-        if (t.k[0]) v = v * pw[t.k[0]][0];
-        if (t.k[1]) v = v * pw[t.k[1]][1];
-        if (t.k[2]) v = v * pw[t.k[2]][2];
+        const double v = ((t.ce * pwf[t.f[0]]) * pwf[t.f[1]]) * pwf[t.f[2]];
         g[t.axis] = g[t.axis] + v;
     }
     for (int a = 0; a < 3; ++a) grad_re[a] = g[a];
