@@ -860,7 +860,8 @@ public:
             r.have_dd = false;
             if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
         }
-        if (!decide_fast(roots, h)) return false;
+        // (decide_fast, for one object straight to its decide_one.)
+        if (!(n_obj == 1 ? decide_one(roots, h) : decide_fast(roots, h))) return false;
         root_calls += n_obj;
         h.level = level;
         return true;
