@@ -95,15 +95,22 @@ void primary_run_sums(const PrimaryRunInput& in, PrimaryRun& out) {
         // operations: (L0 d0 + L1 d1) + L2 d2, exact; A = |d'|. Padding
         // lanes repeat cell 0 (finite; never read back).
         alignas(64) double wx[kRunCells], wy[kRunCells], wz[kRunCells];
-        for (int l = 0; l < out.cells; ++l) {
-            wx[l] = in.dx[l];
-            wy[l] = in.dy[l];
-            wz[l] = in.dz[l];
-        }
-        for (int l = out.cells; l < kRunCells; ++l) {
-            wx[l] = in.dx[0];
-            wy[l] = in.dy[0];
-            wz[l] = in.dz[0];
+        if (out.cells == kRunCells) {
+            // (A full run's copies have a fixed size: no library calls.)
+            std::memcpy(wx, in.dx, sizeof wx);
+            std::memcpy(wy, in.dy, sizeof wy);
+            std::memcpy(wz, in.dz, sizeof wz);
+        } else {
+            for (int l = 0; l < out.cells; ++l) {
+                wx[l] = in.dx[l];
+                wy[l] = in.dy[l];
+                wz[l] = in.dz[l];
+            }
+            for (int l = out.cells; l < kRunCells; ++l) {
+                wx[l] = in.dx[0];
+                wy[l] = in.dy[0];
+                wz[l] = in.dz[0];
+            }
         }
         for (int r = 0; r < 3; ++r) {
             const double L0 = in.linear[3 * r], L1 = in.linear[3 * r + 1], L2 = in.linear[3 * r + 2];
@@ -118,16 +125,20 @@ void primary_run_sums(const PrimaryRunInput& in, PrimaryRun& out) {
     }
     // The underflow test of primary_impl per lane: amin, amax over the
     // nonzero A_a (1 when none is smaller / larger).
-    ARGAND_RAY_LANES
-    for (int l = 0; l < kRunCells; ++l) {
-        double amin = 1.0, amax = 1.0;
-        for (int a = 0; a < 3; ++a) {
-            const double m = out.mag[a][l];
-            amin = (m > 0.0) & (m < amin) ? m : amin;
-            amax = (m > 0.0) & (m > amax) ? m : amax;
+    // (In native vectors: the same selects lane by lane.)
+    {
+        const vd threshold = splat(in.no_underflow_threshold), zero = splat(0.0);
+        for (int l0 = 0; l0 < kRunCells; l0 += V) {
+            vd amin = splat(1.0), amax = splat(1.0);
+            for (int a = 0; a < 3; ++a) {
+                const vd m = load(out.mag[a] + l0);
+                amin = (m > zero) & (m < amin) ? m : amin;
+                amax = (m > zero) & (m > amax) ? m : amax;
+            }
+            store(out.amax + l0, amax);
+            const vi low = amin < threshold;
+            for (int l = 0; l < V; ++l) out.slack[l0 + l] = low[l] != 0 ? 1 : 0;
         }
-        out.slack[l] = amin < in.no_underflow_threshold ? 1 : 0;
-        out.amax[l] = amax;
     }
     ARGAND_RAY_LANES
     for (int l = 0; l < kRunCells; ++l) {

@@ -154,6 +154,10 @@ struct GradientTerm {
     double ce;
     int axis;
     int k[3];
+    // gradient_real's factors: flat indices k[b] * 3 + b into its power
+    // table pw[k][b] of the axes b with k[b] != 0, in axis order, then 0
+    // (pw[0][0] = 1.0: a product by it is exact, v * 1.0 = v).
+    int f[3];
 };
 
 /// What shading needs that depends only on the frame (built once per
@@ -213,8 +217,10 @@ struct ShadePlan {
                 const int e[3] = {t.ex, t.ey, t.ez};
                 for (int a = 0; a < 3; ++a) {
                     if (e[a] == 0) continue;
-                    GradientTerm g{t.coeff * e[a], a, {e[0], e[1], e[2]}};
+                    GradientTerm g{t.coeff * e[a], a, {e[0], e[1], e[2]}, {0, 0, 0}};
                     g.k[a] -= 1;
+                    for (int b = 0, j = 0; b < 3; ++b)
+                        if (g.k[b] != 0) g.f[j++] = g.k[b] * 3 + b;
                     for (int b = 0; b < 3; ++b) ob.k_max[b] = std::max(ob.k_max[b], g.k[b]);
                     ob.terms.push_back(g);
                     if (!std::isfinite(g.ce) || g.ce == 0.0) {
@@ -375,11 +381,11 @@ bool gradient_real(const ShadePlan::Object& ob, const double* x, double* grad_re
     for (int k = 1; k <= ob.k_top; ++k)
         for (int a = 0; a < 3; ++a) pw[k][a] = pw[k - 1][a] * x[a];
     double g[3] = {0.0, 0.0, 0.0};
+    // (The factors by GradientTerm::f: the same products in the same order,
+    // and products by pw[0][0] = 1.0, exact, in place of the branches.)
+    const double* pwf = &pw[0][0];
     for (const GradientTerm& t : ob.terms) {
-        double v = t.ce;
-        if (t.k[0]) v = v * pw[t.k[0]][0];
-        if (t.k[1]) v = v * pw[t.k[1]][1];
-        if (t.k[2]) v = v * pw[t.k[2]][2];
+        const double v = ((t.ce * pwf[t.f[0]]) * pwf[t.f[1]]) * pwf[t.f[2]];
         g[t.axis] = g[t.axis] + v;
     }
     for (int a = 0; a < 3; ++a) grad_re[a] = g[a];
@@ -844,6 +850,33 @@ public:
             trace->root_im = h.disc.im;
         }
         return h;
+    }
+
+    /// intersect for a primary ray whose objects the batch solved, every
+    /// one of them (pre), in the common case: decide_fast certifies the
+    /// pixel. Then it does what intersect does for that ray (the batch's
+    /// roots into the depth-0 slots, the level, decide's result, the root
+    /// calls counted) without the rest of the ladder, and returns true with
+    /// h (default-constructed by the caller) exactly intersect's result.
+    /// Otherwise false (nothing counted, h unspecified): the caller runs
+    /// intersect, which fills the same slots again and decides in full.
+    bool intersect_batched(const BatchedCell& pre, HitInfo& h) {
+        if (full_only_) return false;
+        const int n_obj = static_cast<int>(plan_.scene.objects.size());
+        ObjectRoots* roots = scratch_.data();  // (depth 0's slots)
+        std::uint8_t level = kLevelFirst;
+        recording_ = false;
+        for (int obj = 0; obj < n_obj; ++obj) {
+            ObjectRoots& r = roots[obj];
+            pre.batch->fill(obj, pre.cell, r, false);
+            r.have_dd = false;
+            if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
+        }
+        // (decide_fast, for one object straight to its decide_one.)
+        if (!(n_obj == 1 ? decide_one(roots, h) : decide_fast(roots, h))) return false;
+        root_calls += n_obj;
+        h.level = level;
+        return true;
     }
 
     /// Colour seen along a ray (recursion for real reflective / transparent
@@ -1651,6 +1684,11 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileView& out, 
     Tracer tracer(plan, exact);
     PrimaryBatch batch(plan, kernel_from_environment());
     batch.begin_tile(side * w);
+    // Every object solved in the batch: a certified sample may take
+    // Tracer::intersect_batched (intersect's result, the ladder unneeded).
+    bool all_batched = batch.any();
+    for (std::size_t obj = 0; obj < plan.scene.objects.size(); ++obj)
+        all_batched = all_batched && batch.batched(static_cast<int>(obj));
     std::vector<Seeds> seeds(plan.scene.objects.size());
     std::vector<PixelAccumulator> row(static_cast<std::size_t>(w));
     alignas(64) double dx[PrimaryBatch::kCells], dy[PrimaryBatch::kCells], dz[PrimaryBatch::kCells];
@@ -1687,9 +1725,18 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileView& out, 
                     const int sx = b0 + c;
                     // (The run's directions are sample_direction's, to the bit.)
                     const double dir[3] = {dx[c], dy[c], dz[c]};
-                    const SampleResult sample = trace_sample(plan, tracer, sx, sy, side, seeds.data(), nullptr,
-                                                             batch.any() ? &pre : nullptr,
-                                                             batch.any() ? dir : nullptr);
+                    SampleResult sample;
+                    if (all_batched && tracer.intersect_batched(pre, sample.hit)) {
+                        // trace_sample's shading of the certified hit (the
+                        // ray's origin is the eye's doubles).
+                        double rgb[3];
+                        if (sample.hit.hit) tracer.shade(plan.eye, dir, sample.hit, 0, rgb);
+                        else for (int a = 0; a < 3; ++a) rgb[a] = plan.scene.background[a];
+                        for (int a = 0; a < 3; ++a) sample.rgb[a] = static_cast<float>(rgb[a]);
+                    } else {
+                        sample = trace_sample(plan, tracer, sx, sy, side, seeds.data(), nullptr,
+                                              batch.any() ? &pre : nullptr, batch.any() ? dir : nullptr);
+                    }
                     // One sample per pixel: straight to the AOVs (the same
                     // bits as add() then write(), without the copies).
                     if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * stride + (sx - r.x0), sample);
