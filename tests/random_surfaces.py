@@ -1,4 +1,4 @@
-"""Random surfaces of degree 1 to 8 for the render tests, from a seeded RNG.
+"""Random surfaces of degree 1 to 12 for the render tests, from a seeded RNG.
 
 Each generator returns the renderer's typed core scene (the
 ``_core.SceneSpec`` ``argand.render.convert.to_core_scene`` makes of a Scene)
@@ -131,8 +131,8 @@ def parse_random_spec(spec: str):
         raise ValueError(f"expected random:DEGREE:SEED or random:FAMILY:DEGREE:SEED, got {spec!r}")
     family = parts[1] if len(parts) == 4 else "dense"
     degree, seed = int(parts[-2]), int(parts[-1])
-    if not 1 <= degree <= 8:
-        raise ValueError(f"degree must be in 1..8, got {degree}")
+    if not 1 <= degree <= 12:
+        raise ValueError(f"degree must be in 1..12, got {degree}")
     return random_scene(family, degree, seed)
 
 

@@ -211,6 +211,10 @@ def test_bench_roots_smoke(tmp_path):
         for name, ratio in data["slowdown_vs_auto"].items():
             assert _finite_positive(ratio), name
     assert any("times faster than python-flint acb_poly.roots() on quartics" in line for line in report["headline"])
+    # The kernel comparison alone at the kernels' top degrees.
+    assert set(report["kernel_suites"]) == {"degree_10", "degree_12"}
+    for k in report["kernel_suites"].values():
+        assert all(_finite_positive(v) for v in k["ns_per_poly_cpu"].values()), k
     # The real ray polynomials: every scene, silhouettes among them, every contender run on them.
     rays = report["suites"]["rays"]["results"]
     assert set(ours + alternatives) <= set(rays)

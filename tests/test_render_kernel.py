@@ -53,11 +53,17 @@ def explain_with(kernel: str, scene, params: FrameParams, x: int, y: int, sample
         del os.environ["ARGAND_KERNEL"]
 
 
-def assert_same_decisions(a, b, what: str, scene=None, params=None, kernels=("scalar", "scalar")) -> int:
+def assert_same_decisions(a, b, what: str, scene=None, params=None, kernels=("scalar", "scalar"),
+                          loose: bool = False) -> int:
     """Same status, hit or miss and eligible count on every pixel; the
     chosen roots of certified hits the same root (or its conjugate). Returns the certified hits
     whose shown centres differ by more than 1e-6 relative (each checked:
-    their two chosen discs, from explain_pixel, must meet)."""
+    their two chosen discs, from explain_pixel, must meet). loose: the
+    eligible counts may differ (a disc that is not the chosen one, e.g.
+    straddling the clipping sphere, is proven eligible by one kernel's
+    discs and not the other's), any number of chosen centres may differ by
+    more than 1e-6 (wide discs at near-multiple roots), and a sample of 12
+    of them is checked."""
     sa, sb = np.asarray(a.aovs["status"]), np.asarray(b.aovs["status"])
     diff = np.argwhere(sa != sb)
     assert diff.size == 0, f"{what}: statuses differ at {diff[:10].tolist()}"
@@ -65,7 +71,7 @@ def assert_same_decisions(a, b, what: str, scene=None, params=None, kernels=("sc
     diff = np.argwhere(ha != hb)
     assert diff.size == 0, f"{what}: hit/miss differ at {diff[:10].tolist()}"
     ca, cb = np.asarray(a.aovs["count"]), np.asarray(b.aovs["count"])
-    assert np.array_equal(ca, cb), f"{what}: eligible counts differ at {np.argwhere(ca != cb)[:10].tolist()}"
+    assert loose or np.array_equal(ca, cb), f"{what}: eligible counts differ at {np.argwhere(ca != cb)[:10].tolist()}"
     # The chosen root of a certified hit is the same root, but the shown
     # centre is its disc's centre, and the two kernels' discs differ (a
     # near-double root's disc may be 1e-5 wide): where the centres differ
@@ -83,6 +89,8 @@ def assert_same_decisions(a, b, what: str, scene=None, params=None, kernels=("sc
     im_a, im_b = np.asarray(a.aovs["im"]), np.asarray(b.aovs["im"])
     mirrored = (np.abs(re_a - re_b) <= 1e-6 * scale) & (np.abs(im_a + im_b) <= 1e-6 * scale)
     rest, flips = np.argwhere(far & ~mirrored), np.argwhere(far & mirrored)
+    if loose:
+        rest = rest[np.random.default_rng(16).permutation(len(rest))[:12]]
     sample = np.random.default_rng(15).permutation(len(flips))[:12]
     spots = np.concatenate([rest, flips[sample]]) if len(flips) else rest
     if spots.size:
@@ -261,3 +269,44 @@ def test_refined_batched_pixels_replay():
             assert np.float32(e["root"].imag) == frame.aovs["im"][y, x]
     check = check_frame(scene, params, frame, [(int(x), int(y)) for y, x in np.argwhere(level == 3)])
     assert check.wrong == 0, check.disagreements[:3]
+
+
+def _high_degree_scene(name: str):
+    """Surfaces of degree 9 to 12 (the batched kernel's degrees above the presets')."""
+    from argand.scene import scene_from_dict
+    from random_surfaces import random_scene
+
+    if name.startswith("dense-"):
+        return random_scene("dense", int(name.split("-")[1]), seed=0)
+    spheres = "(x^2+y^2+z^2-1)*((x-0.5)^2+y^2+z^2-0.8)*(x^2+(y-0.4)^2+z^2-0.6)*(x^2+y^2+(z+0.3)^2-0.9)"
+    surfaces = {
+        "x10": "x^10 + y^10 + z^10 - 1",
+        "x12": "x^12 + y^12 + z^12 - 0.5*x^2*y^2*z^2 - 1",
+        "spheres-planes-9": spheres + "*(x+y+z-0.2)",
+        "spheres-planes-11": spheres + "*(x+y+z-0.2)*(x-y+0.3)*(z-0.05)",
+    }
+    return scene_from_dict({"objects": [{"surface": surfaces[name], "clip_radius": 2.0}],
+                            "camera": {"position": [5.0, 3.0, 2.0], "look_at": [0.0, 0.0, 0.0]}})
+
+
+@pytest.mark.parametrize("name", ["x10", "x12", "spheres-planes-9", "spheres-planes-11", "dense-10", "dense-12"])
+def test_degrees_9_to_12_batched_equals_scalar(name):
+    """Objects of degree 9 to 12 go through the batched kernel too (runs of
+    32 primary rays, lane-parallel ray polynomials, seeds from the sample
+    above): the same decisions as the scalar path on every pixel, certified
+    pixels right against the exact truth, and explain_pixel replays the
+    batched pixel with the scalar path's ray polynomial, bit for bit."""
+    scene = _high_degree_scene(name)
+    params = FrameParams(delta=math.pi / 9, width=40, height=30)
+    best = _core.batch_kernel()
+    scalar = render_with("scalar", scene, params)
+    batched = render_with(best, scene, params)
+    assert_same_decisions(scalar, batched, f"{name} scalar vs {best}", scene, params, ("scalar", best), loose=True)
+    check = check_frame(scene, params, batched, sample_pixels(params.width, params.height, 25, seed=15))
+    assert check.wrong == 0, check.disagreements[:3]
+    for x, y in [(20, 15), (33, 7), (5, 26)]:
+        eb, es = explain_with(best, scene, params, x, y), explain_with("scalar", scene, params, x, y)
+        for pb, ps in zip(eb["polynomials"], es["polynomials"]):
+            assert np.array(pb["coeffs"]).tobytes() == np.array(ps["coeffs"]).tobytes(), (name, x, y)
+        assert eb["status"] == batched.aovs["status"][y, x]
+        assert eb["hit"] == bool(batched.rgba[y, x, 3] > 0)

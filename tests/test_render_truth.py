@@ -28,7 +28,7 @@ from argand.scene.presets import CLASSIC_PRESETS, PAPER_PRESETS
 from pixel_truth import check_frame, check_pixel, pixel_truth, rendered_pixel, sample_pixels, scene_objects
 from random_surfaces import FAMILIES, core_scene, random_scene
 
-DEGREES = range(2, 9)
+DEGREES = (*range(2, 9), 10, 12)  # (10 and 12: the batched kernel's top degrees)
 BAND_WIDTHS = (0.0, math.pi / 18)
 
 #: degree -> [certified pixels, pixels] over every frame rendered here.
@@ -150,7 +150,7 @@ def test_primary_ray_refuses_pixels_outside_the_frame():
 
 
 # ---------------------------------------------------------------------------
-# Random surfaces of degree 2 to 8, the presets
+# Random surfaces of degree 2 to 8, 10 and 12, the presets
 # ---------------------------------------------------------------------------
 
 

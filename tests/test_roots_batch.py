@@ -296,3 +296,30 @@ def test_results_survive_later_calls():
     for f, v in kept.items():
         assert np.array_equal(getattr(a, f), v, equal_nan=True), f
     assert np.array_equal(count_only, count_kept)
+
+
+@pytest.mark.parametrize("n", [9, 12])
+def test_family_radii_in_the_lanes_high_degree(n):
+    """Coefficient radii (the ray caster's families) at the kernel's top
+    degrees: random coefficients, radii from 1e-17 to 1e-6 relative, some
+    exact coefficients; every member checked (corners and random points of
+    the box) against the exact truth, and the lanes keep most rows."""
+    import random
+
+    from test_roots_family import members
+
+    rng = random.Random(15_17 + n)
+    nrng = np.random.default_rng([SEED, 17, n])
+    matrix = nrng.standard_normal((32, n + 1))
+    rel = 10.0 ** nrng.uniform(-17, -6, size=(32, 1))
+    rad = np.abs(matrix) * rel * nrng.uniform(0.5, 2.0, size=matrix.shape)
+    rad[nrng.random(matrix.shape) < 0.1] = 0.0
+    result = find_roots_batch(matrix, "auto", radius=rad)
+    assert result.lanes_kept >= 24, result.lanes_kept
+    problems: list[str] = []
+    for r in range(len(matrix)):
+        roots = result.row(r)
+        for q in members(matrix[r].tolist(), rad[r].tolist(), rng, 1):
+            problems += [f"{reproducer(matrix[r], 'auto')} radius {rad[r].tolist()} member {q}: {p}"
+                         for p in check_roots(q, roots, Truth(q))]
+    assert not problems, "\n".join(problems[:10])

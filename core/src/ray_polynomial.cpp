@@ -394,7 +394,7 @@ const RunKernels& run_kernels(BatchIsa isa) {
 void primary_ray_polynomial_run(const SurfaceSpec& s, const FramePlan::ObjectPlan& op, const double* dx,
                                 const double* dy, const double* dz, int cells, PrimaryRun& out, BatchIsa isa) {
     if (s.degree > kRunMaxDegree || cells < 1 || cells > kRunCells)
-        throw std::invalid_argument("primary_ray_polynomial_run: degree above 8 or cells outside 1..32");
+        throw std::invalid_argument("primary_ray_polynomial_run: degree above 12 or cells outside 1..32");
     out.n = s.degree;
     out.cells = cells;
     // d' and A per cell: object_direction's operations, lane by lane (a

@@ -51,7 +51,7 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
 /// arrays (cells innermost): what primary_ray_polynomial gives for cell l,
 /// bit for bit, at [.][l].
 constexpr int kRunCells = 32;
-constexpr int kRunMaxDegree = 8;
+constexpr int kRunMaxDegree = 12;
 struct alignas(64) PrimaryRun {
     int n = 0;      // degree
     int cells = 0;  // cells 0..cells-1 hold rays (the rest is padding)

@@ -537,7 +537,7 @@ BatchIsa kernel_from_environment() {
 /// degree above kBatchKernelMaxDegree, method "paper" and the scalar kernel
 /// keep the sample-by-sample path (with neighbour seeds).
 ///
-/// Seeds (degree 5 to 8, seed_from_neighbour): a lane starts from the roots
+/// Seeds (degree 5 to 12, seed_from_neighbour): a lane starts from the roots
 /// of the sample above it (the same cell of the previous row of samples of
 /// the tile), the nearest neighbour that is already solved when a row is
 /// batched; the first row of a tile starts on the circle. Seeds never change

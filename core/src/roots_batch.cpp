@@ -627,7 +627,11 @@ std::int64_t drive(const Source& in, Method method, Sink& sink, Status* bad, Bat
         case 5: return blocks<RowMajor, 5>(in, method, sink, bad, isa, cnt, kernel, scalar);
         case 6: return blocks<RowMajor, 6>(in, method, sink, bad, isa, cnt, kernel, scalar);
         case 7: return blocks<RowMajor, 7>(in, method, sink, bad, isa, cnt, kernel, scalar);
-        default: return blocks<RowMajor, 8>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        case 8: return blocks<RowMajor, 8>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        case 9: return blocks<RowMajor, 9>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        case 10: return blocks<RowMajor, 10>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        case 11: return blocks<RowMajor, 11>(in, method, sink, bad, isa, cnt, kernel, scalar);
+        default: return blocks<RowMajor, 12>(in, method, sink, bad, isa, cnt, kernel, scalar);
     }
 }
 

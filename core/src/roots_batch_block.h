@@ -10,7 +10,7 @@ namespace argand {
 /// overlap while one of them waits on a division.
 constexpr int kBatchLanes = 16;
 /// Largest degree with a batched kernel (higher degrees use find_roots).
-constexpr int kBatchMaxDegree = 8;
+constexpr int kBatchMaxDegree = 12;
 
 struct alignas(64) BatchBlock {
     int n = 0;                 // degree of every lane

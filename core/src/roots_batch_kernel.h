@@ -290,10 +290,10 @@ ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         // x - x is 0 for finite x and NaN otherwise (no fast math: not folded).
         double probe = 0.0;
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int i = 0; i < N; ++i) probe += (b.xr[i][l] - b.xr[i][l]) + (b.xi[i][l] - b.xi[i][l]);
         const bool good = probe == 0.0;
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int i = 0; i < N; ++i) {
             b.xr[i][l] = good ? b.xr[i][l] : circle_re[i];
             b.xi[i][l] = good ? b.xi[i][l] : circle_im[i];
@@ -323,14 +323,14 @@ ARGAND_LANES
         const double me = -b.e[l];
         const double f = pow2_of(exponent_ok(me) ? me : 0.0);
         double sr[N], si[N], probe = 0.0;
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int i = 0; i < N; ++i) {
             sr[i] = b.start_re[i][l] * f;
             si[i] = b.start_im[i][l] * f;
             probe += (sr[i] - sr[i]) + (si[i] - si[i]);  // NaN unless all finite
         }
         const bool good = (b.start_ok[l] != 0.0) & exponent_ok(me) & (probe == 0.0);
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int i = 0; i < N; ++i) {
             b.xr[i][l] = good ? sr[i] : circle_re[i];
             b.xi[i][l] = good ? si[i] : circle_im[i];
@@ -365,7 +365,7 @@ ARGAND_LANES
         double pr = b.c[N][l], pi = 0.0, dr = 0.0, di = 0.0, ap = std::fabs(b.c[N][l]);
         const double ax2 = xr * xr + xi * xi;
         const double ax = std::sqrt(ax2);
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int k = N - 1; k >= 0; --k) {
             const double ndr = dr * xr - di * xi + pr;
             const double ndi = dr * xi + di * xr + pi;
@@ -388,7 +388,7 @@ ARGAND_LANES
         } else {
             // Aberth sum over j != i with a single division.
             double mprod = 1.0, sr = 0.0, si = 0.0;
-#pragma GCC unroll 8
+#pragma GCC unroll 12
             for (int j = 0; j < N; ++j) {
                 if (j == i) continue;
                 const double er = xr - b.xr[j][l], ei = xi - b.xi[j][l];
@@ -418,7 +418,7 @@ ARGAND_LANES
         // 2^-8 relative from sweep kRealNudgeSweep on steps off
         // the axis by 2^-6 relative (alternating sides); one
         // converging from a seed is far below that by then.
-        // (Only degrees 5 to 8 ever nudge: nudge_now is false below.)
+        // (Only degrees 5 to 12 ever nudge: nudge_now is false below.)
         bool stray = false;
         if constexpr (N >= 5) stray = nudge_now & (ni == 0.0) & (wr * wr + wi * wi > 0x1p-16 * (nr * nr));
         const double side = i % 2 == 0 ? 0x1p-6 : -0x1p-6;
@@ -460,7 +460,7 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
     int it = 0;
     for (; it < max_iter; ++it) {
         std::uint64_t left = 0;  // nonzero while some root of some lane is open
-        // (Degrees 5 to 8 only: those take the ray caster's seeds; the
+        // (Degrees 5 to 12 only: those take the ray caster's seeds; the
         // closed-form starts of n <= 4 put a complex pair off the axis.)
         const bool nudge_now = (N >= 5) & (it >= kRealNudgeSweep);
         if ((N <= 4) & (it == 0)) {
@@ -468,7 +468,7 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
             // over the whole block without per-chunk tests (nearly every
             // lane stops here, and the tests would cost more than they
             // skip).
-#pragma GCC unroll 8
+#pragma GCC unroll 12
             for (int i = 0; i < N; ++i) {
                 sweep_root<N, true, L>(b, i, 0, done, nudge_now);
                 left |= open_bits<L>(done[i]);
@@ -477,7 +477,7 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
             // Chunk by chunk (one vector of W lanes); a chunk where root i
             // has stopped in every lane skips it (for n <= 4 these sweeps
             // only finish the few lanes Newton did not settle).
-#pragma GCC unroll 8
+#pragma GCC unroll 12
             for (int i = 0; i < N; ++i) {
                 for (int l0 = 0; l0 < L; l0 += W) {
                     if (open_bits<W>(done[i] + l0) == 0) continue;
@@ -511,11 +511,18 @@ void smith_lanes_impl(BatchBlock& b) {
     constexpr double den_down = 1.0 - 2.0 * (5.0 * N + 2.0) * u;
     constexpr double pair_down = 1.0 - 8.0 * u;
     constexpr double snap_tol = 64.0 * u;
+    // The denominator's guard (>= 2^-900, as the reference's) also rules out
+    // an underflow inside the product: a lane is ok only if every |x_i| is
+    // below 2^8 (|re| + |im|), so every distance is below 2^9 (1 + 4u), and a
+    // partial product below 2^-1022 grows by less than 2^(9 (N - 1) + 1)
+    // <= 2^100 over the N - 1 factors: it ends below 2^-900. That holds for
+    // N <= 14.
+    static_assert(N <= 14, "the denominator's underflow guard needs N <= 14");
     const double slack = b.slack;  // N pow2(max(8N - 1070, -1014)), from the driver
 ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         double xr[N], xi[N];
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int i = 0; i < N; ++i) {
             xr[i] = b.xr[i][l];
             const double v = b.xi[i][l];
@@ -524,9 +531,9 @@ ARGAND_LANES
         }
         bool ok = b.active[l] != 0.0;
         double dist[N][N];
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int i = 0; i < N; ++i)
-#pragma GCC unroll 8
+#pragma GCC unroll 12
             for (int j = i + 1; j < N; ++j) {
                 const double dr = xr[i] - xr[j], di = xi[i] - xi[j];
                 const double d = std::sqrt(dr * dr + di * di);
@@ -541,12 +548,12 @@ ARGAND_LANES
         // that the lane loop vectorises.)
         const double lead_low = from_bits(bits_of(lead_diff) - 1);
         double r[N];
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int i = 0; i < N; ++i) {
             const double ax = std::fabs(xr[i]) + std::fabs(xi[i]);
             ok = ok & (ax <= 0x1p8);
             double yr = b.c[N][l], yi = 0.0, ay = lead, e = 0.0;
-#pragma GCC unroll 8
+#pragma GCC unroll 12
             for (int k = N - 1; k >= 0; --k) {
                 const double pr = yr * xr[i] - yi * xi[i];
                 const double pi = yr * xi[i] + yi * xr[i];
@@ -560,14 +567,14 @@ ARGAND_LANES
             double fam = 0.0;
             if constexpr (has_radius) {
                 double fs = b.rad[N][l];
-#pragma GCC unroll 8
+#pragma GCC unroll 12
                 for (int k = N - 1; k >= 0; --k) fs = fs * ax + b.rad[k][l];
                 fam = up(up(fs * relative_up) + slack);
             }
             // add_up(add_up(next_up(ay), next_up(e relative_up)), add_up(slack, fam)).
             const double numerator = up(up(up(ay) + up(e * relative_up)) + up(slack + fam));
             double denominator = has_radius ? lead_low : lead;
-#pragma GCC unroll 8
+#pragma GCC unroll 12
             for (int j = 0; j < N; ++j)
                 if (j != i) denominator *= dist[i][j];
             ok = ok & (denominator >= 0x1p-900) & finite(denominator) & finite(numerator);
@@ -575,11 +582,11 @@ ARGAND_LANES
             r[i] = up(N * up(numerator / denominator));
             ok = ok & finite(r[i]);
         }
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int i = 0; i < N; ++i)
-#pragma GCC unroll 8
+#pragma GCC unroll 12
             for (int j = i + 1; j < N; ++j) ok = ok & (dist[i][j] * pair_down > up(r[i] + r[j]));
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int i = 0; i < N; ++i) b.r[i][l] = r[i];
         b.ok[l] = ok ? 1.0 : 0.0;
     }
@@ -599,7 +606,7 @@ ARGAND_LANES
         for (int l = 0; l < L; ++l) {
             const double xr = b.xr[i][l], xi = b.xi[i][l];
             double pr = b.c[N][l], pi = 0.0, dr = 0.0, di = 0.0;
-#pragma GCC unroll 8
+#pragma GCC unroll 12
             for (int k = N - 1; k >= 0; --k) {
                 const double ndr = dr * xr - di * xi + pr;
                 const double ndi = dr * xi + di * xr + pi;
@@ -629,19 +636,19 @@ void scale_lanes(BatchBlock& b) {
 ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         double ex[N + 1];
-#pragma GCC unroll 9
+#pragma GCC unroll 13
         for (int k = 0; k <= N; ++k)
             ex[k] = from_bits((bits_of(b.c[k][l]) >> 52 & 0x7ff) | 0x4330000000000000ULL) - 0x1p52 - 1023.0;
         const double t = (ex[0] - ex[N]) * (1.0 / N);
         const double e = (t + 0x1.8p52) - 0x1.8p52;  // nearest integer
         double top = -1e9;
-#pragma GCC unroll 9
+#pragma GCC unroll 13
         for (int k = 0; k <= N; ++k) {
             const double v = ex[k] + e * k;
             top = ((b.c[k][l] != 0.0) & (v > top)) ? v : top;
         }
         bool ok = b.active[l] != 0.0;
-#pragma GCC unroll 9
+#pragma GCC unroll 13
         for (int k = 0; k <= N; ++k) {
             const double m = e * k - top;
             const double v = b.c[k][l];
@@ -664,7 +671,7 @@ ARGAND_LANES
         // the rounding up is a select of doubles: no bool chain, so that
         // the lane loop vectorises.)
         double largest = 0.0;
-#pragma GCC unroll 9
+#pragma GCC unroll 13
         for (int k = 0; k <= N; ++k) {
             const double m = e * k - top;
             const double rv = b.rad[k][l];
@@ -689,7 +696,7 @@ ARGAND_LANES
         const double e = b.e[l];
         const double f = pow2_of(exponent_ok(e) ? e : 0.0);
         bool ok = b.ok[l] != 0.0;
-#pragma GCC unroll 8
+#pragma GCC unroll 12
         for (int i = 0; i < N; ++i) {
             const double vr = b.xr[i][l] * f, vi = b.xi[i][l] * f, vd = b.r[i][l] * f;
             ok = ok & ((b.xr[i][l] == 0.0) | ((std::fabs(vr) >= 0x1p-1022) & (std::fabs(vr) <= kHuge)));
@@ -727,10 +734,10 @@ int admit_lanes(BatchBlock& b) {
 ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         double z = 0.0, low = 0.0;
-#pragma GCC unroll 9
+#pragma GCC unroll 13
         for (int k = 0; k <= N; ++k) z += 0.0 * b.c[k][l];
         if constexpr (has_radius) {
-#pragma GCC unroll 9
+#pragma GCC unroll 13
             for (int k = 0; k <= N; ++k) {
                 const double v = b.rad[k][l];
                 z += 0.0 * v;
@@ -764,6 +771,10 @@ int admit_block(BatchBlock& b) {
         case 6: return admit_n<6>(b);
         case 7: return admit_n<7>(b);
         case 8: return admit_n<8>(b);
+        case 9: return admit_n<9>(b);
+        case 10: return admit_n<10>(b);
+        case 11: return admit_n<11>(b);
+        case 12: return admit_n<12>(b);
         default: return 0;
     }
 }
@@ -780,6 +791,10 @@ int solve_block(BatchBlock& b, bool verify) {
         case 6: return solve_block_n<6>(b, verify);
         case 7: return solve_block_n<7>(b, verify);
         case 8: return solve_block_n<8>(b, verify);
+        case 9: return solve_block_n<9>(b, verify);
+        case 10: return solve_block_n<10>(b, verify);
+        case 11: return solve_block_n<11>(b, verify);
+        case 12: return solve_block_n<12>(b, verify);
         default: return -1;
     }
 }

@@ -1,7 +1,7 @@
 // ray_run_test.cpp: the lane-parallel primary ray polynomials
 // (primary_ray_polynomial_run) against the scalar primary_ray_polynomial,
 // bit for bit, for every instruction set this CPU runs: random surfaces of
-// degree 1 to 8 (dense and sparse), signed-permutation and general linear
+// degree 1 to 12 (dense and sparse), signed-permutation and general linear
 // parts, random cameras, directions with tiny, subnormal, zero and negative
 // zero components (the underflow slack and the exact-zero branches), runs of
 // 1 to 32 cells. And find_roots_soa against find_roots_rows (the restart
@@ -74,8 +74,8 @@ static void test_primary_run() {
     if (batch_isa_supported(BatchIsa::Avx2)) isas.push_back(BatchIsa::Avx2);
     if (batch_isa_supported(BatchIsa::Avx512)) isas.push_back(BatchIsa::Avx512);
     long compared = 0, slack_lanes = 0, inexact_lanes = 0, nonfinite_lanes = 0;
-    for (int trial = 0; trial < 240; ++trial) {
-        const int n = 1 + trial % 8;
+    for (int trial = 0; trial < 312; ++trial) {
+        const int n = trial < 240 ? 1 + trial % 8 : 9 + (trial / 3) % 4;  // (then degrees 9 to 12)
         SceneSpec sc;
         sc.objects.push_back(random_surface(rng, n, trial % 2 == 0, trial % 3));
         sc.camera.position[0] = 0.3 + u(rng);
@@ -199,8 +199,8 @@ static void test_soa_driver() {
     std::mt19937_64 rng(99);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     long rows_compared = 0, kept = 0, scalar = 0;
-    for (int trial = 0; trial < 400; ++trial) {
-        const int n = 1 + trial % 8, nc = n + 1;
+    for (int trial = 0; trial < 496; ++trial) {
+        const int n = trial < 400 ? 1 + trial % 8 : 9 + (trial / 4) % 4, nc = n + 1;  // (then degrees 9 to 12)
         const int rows = 1 + static_cast<int>(rng() % 40);
         const std::int64_t stride = rows + static_cast<int>(rng() % 3);
         const bool with_radius = trial % 4 != 3, with_start = trial % 2 == 0;

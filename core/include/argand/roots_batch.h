@@ -21,8 +21,9 @@
 
 namespace argand {
 
-/// Largest degree with a batched kernel (rows of higher degree use find_roots).
-constexpr int kBatchKernelMaxDegree = 8;
+/// Largest degree with a batched kernel (rows of higher degree use find_roots):
+/// every surface degree (render.h's kMaxSurfaceDegree).
+constexpr int kBatchKernelMaxDegree = 12;
 
 /// Instruction set of the batched kernel. Auto: the widest this CPU runs.
 /// Scalar: no batched kernel, find_roots row by row (the reference).
@@ -59,7 +60,7 @@ struct BatchCounters {
 /// lanes too). A row with an invalid radius gets Status::NonFinite.
 ///
 /// start_re, start_im (optional, rows x (n_coeffs - 1), row-major): starting
-/// approximations per row for the lanes of degree 5 to 8 (the circle
+/// approximations per row for the lanes of degree 5 to 12 (the circle
 /// otherwise; a row with a non-finite start takes the circle). Only speed
 /// depends on them: rows the lanes do not prove are solved by find_roots
 /// without them, and what is proven is the same contract.

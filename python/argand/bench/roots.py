@@ -26,11 +26,15 @@ OUR_METHODS = ("auto", "smith", "paper", "unverified")
 #: "argand-<method> (scalar)".
 SCALAR_REFERENCE = ("auto", "smith", "unverified")
 #: How the headline names each suite.
-SUITE_LABELS = {"quartic": "quartics", "mixed_2_8": "mixed degrees 2-8", "rays": "real ray polynomials"}
+SUITE_LABELS = {"quartic": "quartics", "mixed_2_8": "mixed degrees 2-8", "rays": "real ray polynomials",
+                "degree_10": "degree 10", "degree_12": "degree 12"}
+#: Suites of the kernel comparison only (kernel_table, no contenders): the
+#: kernels' top degrees (surfaces go to degree 12). Degrees (lo, hi).
+KERNEL_ONLY_SUITES = {"degree_10": (10, 10), "degree_12": (12, 12)}
 #: What each row measures (written into roots.json).
 CONTENDERS = {
     "argand-*": "argand.core.find_roots_batch(matrix, method) on one (N, n+1) batch per degree: the batched "
-                "kernel of the instruction set named in `batch_kernel` for degrees 1-8 (auto, smith, unverified), "
+                "kernel of the instruction set named in `batch_kernel` for degrees 1-12 (auto, smith, unverified), "
                 "rows it does not prove answered by the scalar path",
     "argand-* (scalar)": "the same call with kernel='scalar': find_roots row by row (the reference)",
     "numpy-eigvals": "numpy: build the (N, n, n) companion matrices and np.linalg.eigvals on the stack (both timed)",
@@ -329,7 +333,7 @@ def bench_roots(
                      "random-hit and random pixels; one polynomial per object"),
     }
     steps_per_suite = 2 + len(OUR_METHODS) + 4 + (1 if have_mpsolve else 0)
-    total = steps_per_suite * len(suites) + 1
+    total = steps_per_suite * len(suites) + 2
     done = 0
 
     def step(message: str) -> None:
@@ -391,6 +395,9 @@ def bench_roots(
         ratios = {name: row["ns_per_poly"] / auto for name, row in rows.items() if name != "argand-auto"}
         report["suites"][suite] = {"results": rows, "slowdown_vs_auto": ratios,
                                    "kernels": kernel_table(polys[: sizes["ours"]], 3 if smoke else 7)}
+    step(f"kernels only: {', '.join(KERNEL_ONLY_SUITES)}")
+    report["kernel_suites"] = {name: kernel_table(random_polys(rng, count, degrees), 3 if smoke else 7)
+                               for name, degrees in KERNEL_ONLY_SUITES.items()}
     report["headline"] = headline(report)
     step("writing JSON, Markdown and the chart")
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -422,14 +429,19 @@ def headline(report: dict) -> list[str]:
         if "argand-unverified" in ratios:
             lines.append(f"the proof costs {1 / ratios['argand-unverified']:.2f}x the unverified time on {label}")
         if "kernels" in data:
-            k = data["kernels"]
-            ns = k["ns_per_poly_cpu"][f"auto/{k['best_kernel']}"]
-            lines.append(
-                f"the batched kernel ({k['best_kernel']}) makes auto {k['auto_speedup_vs_scalar_auto']:.1f} times "
-                f"faster than the scalar auto, and {k['auto_speedup_vs_scalar_unverified']:.1f} times faster than the "
-                f"scalar unverified Aberth, on {label} ({ns:.0f} ns of CPU time per verified polynomial)"
-            )
+            lines.append(_kernel_line(data["kernels"], label))
+    for suite, k in report.get("kernel_suites", {}).items():
+        lines.append(_kernel_line(k, SUITE_LABELS.get(suite, suite)))
     return lines
+
+
+def _kernel_line(k: dict, label: str) -> str:
+    ns = k["ns_per_poly_cpu"][f"auto/{k['best_kernel']}"]
+    return (
+        f"the batched kernel ({k['best_kernel']}) makes auto {k['auto_speedup_vs_scalar_auto']:.1f} times "
+        f"faster than the scalar auto, and {k['auto_speedup_vs_scalar_unverified']:.1f} times faster than the "
+        f"scalar unverified Aberth, on {label} ({ns:.0f} ns of CPU time per verified polynomial)"
+    )
 
 
 def markdown(report: dict) -> str:
@@ -442,6 +454,7 @@ def markdown(report: dict) -> str:
             "",
         ]
     kernel_rows = [(suite, data["kernels"]) for suite, data in report["suites"].items() if "kernels" in data]
+    kernel_rows += list(report.get("kernel_suites", {}).items())
     if kernel_rows:
         configs = list(kernel_rows[0][1]["ns_per_poly_cpu"])
         lines += [
