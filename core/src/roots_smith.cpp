@@ -218,7 +218,7 @@ bool family_limited(const double* c, const double* rad, int n, const Complex<dou
 }  // namespace
 
 void solve_smith(const double* c, const double* rad, int n, Method method, const Complex<double>* seed,
-                 KernelResult& out) {
+                 KernelResult& out, bool seed_or_scratch) {
     Complex<double> x[kMaxDegree];
     if (seed) {
         for (int i = 0; i < n; ++i) x[i] = seed[i];
@@ -236,7 +236,14 @@ void solve_smith(const double* c, const double* rad, int n, Method method, const
     Complex<double> work[kMaxDegree];
     for (int i = 0; i < n; ++i) work[i] = x[i];
     int nd = smith_discs(c, rad, n, work, out.discs);
-    for (int round = 0; round < 2 && !all_isolated(nd, n); ++round) {
+    // From a lane's converged approximations, one pair left in a cluster
+    // that the coefficient radii alone hold together: the re-spread rounds
+    // are skipped (a speed choice only; over the frames of frames.py they
+    // never separated such a pair, while from fewer discs, where the seeds
+    // may have put two approximations on one root, they sometimes did).
+    const bool seeded_pair_limited =
+        seed != nullptr && seed_or_scratch && nd == n - 1 && family_limited(c, rad, n, x, nd);
+    for (int round = 0; round < 2 && !all_isolated(nd, n) && !seeded_pair_limited; ++round) {
         if (nd > 0) respread_clusters(x, n, out.discs, nd);
         aberth(c, n, x, 40);
         for (int i = 0; i < n; ++i) work[i] = x[i];
@@ -247,10 +254,22 @@ void solve_smith(const double* c, const double* rad, int n, Method method, const
             for (int i = 0; i < nt; ++i) out.discs[i] = trial[i];
         }
     }
+    // A lane's seeds that did not end in double with every root isolated
+    // but at most one pair that the coefficient radii alone hold together:
+    // they may have missed a root (two approximations stopped on one root
+    // of a cluster: discs merge that the unseeded run keeps apart, even
+    // where the family test holds at these approximations), or would send
+    // the row to double-double where the unseeded run does not. Start
+    // again from scratch: the unseeded run exactly.
+    if (seed != nullptr && seed_or_scratch && !seeded_pair_limited && !all_isolated(nd, n) &&
+        !(nd == n - 1 && family_limited(c, rad, n, x, nd))) {
+        solve_smith(c, rad, n, method, nullptr, out, false);
+        return;
+    }
 
     // Double-double (section 2.6), only where double could not isolate and
     // the coefficient radii do not already forbid it.
-    if (method == Method::Auto && !all_isolated(nd, n) && !family_limited(c, rad, n, x, nd)) {
+    if (method == Method::Auto && !all_isolated(nd, n) && !seeded_pair_limited && !family_limited(c, rad, n, x, nd)) {
         out.escalation = 1;
         Complex<DoubleDouble> xd[kMaxDegree];
         for (int i = 0; i < n; ++i) xd[i] = Complex<DoubleDouble>(DoubleDouble(x[i].re), DoubleDouble(x[i].im));
