@@ -576,14 +576,15 @@ std::int64_t blocks(const Source& in, Method method, Sink& sink, Status* bad, Ba
                 sink.template lane<N>(block, l, j, verify);
                 ++cnt.rows;
                 ++cnt.kept;
-            } else if (block.active[l] != 0.0 && block.converged[l] != 0.0) {
+            } else if (N >= 5 && block.active[l] != 0.0 && block.converged[l] != 0.0) {
                 // The lane scaled exactly and Aberth stopped every root, but
                 // Smith's discs were not proven disjoint (a cluster):
                 // find_roots starts from the lane's approximations (mapped
                 // back to the input's coordinates by the kernel) and keeps
                 // them only where that ends in double (see
                 // find_roots_lane_seeded). Seeds are approximations only:
-                // what is proven does not depend on them.
+                // what is proven does not depend on them. (Degrees 5 to 8:
+                // below, find_roots starts from the closed forms, cheaply.)
                 double sr[kBatchMaxDegree], si[kBatchMaxDegree];
                 for (int i = 0; i < n; ++i) {
                     sr[i] = block.xr[i][l];
