@@ -222,6 +222,17 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
             if (block.ok[l] != 0.0 && (verify || block.converged[l] != 0.0)) {
                 write_lane(block, l, verify, res);
                 ++cnt.kept;
+            } else if (n >= 5 && block.active[l] != 0.0 && block.converged[l] != 0.0) {
+                // (As the block driver: the lane's approximations seed
+                // find_roots; see find_roots_lane_seeded.)
+                double sr[kBatchMaxDegree], si[kBatchMaxDegree];
+                for (int i = 0; i < n; ++i) {
+                    sr[i] = block.xr[i][l];
+                    si[i] = block.xi[i][l];
+                }
+                detail::find_roots_lane_seeded(coeffs + lanes[l] * n_coeffs, n_coeffs, method, res, sr, si,
+                                               radius != nullptr ? radius + lanes[l] * n_coeffs : nullptr);
+                ++cnt.scalar;
             } else {
                 find_roots(coeffs + lanes[l] * n_coeffs, n_coeffs, method, res, nullptr, nullptr,
                            radius != nullptr ? radius + lanes[l] * n_coeffs : nullptr);  // all finite: Ok

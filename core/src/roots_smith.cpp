@@ -236,13 +236,26 @@ void solve_smith(const double* c, const double* rad, int n, Method method, const
     Complex<double> work[kMaxDegree];
     for (int i = 0; i < n; ++i) work[i] = x[i];
     int nd = smith_discs(c, rad, n, work, out.discs);
-    // From a lane's converged approximations, one pair left in a cluster
-    // that the coefficient radii alone hold together: the re-spread rounds
-    // are skipped (a speed choice only; over the frames of frames.py they
-    // never separated such a pair, while from fewer discs, where the seeds
-    // may have put two approximations on one root, they sometimes did).
-    const bool seeded_pair_limited =
-        seed != nullptr && seed_or_scratch && nd == n - 1 && family_limited(c, rad, n, x, nd);
+    // From a batched lane's converged approximations (seed_or_scratch), the
+    // double stage is kept only when it is done at once: every root
+    // isolated, or all but one pair that the coefficient radii alone hold
+    // together (family_limited: the re-spread rounds and the double-double
+    // rung are skipped, a speed choice only). Otherwise the seeds may have
+    // missed a root (two approximations stopped on one root of a cluster:
+    // discs merge that the unseeded run keeps apart, even where the family
+    // test holds at these approximations; over the frames of frames.py the
+    // re-spread rounds from such seeds sometimes isolated more, and from
+    // fewer discs sometimes fewer than from scratch) or would send the row
+    // to double-double where the unseeded run does not: start again from
+    // scratch, the unseeded run exactly.
+    bool seeded_pair_limited = false;
+    if (seed != nullptr && seed_or_scratch && !all_isolated(nd, n)) {
+        seeded_pair_limited = nd == n - 1 && family_limited(c, rad, n, x, nd);
+        if (!seeded_pair_limited) {
+            solve_smith(c, rad, n, method, nullptr, out, false);
+            return;
+        }
+    }
     for (int round = 0; round < 2 && !all_isolated(nd, n) && !seeded_pair_limited; ++round) {
         if (nd > 0) respread_clusters(x, n, out.discs, nd);
         aberth(c, n, x, 40);
@@ -253,18 +266,6 @@ void solve_smith(const double* c, const double* rad, int n, Method method, const
             nd = nt;
             for (int i = 0; i < nt; ++i) out.discs[i] = trial[i];
         }
-    }
-    // A lane's seeds that did not end in double with every root isolated
-    // but at most one pair that the coefficient radii alone hold together:
-    // they may have missed a root (two approximations stopped on one root
-    // of a cluster: discs merge that the unseeded run keeps apart, even
-    // where the family test holds at these approximations), or would send
-    // the row to double-double where the unseeded run does not. Start
-    // again from scratch: the unseeded run exactly.
-    if (seed != nullptr && seed_or_scratch && !seeded_pair_limited && !all_isolated(nd, n) &&
-        !(nd == n - 1 && family_limited(c, rad, n, x, nd))) {
-        solve_smith(c, rad, n, method, nullptr, out, false);
-        return;
     }
 
     // Double-double (section 2.6), only where double could not isolate and
