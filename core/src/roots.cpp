@@ -220,7 +220,7 @@ inline bool times_power_exact(double v, double p, double& out) {
 /// the contract restored where the mapping enlarged one (shared by the fast
 /// and the general entry).
 void solve_scaled(const double* scaled, const double* rad, int n, int e, Method method, const double* initial_re,
-                  const double* initial_im, detail::KernelResult& kr) {
+                  const double* initial_im, detail::KernelResult& kr, bool seed_or_scratch) {
     Complex<double> seed[kMaxDegree];
     const bool use_seed = initial_re != nullptr && initial_im != nullptr;
     if (use_seed) {
@@ -239,7 +239,7 @@ void solve_scaled(const double* scaled, const double* rad, int n, int e, Method 
         // not extended to the family: Smith's discs, with the paper's
         // double-double retry, prove the roots instead.)
         const Method kernel = method == Method::Paper ? Method::Auto : method;
-        detail::solve_smith(scaled, rad, n, kernel, use_seed ? seed : nullptr, kr);
+        detail::solve_smith(scaled, rad, n, kernel, use_seed ? seed : nullptr, kr, seed_or_scratch);
     }
     if (e == 0) return;
     bool enlarged[kMaxDegree];
@@ -274,7 +274,7 @@ void solve_scaled(const double* scaled, const double* rad, int n, int e, Method 
 /// the result is the general path's, computed with less bookkeeping. Returns
 /// false, having written nothing, when the input is not of that kind.
 bool find_roots_fast(const double* c, int n_coeffs, Method method, RootsResult& out, const double* initial_re,
-                     const double* initial_im, const double* coeff_radius) {
+                     const double* initial_im, const double* coeff_radius, bool seed_or_scratch) {
     const int n = n_coeffs - 1;
     if (n < 1 || c[0] == 0.0 || c[n] == 0.0) return false;
     std::uint64_t bits[kMaxDegree + 1];
@@ -322,7 +322,7 @@ bool find_roots_fast(const double* c, int n_coeffs, Method method, RootsResult& 
     out.n_discs = 0;
     out.n_infinite = 0;
     detail::KernelResult kr;
-    solve_scaled(scaled, has_radius ? scaled_radius : nullptr, n, e, method, initial_re, initial_im, kr);
+    solve_scaled(scaled, has_radius ? scaled_radius : nullptr, n, e, method, initial_re, initial_im, kr, seed_or_scratch);
     out.escalation = kr.escalation;
     out.wants_exact = kr.wants_exact;
     out.n_discs = kr.n_discs;
@@ -341,15 +341,36 @@ void unverify_all(RootsResult& out) {
 
 }  // namespace
 
+namespace {
+Status find_roots_impl(const double* coeffs, int n_coeffs, Method method, RootsResult& out,
+                       const double* initial_re, const double* initial_im, const double* coeff_radius,
+                       bool seed_or_scratch);
+}  // namespace
+
 Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult& out,
                   const double* initial_re, const double* initial_im, const double* coeff_radius) {
+    return find_roots_impl(coeffs, n_coeffs, method, out, initial_re, initial_im, coeff_radius, false);
+}
+
+namespace detail {
+Status find_roots_lane_seeded(const double* coeffs, int n_coeffs, Method method, RootsResult& out,
+                              const double* seed_re, const double* seed_im, const double* coeff_radius) {
+    return find_roots_impl(coeffs, n_coeffs, method, out, seed_re, seed_im, coeff_radius, true);
+}
+}  // namespace detail
+
+namespace {
+Status find_roots_impl(const double* coeffs, int n_coeffs, Method method, RootsResult& out,
+                       const double* initial_re, const double* initial_im, const double* coeff_radius,
+                       bool seed_or_scratch) {
     out.n_discs = 0;
     out.n_infinite = 0;
     out.wants_exact = false;
     out.escalation = 0;
     if (n_coeffs < 1) return Status::ZeroPolynomial;
     if (n_coeffs - 1 > kMaxDegree) return Status::TooLarge;
-    if (find_roots_fast(coeffs, n_coeffs, method, out, initial_re, initial_im, coeff_radius)) return Status::Ok;
+    if (find_roots_fast(coeffs, n_coeffs, method, out, initial_re, initial_im, coeff_radius, seed_or_scratch))
+        return Status::Ok;
     for (int k = 0; k < n_coeffs; ++k)
         if (!std::isfinite(coeffs[k])) return Status::NonFinite;
     bool has_radius = false;
@@ -391,7 +412,7 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
         if (radius_in != nullptr)
             for (int k = 0; k <= n; ++k) scaled_radius[k] = scale_radius_up(radius_in[low + k], e * k + f);
         const double* rad = radius_in != nullptr ? scaled_radius : nullptr;
-        solve_scaled(scaled, rad, n, e, method, initial_re, initial_im, kr);
+        solve_scaled(scaled, rad, n, e, method, initial_re, initial_im, kr, seed_or_scratch);
     }
     out.escalation = kr.escalation;
     out.wants_exact = kr.wants_exact;
@@ -450,5 +471,7 @@ Status find_roots(const double* coeffs, int n_coeffs, Method method, RootsResult
     if (family_degenerate) unverify_all(out);
     return Status::Ok;
 }
+
+}  // namespace
 
 }  // namespace argand

@@ -11,6 +11,7 @@
 #include <limits>
 
 #include "roots_batch_block.h"
+#include "solver.h"
 
 #if defined(__x86_64__) || defined(_M_X64)
 #define ARGAND_BATCH_X86 1
@@ -221,6 +222,17 @@ Status find_roots_rows(const double* coeffs, std::int64_t rows, int n_coeffs, Me
             if (block.ok[l] != 0.0 && (verify || block.converged[l] != 0.0)) {
                 write_lane(block, l, verify, res);
                 ++cnt.kept;
+            } else if (n >= 5 && block.active[l] != 0.0 && block.converged[l] != 0.0) {
+                // (As the block driver: the lane's approximations seed
+                // find_roots; see find_roots_lane_seeded.)
+                double sr[kBatchMaxDegree], si[kBatchMaxDegree];
+                for (int i = 0; i < n; ++i) {
+                    sr[i] = block.xr[i][l];
+                    si[i] = block.xi[i][l];
+                }
+                detail::find_roots_lane_seeded(coeffs + lanes[l] * n_coeffs, n_coeffs, method, res, sr, si,
+                                               radius != nullptr ? radius + lanes[l] * n_coeffs : nullptr);
+                ++cnt.scalar;
             } else {
                 find_roots(coeffs + lanes[l] * n_coeffs, n_coeffs, method, res, nullptr, nullptr,
                            radius != nullptr ? radius + lanes[l] * n_coeffs : nullptr);  // all finite: Ok
@@ -327,8 +339,11 @@ struct SoaSink {
     void whole(const BatchBlock& b, std::int64_t j0, bool verify) {
         for (int l = 0; l < kBatchLanes; ++l) lane<N>(b, l, j0 + l, verify);
     }
-    Status scalar(std::int64_t j, const double* c, int nc, Method method, const double* r) {
-        return status[j] = find_roots(c, nc, method, out[j], nullptr, nullptr, r);
+    Status scalar(std::int64_t j, const double* c, int nc, Method method, const double* r, const double* seed_re,
+                  const double* seed_im) {
+        return status[j] = seed_re != nullptr
+                               ? detail::find_roots_lane_seeded(c, nc, method, out[j], seed_re, seed_im, r)
+                               : find_roots(c, nc, method, out[j], nullptr, nullptr, r);
     }
 };
 
@@ -390,8 +405,11 @@ struct RowsSink {
         std::memset(out.n_infinite + j0, 0, sizeof(std::int32_t) * kBatchLanes);
         std::memset(out.escalation + j0, 0, sizeof(std::int32_t) * kBatchLanes);
     }
-    Status scalar(std::int64_t j, const double* c, int nc, Method method, const double* r) {
-        const Status s = find_roots(c, nc, method, tmp, nullptr, nullptr, r);
+    Status scalar(std::int64_t j, const double* c, int nc, Method method, const double* r, const double* seed_re,
+                  const double* seed_im) {
+        const Status s = seed_re != nullptr
+                             ? detail::find_roots_lane_seeded(c, nc, method, tmp, seed_re, seed_im, r)
+                             : find_roots(c, nc, method, tmp, nullptr, nullptr, r);
         if (s == Status::Ok) put(j, tmp);
         return s;
     }
@@ -569,6 +587,21 @@ std::int64_t blocks(const Source& in, Method method, Sink& sink, Status* bad, Ba
                 sink.template lane<N>(block, l, j, verify);
                 ++cnt.rows;
                 ++cnt.kept;
+            } else if (N >= 5 && block.active[l] != 0.0 && block.converged[l] != 0.0) {
+                // The lane scaled exactly and Aberth stopped every root, but
+                // Smith's discs were not proven disjoint (a cluster):
+                // find_roots starts from the lane's approximations (mapped
+                // back to the input's coordinates by the kernel) and keeps
+                // them only where that ends in double (see
+                // find_roots_lane_seeded). Seeds are approximations only:
+                // what is proven does not depend on them. (Degrees 5 to 8:
+                // below, find_roots starts from the closed forms, cheaply.)
+                double sr[kBatchMaxDegree], si[kBatchMaxDegree];
+                for (int i = 0; i < n; ++i) {
+                    sr[i] = block.xr[i][l];
+                    si[i] = block.xi[i][l];
+                }
+                scalar(j, sr, si);  // all finite: Ok
             } else {
                 scalar(j);  // all finite: Ok
             }
@@ -592,18 +625,19 @@ std::int64_t drive(const Source& in, Method method, Sink& sink, Status* bad, Bat
     const bool has_radius = in.radius != nullptr;
     // A row the lanes do not answer: find_roots on it (a gathered copy of
     // it in structure-of-arrays form).
-    auto scalar = [&](std::int64_t j) -> Status {
+    auto scalar = [&](std::int64_t j, const double* seed_re = nullptr, const double* seed_im = nullptr) -> Status {
         ++cnt.rows;
         ++cnt.scalar;
         if constexpr (RowMajor) {
-            return sink.scalar(j, in.coeffs + j * nc, nc, method, has_radius ? in.radius + j * nc : nullptr);
+            return sink.scalar(j, in.coeffs + j * nc, nc, method, has_radius ? in.radius + j * nc : nullptr, seed_re,
+                               seed_im);
         } else {
             double c[kMaxDegree + 1], r[kMaxDegree + 1];
             for (int k = 0; k < nc; ++k) {
                 c[k] = in.coeffs[k * stride + j];
                 if (has_radius) r[k] = in.radius[k * stride + j];
             }
-            return sink.scalar(j, c, nc, method, has_radius ? r : nullptr);
+            return sink.scalar(j, c, nc, method, has_radius ? r : nullptr, seed_re, seed_im);
         }
     };
     if (kernel == nullptr || nc > kMaxDegree + 1) {

@@ -218,7 +218,7 @@ bool family_limited(const double* c, const double* rad, int n, const Complex<dou
 }  // namespace
 
 void solve_smith(const double* c, const double* rad, int n, Method method, const Complex<double>* seed,
-                 KernelResult& out) {
+                 KernelResult& out, bool seed_or_scratch) {
     Complex<double> x[kMaxDegree];
     if (seed) {
         for (int i = 0; i < n; ++i) x[i] = seed[i];
@@ -236,7 +236,27 @@ void solve_smith(const double* c, const double* rad, int n, Method method, const
     Complex<double> work[kMaxDegree];
     for (int i = 0; i < n; ++i) work[i] = x[i];
     int nd = smith_discs(c, rad, n, work, out.discs);
-    for (int round = 0; round < 2 && !all_isolated(nd, n); ++round) {
+    // From a batched lane's converged approximations (seed_or_scratch), the
+    // double stage is kept only when it is done at once: every root
+    // isolated, or all but one pair that the coefficient radii alone hold
+    // together (family_limited: the re-spread rounds and the double-double
+    // rung are skipped, a speed choice only). Otherwise the seeds may have
+    // missed a root (two approximations stopped on one root of a cluster:
+    // discs merge that the unseeded run keeps apart, even where the family
+    // test holds at these approximations; over the frames of frames.py the
+    // re-spread rounds from such seeds sometimes isolated more, and from
+    // fewer discs sometimes fewer than from scratch) or would send the row
+    // to double-double where the unseeded run does not: start again from
+    // scratch, the unseeded run exactly.
+    bool seeded_pair_limited = false;
+    if (seed != nullptr && seed_or_scratch && !all_isolated(nd, n)) {
+        seeded_pair_limited = nd == n - 1 && family_limited(c, rad, n, x, nd);
+        if (!seeded_pair_limited) {
+            solve_smith(c, rad, n, method, nullptr, out, false);
+            return;
+        }
+    }
+    for (int round = 0; round < 2 && !all_isolated(nd, n) && !seeded_pair_limited; ++round) {
         if (nd > 0) respread_clusters(x, n, out.discs, nd);
         aberth(c, n, x, 40);
         for (int i = 0; i < n; ++i) work[i] = x[i];
@@ -250,7 +270,7 @@ void solve_smith(const double* c, const double* rad, int n, Method method, const
 
     // Double-double (section 2.6), only where double could not isolate and
     // the coefficient radii do not already forbid it.
-    if (method == Method::Auto && !all_isolated(nd, n) && !family_limited(c, rad, n, x, nd)) {
+    if (method == Method::Auto && !all_isolated(nd, n) && !seeded_pair_limited && !family_limited(c, rad, n, x, nd)) {
         out.escalation = 1;
         Complex<DoubleDouble> xd[kMaxDegree];
         for (int i = 0; i < n; ++i) xd[i] = Complex<DoubleDouble>(DoubleDouble(x[i].re), DoubleDouble(x[i].im));

@@ -718,8 +718,22 @@ struct KernelResult {
 
 /// rad (nullable): coefficient radii; the discs then hold for every member of
 /// the family {q : |q_k - c_k| <= rad_k} (see smith_radii).
+/// seed_or_scratch (with seed): the seeds are a batched lane's converged
+/// approximations of this polynomial; they are kept only when their first
+/// Smith discs isolate every root, or all but one pair that the coefficient
+/// radii alone hold together (no re-spread, no double-double then);
+/// otherwise the kernel starts again from scratch, as without seeds (seeds
+/// never affect what is proven, only speed).
 void solve_smith(const double* c, const double* rad, int n, Method method, const Complex<double>* seed,
-                 KernelResult& out);
+                 KernelResult& out, bool seed_or_scratch = false);
 void solve_paper(const double* c, int n, KernelResult& out);
+
+/// find_roots (roots.cpp) for a row that a batched lane did not prove:
+/// seeded with the lane's converged approximations (in the input's
+/// coordinates), kept only where their first Smith discs isolate every
+/// root or all but one family-limited pair, from scratch otherwise
+/// (solve_smith's seed_or_scratch). The same contract as find_roots.
+Status find_roots_lane_seeded(const double* coeffs, int n_coeffs, Method method, RootsResult& out,
+                              const double* seed_re, const double* seed_im, const double* coeff_radius);
 
 }  // namespace argand::detail
