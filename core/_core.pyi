@@ -238,6 +238,23 @@ ExactSolver = Callable[[dict[str, Any], dict[str, Any]], dict[str, Any]]
 def render_tile(
     plan: FramePlan, x0: int, y0: int, x1: int, y1: int, exact: ExactSolver | None = None
 ) -> dict[str, Any]: ...
+def render_tile_frame(
+    plan: FramePlan,
+    x0: int,
+    y0: int,
+    x1: int,
+    y1: int,
+    rgba: npt.NDArray[np.float32],
+    Z: npt.NDArray[np.float32],
+    arg: npt.NDArray[np.float32],
+    re: npt.NDArray[np.float32],
+    im: npt.NDArray[np.float32],
+    count: npt.NDArray[np.int32],
+    status: npt.NDArray[np.uint8],
+    escalation: npt.NDArray[np.uint8],
+    certified_share: npt.NDArray[np.float32],
+    exact: ExactSolver | None = None,
+) -> tuple[int, int]: ...
 def render_tile_into(
     plan: FramePlan,
     x0: int,
