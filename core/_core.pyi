@@ -254,7 +254,7 @@ def render_tile_frame(
     escalation: npt.NDArray[np.uint8],
     certified_share: npt.NDArray[np.float32],
     exact: ExactSolver | None = None,
-) -> tuple[int, int]: ...
+) -> tuple[int, int, tuple[int, int, int, int], int, tuple[int, int, int, int, int, int, int, int]]: ...
 def render_tile_into(
     plan: FramePlan,
     x0: int,

@@ -237,9 +237,13 @@ def test_render_tile_frame_writes_the_tiles_pixels_into_the_frame_or_refuses():
         np.full((30, 40), 7, dt)
         for dt in (np.float32, np.float32, np.float32, np.float32, np.int32, np.uint8, np.uint8, np.float32)
     ]
-    esc, calls = _core.render_tile_frame(fplan, 8, 4, 35, 21, *planes)
+    esc, calls, by_status, hits, by_level = _core.render_tile_frame(fplan, 8, 4, 35, 21, *planes)
     tile = render_tile_planned(fplan, TileRect(8, 4, 35, 21))
     assert calls == tile.root_calls and esc == tile.escalations
+    # The figures it counted as it wrote are those of the tile's AOVs.
+    assert list(by_status) == np.bincount(tile.aovs["status"].ravel(), minlength=4).tolist()
+    assert list(by_level) == np.bincount(tile.aovs["escalation"].ravel(), minlength=8).tolist()
+    assert hits == int((tile.rgba[..., 3] > 0).sum()) and 0 < hits < tile.rgba[..., 3].size
     for name, plane, want in zip(("rgba",) + AOV_CHANNELS, planes, [tile.rgba] + [tile.aovs[n] for n in AOV_CHANNELS]):
         assert np.array_equal(plane[4:21, 8:35], want, equal_nan=True), name
         rest = plane.copy()

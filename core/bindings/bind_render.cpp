@@ -549,11 +549,15 @@ void init_render(py::module_& m) {
                 py::gil_scoped_release release;
                 render_tile(plan, TileRect{x0, y0, x1, y1}, v, hook.get());
             }
-            return py::make_tuple(v.escalations, v.root_calls);
+            const auto& st = v.by_status;
+            const auto& lv = v.by_level;
+            return py::make_tuple(v.escalations, v.root_calls, py::make_tuple(st[0], st[1], st[2], st[3]), v.hits,
+                                  py::make_tuple(lv[0], lv[1], lv[2], lv[3], lv[4], lv[5], lv[6], lv[7]));
         },
         "Renders the tile [x0, x1) x [y0, y1) straight into the frame's arrays (rgba (H, W, 4) float32; Z, arg, re, "
         "im, certified_share (H, W) float32; count (H, W) int32; status, escalation (H, W) uint8; C-contiguous), "
-        "at the tile's pixels: the values render_tile returns. Returns (escalations, root_calls).",
+        "at the tile's pixels: the values render_tile returns. Returns (escalations, root_calls, pixels per status "
+        "code 0..3, pixels that hit (alpha > 0), pixels per ladder level 0..7), counted as the pixels were written.",
         py::arg("plan"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("rgba").noconvert(),
         py::arg("Z").noconvert(), py::arg("arg").noconvert(), py::arg("re").noconvert(), py::arg("im").noconvert(),
         py::arg("count").noconvert(), py::arg("status").noconvert(), py::arg("escalation").noconvert(),
@@ -663,6 +667,7 @@ void init_render(py::module_& m) {
                 d["seeded"] = p.seeded;
                 d["root_escalation"] = p.root_escalation;
                 d["complete"] = p.complete;
+                d["outside_sphere"] = p.outside_sphere;
                 polys.append(d);
             }
             out["polynomials"] = polys;

@@ -73,6 +73,64 @@ Verdict band_membership(const RootDisc& d, bool real, const FramePlan& plan, boo
 /// Unknown (straddling).
 Verdict inside_clip(const ObjectRay& ray, double mod_lo, double mod_hi, double radius);
 
+/// True only when the whole ray provably misses the clipping sphere:
+/// |o' + s d'| > radius for every s >= 0 and every o', d' in the ray's
+/// balls. Then inside_clip is No for every disc whatever its moduli, so no
+/// root of the ray polynomial can be the pixel's, found or not: the object
+/// is a proven miss along this ray without solving anything. False claims
+/// nothing (the ray may still miss). Round-to-nearest operations only, no
+/// branch but the last (the batched path calls it for a run of cells, the
+/// scalar path for one ray: the same operations on the same balls, so the
+/// same answer; primary_ray_polynomial_run's balls are
+/// primary_ray_polynomial's bits).
+///
+/// Proof. With o, d the balls' centres (doubles), |o' - o| <= sum rad(o'_k)
+/// and |d' - d| <= sum rad(d'_k) (1-norms bound 2-norms), so |o' + s d'| >=
+/// |o + s d| - (L - radius) - s P for any reals L >= radius + sum
+/// rad(o'_k), P >= sum rad(d'_k). L and P below are such: a sum of k nonnegative
+/// doubles rounded to nearest is at least the exact sum times (1 - u)^k
+/// (exact where subnormal), and fl(v (1 + 8u)) >= v (1 + 8u)(1 - u) >= v
+/// (1 - u)^-3 for normal v (>= v for subnormal v, whose sums were exact). It
+/// then suffices that |o + s d| > L + s P for s >= 0, i.e. Q(s) = A s^2 + 2
+/// B s + C > 0 with A = |d|^2 - P^2, B = o.d - L P, C = |o|^2 - L^2.
+/// Let T_A = |d|^2 + P^2, T_B = sum |o_k d_k| + L P, T_C = |o|^2 + L^2
+/// (exact; T_B^2 <= T_A T_C by Cauchy-Schwarz). Each of A, B, C is
+/// computed as a sum of four products whose terms pass at most four
+/// roundings, so |fl(X) - X| <= gamma_4 T_X + 4 eta (gamma_4 = 4u / (1 -
+/// 4u), eta = 2^-1074 for underflowing products); the computed T_X (the
+/// same operations on the absolute values) is at least T_X (1 - u)^4.
+/// The tests run only with T_A and T_C in [2^-400, 2^400] (which also
+/// rejects inf and NaN), where the eta terms are below 2^-600 u T_A T_C and
+/// no product overflows. Then fl(A) > 16u fl(T_A) gives A > 0, and
+/// likewise C > 0, and B > 0 where also fl(T_B) >= 2^-400 (B > 0: Q >= C >
+/// 0 on s >= 0). Otherwise the
+/// rounded D = fl(A) fl(C) - fl(B)^2 is within (8.05 + 8.05 + 1.01 + 1.01 +
+/// 2.03) u T_A T_C < 21u T_A T_C of A C - B^2 (the first two terms from
+/// the errors of A, C and of B^2, the rest from the three roundings of D),
+/// and D > fl(fl(128u fl(T_A)) fl(T_C)) >= 126u T_A T_C gives A C > B^2:
+/// Q has no real zero and Q(0) = C > 0, so Q > 0 everywhere.
+inline bool ray_misses_sphere(const ObjectRay& ray, double radius) {
+    constexpr double kU = kUnitRoundoff;
+    const Ball *o = ray.origin, *d = ray.direction;
+    const double l = (radius + ((o[0].rad + o[1].rad) + o[2].rad)) * (1.0 + 8.0 * kU);
+    const double p = ((d[0].rad + d[1].rad) + d[2].rad) * (1.0 + 8.0 * kU);
+    const double d0 = d[0].mid * d[0].mid, d1 = d[1].mid * d[1].mid, d2 = d[2].mid * d[2].mid;
+    const double o0 = o[0].mid * o[0].mid, o1 = o[1].mid * o[1].mid, o2 = o[2].mid * o[2].mid;
+    const double b0 = o[0].mid * d[0].mid, b1 = o[1].mid * d[1].mid, b2 = o[2].mid * d[2].mid;
+    const double pp = p * p, ll = l * l, lp = l * p;
+    const double sa = (d0 + d1) + d2, sc = (o0 + o1) + o2, sb = (b0 + b1) + b2;
+    const double big_a = sa - pp, t_a = sa + pp;
+    const double big_c = sc - ll, t_c = sc + ll;
+    const double big_b = sb - lp, t_b = ((std::fabs(b0) + std::fabs(b1)) + std::fabs(b2)) + lp;
+    const double disc = big_a * big_c - big_b * big_b;
+    constexpr double kLo = 0x1p-400, kHi = 0x1p400;
+    const bool in_range = t_a >= kLo && t_a <= kHi && t_c >= kLo && t_c <= kHi;
+    const bool signs = big_a > 16.0 * kU * t_a && big_c > 16.0 * kU * t_c;
+    const bool away = t_b >= kLo && big_b > 16.0 * kU * t_b;
+    const bool no_zero = disc > (128.0 * kU * t_a) * t_c;
+    return in_range & signs & (away | no_zero);
+}
+
 /// True iff disc j (count 1, verified, of the polynomial whose discs are
 /// all[0..n_all), all verified) holds exactly the conjugate of the root in
 /// disc b: it is the only disc that may meet b's mirror image.

@@ -437,6 +437,7 @@ struct ObjectRoots {
     Status status = Status::Ok;
     bool seeded = false;
     bool complete = false;   // status Ok, finite, every disc verified
+    bool outside_sphere = false;  // set_outside_sphere: not solved, a proven miss
     bool have_dd = false;
     // ray.origin holds the object's plan origin (a primary ray's, as fill
     // and primary_ray_polynomial write it): fill need not copy it again.
@@ -459,6 +460,24 @@ struct ObjectRoots {
         return own;
     }
 
+    /// The ray provably misses the object's clipping sphere
+    /// (detail::ray_misses_sphere): no root can be the pixel's, so nothing
+    /// is solved, and the object holds no disc and blocks nothing (status
+    /// Ok, complete: the decisions then see a proven miss, as they would
+    /// with every disc's inside_clip No). Every header field is defined, as
+    /// in set_non_finite.
+    void set_outside_sphere() {
+        status = Status::Ok;
+        seeded = false;
+        complete = true;
+        outside_sphere = true;
+        own.n_discs = 0;
+        own.n_infinite = 0;
+        own.wants_exact = false;
+        own.escalation = 0;
+        res.bind(own);
+    }
+
     /// A ray polynomial whose coefficients are not all finite: nothing is
     /// solved or claimed. Every header field is defined (no discs, no
     /// roots at infinity, no root tier, not seeded), so nothing of the
@@ -468,6 +487,7 @@ struct ObjectRoots {
         status = Status::NonFinite;
         seeded = false;
         complete = false;
+        outside_sphere = false;
         own.n_discs = 0;
         own.n_infinite = 0;
         own.wants_exact = false;
@@ -526,6 +546,17 @@ BatchIsa kernel_from_environment() {
     return isa == BatchIsa::Auto ? batch_isa_best() : isa;
 }
 
+/// Whether a ray that provably misses an object's clipping sphere skips
+/// that object's roots (detail::ray_misses_sphere): yes, unless
+/// ARGAND_CULL=off (the reference: every ray solved and decided disc by
+/// disc; tests compare the two).
+bool cull_from_environment() {
+    const char* v = std::getenv("ARGAND_CULL");
+    if (v == nullptr || *v == '\0' || std::string(v) == "on") return true;
+    if (std::string(v) == "off") return false;
+    throw std::invalid_argument(std::string("ARGAND_CULL=") + v + ": use on or off");
+}
+
 /// The primary rays' root discs of a run of samples (consecutive cells of
 /// one row of samples), solved ahead of their decisions: per object, the
 /// samples' ray polynomials (with their coefficient radii) go into
@@ -546,7 +577,7 @@ class PrimaryBatch {
 public:
     static constexpr int kCells = 32;  // samples per batch (two blocks of 16 lanes)
 
-    PrimaryBatch(const FramePlan& plan, BatchIsa isa) : plan_(plan), isa_(isa) {
+    PrimaryBatch(const FramePlan& plan, BatchIsa isa, bool cull) : plan_(plan), isa_(isa), cull_(cull) {
         static_assert(kCells == detail::kRunCells && kBatchKernelMaxDegree <= detail::kRunMaxDegree,
                       "PrimaryBatch's runs are primary_ray_polynomial_run's");
         const int n_obj = static_cast<int>(plan.scene.objects.size());
@@ -596,7 +627,17 @@ public:
             const SurfaceSpec& s = plan_.scene.objects[obj];
             const int n = s.degree;
             detail::primary_ray_polynomial_run(s, plan_.objects[obj], dx, dy, dz, cells, o.run, isa_);
-            for (int c = 0; c < cells; ++c) o.skip[c] = o.run.finite[c] == 0;
+            // A cell whose ray provably misses the clipping sphere is not
+            // solved either (intersect's test, on the same balls).
+            if (o.clipped && cull_) {
+                detail::ObjectRay ray;
+                for (int a = 0; a < 3; ++a) ray.origin[a] = plan_.objects[obj].origin[a];
+                for (int c = 0; c < cells; ++c) {
+                    for (int a = 0; a < 3; ++a) ray.direction[a] = Ball(o.run.dir[a][c], o.run.dir_rad[a][c]);
+                    o.outside[c] = detail::ray_misses_sphere(ray, s.clip_radius) ? 1 : 0;
+                }
+            }
+            for (int c = 0; c < cells; ++c) o.skip[c] = o.run.finite[c] == 0 || o.outside[c] != 0;
             // The seeds are the above arrays themselves (structure of
             // arrays along the tile's row of samples; a NaN in root 0 marks
             // a cell without seeds, which find_roots_soa starts on the
@@ -679,10 +720,15 @@ public:
             r.ray.direction[2] = Ball(p.dir[2][c], p.dir_rad[2][c]);
         }
         r.seeded = false;
+        if (o.outside[c]) {
+            r.set_outside_sphere();
+            return;
+        }
         if (o.skip[c]) {
             r.set_non_finite();
             return;
         }
+        r.outside_sphere = false;
         r.res.bind(o.res[c]);
         r.status = o.status[c];
         r.complete = o.complete[c] != 0;
@@ -697,7 +743,8 @@ private:
         bool batched = false;
         bool seeded = false;   // lanes start from the roots of the sample above
         detail::PrimaryRun run;  // the cells' ray polynomials (structure of arrays)
-        std::uint8_t skip[kCells] = {};  // cell's coefficients not finite: not solved
+        std::uint8_t skip[kCells] = {};  // cell not solved: coefficients not finite, or outside
+        std::uint8_t outside[kCells] = {};  // the cell's ray provably misses the clipping sphere
         // Seeds: root i of the sample above cell c of the tile's row of
         // samples at [i * row_cells_ + c] (NaN at i = 0: none).
         std::vector<double> above_re, above_im;
@@ -708,6 +755,7 @@ private:
     };
     const FramePlan& plan_;
     BatchIsa isa_;
+    bool cull_;  // rays that provably miss the clipping sphere are not solved
     bool any_ = false;
     int row_cells_ = 0;
     std::vector<Object> objects_;
@@ -721,7 +769,8 @@ struct BatchedCell {
 
 class Tracer {
 public:
-    explicit Tracer(const FramePlan& plan, const ExactSolver* exact = nullptr) : plan_(plan), exact_(exact) {
+    explicit Tracer(const FramePlan& plan, const ExactSolver* exact = nullptr, bool cull = true)
+        : plan_(plan), exact_(exact), cull_(cull) {
         const int levels = plan.params.max_depth + 2;
         scratch_.resize(static_cast<std::size_t>(levels) * plan.scene.objects.size());
         infos_.resize(static_cast<std::size_t>(levels));
@@ -755,8 +804,8 @@ public:
             const SurfaceSpec& s = plan_.scene.objects[obj];
             ObjectRoots& r = roots[obj];
             if (primary && pre != nullptr && pre->batch->batched(obj)) {
-                ++root_calls;
                 pre->batch->fill(obj, pre->cell, r, trace != nullptr);
+                if (!r.outside_sphere) ++root_calls;
                 r.have_dd = false;
                 if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
                 continue;
@@ -765,6 +814,10 @@ public:
             else detail::general_ray_polynomial(s, o, d, r.poly, r.ray);
             r.origin_is_plan = primary;
             r.have_dd = false;
+            if (cull_ && s.clip_radius > 0.0 && detail::ray_misses_sphere(r.ray, s.clip_radius)) {
+                r.set_outside_sphere();  // (not solved: no root call)
+                continue;
+            }
             const bool use_seed = seeds && seeds[obj].valid && plan_.params.seed_from_neighbour && s.degree > 4;
             solve(r, s.degree, use_seed ? seeds + obj : nullptr);
             any_seeded = any_seeded || r.seeded;
@@ -866,15 +919,17 @@ public:
         ObjectRoots* roots = scratch_.data();  // (depth 0's slots)
         std::uint8_t level = kLevelFirst;
         recording_ = false;
+        int calls = 0;
         for (int obj = 0; obj < n_obj; ++obj) {
             ObjectRoots& r = roots[obj];
             pre.batch->fill(obj, pre.cell, r, false);
             r.have_dd = false;
+            calls += !r.outside_sphere;
             if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
         }
         // (decide_fast, for one object straight to its decide_one.)
         if (!(n_obj == 1 ? decide_one(roots, h) : decide_fast(roots, h))) return false;
-        root_calls += n_obj;
+        root_calls += calls;
         h.level = level;
         return true;
     }
@@ -1052,6 +1107,7 @@ private:
     /// find_roots on the object's ray polynomial (with its coefficient radii).
     void solve(ObjectRoots& r, int degree, const Seeds* seed) {
         ++root_calls;
+        r.outside_sphere = false;
         if (!r.poly.finite) {
             r.set_non_finite();  // (not seeded: no seed was used, so no retry without)
             return;
@@ -1188,6 +1244,11 @@ private:
     bool decide_one(const ObjectRoots* roots, HitInfo& h) const {
         const ObjectRoots& r = roots[0];
         if (r.status != Status::Ok || !r.complete) return false;  // (degenerate or incomplete)
+        if (r.outside_sphere) {  // (no disc: a proven miss)
+            h.eligible = 0;
+            h.status = kCertified;
+            return true;
+        }
         const RootDisc* discs = r.res.discs;
         detail::DiscVerdicts v;
         classify_(discs, r.res.n_discs, classify_plans_[0], r.ray, v);
@@ -1348,7 +1409,8 @@ private:
             p.roots_status = static_cast<int>(r.status);
             p.seeded = r.seeded;
             p.root_escalation = r.res.escalation;
-            p.complete = r.complete;
+            p.complete = r.complete && !r.outside_sphere;  // (no disc covers its roots: none was sought)
+            p.outside_sphere = r.outside_sphere;
             t->polynomials.push_back(std::move(p));
         }
         for (const DiscInfo& i : infos) {
@@ -1380,6 +1442,7 @@ public:
 private:
     const FramePlan& plan_;
     const ExactSolver* exact_ = nullptr;
+    bool cull_ = true;  // ray_misses_sphere skips an object's roots (ARGAND_CULL)
     int exact_used_ = 0;  // pixels of this tile sent to the exact tier
     std::vector<ObjectRoots> scratch_;
     std::vector<std::vector<DiscInfo>> infos_;
@@ -1586,6 +1649,9 @@ struct PixelAccumulator {
         out.certified_share[i] = certified_share;
         out.count[i] = shown.eligible;
         if (level > kLevelFirst) ++out.escalations;
+        ++out.by_status[status & 3];
+        ++out.by_level[level & 7];
+        out.hits += alpha > 0.0f;
         if (!shown_hit) {  // a miss (the planes come unset: every AOV is written here)
             out.modulus[i] = std::numeric_limits<float>::infinity();
             out.argument[i] = 0.0f;
@@ -1678,11 +1744,15 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileView& out, 
     out.height = h;
     out.escalations = 0;
     out.root_calls = 0;
+    out.hits = 0;
+    std::fill(std::begin(out.by_status), std::end(out.by_status), 0);
+    std::fill(std::begin(out.by_level), std::end(out.by_level), 0);
     const std::size_t stride = static_cast<std::size_t>(out.stride);
     const int side = sample_side(fp.samples);
     if (side == 0) throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples));
-    Tracer tracer(plan, exact);
-    PrimaryBatch batch(plan, kernel_from_environment());
+    const bool cull = cull_from_environment();
+    Tracer tracer(plan, exact, cull);
+    PrimaryBatch batch(plan, kernel_from_environment(), cull);
     batch.begin_tile(side * w);
     // Every object solved in the batch: a certified sample may take
     // Tracer::intersect_batched (intersect's result, the ladder unneeded).
@@ -1764,9 +1834,10 @@ PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_star
     // seeds render_tile would have), then trace the sample.
     const int side = sample_side(fp.samples);
     const int sx_cell = side * x + sample % side, sy_cell = side * y + sample / side;
-    Tracer tracer(plan, exact);
+    const bool cull = cull_from_environment();
+    Tracer tracer(plan, exact, cull);
     tracer.explaining_ = true;
-    PrimaryBatch batch(plan, kernel_from_environment());
+    PrimaryBatch batch(plan, kernel_from_environment(), cull);
     std::vector<Seeds> seeds(plan.scene.objects.size());
     PixelExplanation e;
     // A batched object's discs depend on its own ray and its seeds, the

@@ -164,6 +164,125 @@ static void test_clip() {
     CHECK(inside_clip(ray, 2.0, 2.9999999, 2.0) == Verdict::No);
 }
 
+/// The claim of ray_misses_sphere in binary128 (113 bits; a product of
+/// doubles is exact there): with L = radius + sum rad(o'_k), P = sum
+/// rad(d'_k), |o + s d| > L + s P for every s >= 0, i.e. A = |d|^2 - P^2 >
+/// 0 (else Q(s) = A s^2 + 2 B s + C goes negative), C = |o|^2 - L^2 > 0 and
+/// (B = o.d - L P >= 0 or A C > B^2). ray_misses_sphere claims only with a
+/// margin of some 100 double roundings, far above binary128's own error.
+static bool misses_sphere_truth(const ObjectRay& ray, double radius) {
+    using Q = __float128;
+    Q l = radius, p = 0, a = 0, b = 0, c = 0;
+    for (int k = 0; k < 3; ++k) {
+        const Q om = ray.origin[k].mid, dm = ray.direction[k].mid;
+        l += static_cast<Q>(ray.origin[k].rad);
+        p += static_cast<Q>(ray.direction[k].rad);
+        a += dm * dm;
+        b += om * dm;
+        c += om * om;
+    }
+    const Q big_a = a - p * p, big_b = b - l * p, big_c = c - l * l;
+    return big_a > 0 && big_c > 0 && (big_b >= 0 || big_a * big_c > big_b * big_b);
+}
+
+/// ray_misses_sphere never claims a miss that binary128 refutes, on families
+/// of rays placed at the sphere's edge on purpose: closest approach h =
+/// radius (1 + eps) with eps of either sign from 1e-300 to 1, the sphere
+/// ahead of or behind the origin, the origin inside, radii zero, tiny,
+/// subnormal and large, at scales 2^-300 to 2^300; and the non-finite and
+/// degenerate rays. It is not vacuous either: a ray whose closest approach
+/// is beyond radius (1 + 1e-9), with radii of a few ulps, is claimed (where
+/// |o|^2 lies in the range the test runs in, 2^-400 to 2^400).
+static void test_ray_misses_sphere() {
+    std::mt19937_64 rng(20261202);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0), u01(0.0, 1.0);
+    auto unit_vector = [&](double* v) {
+        double n;
+        do {
+            for (int k = 0; k < 3; ++k) v[k] = unit(rng);
+            n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        } while (n < 0.1);
+        for (int k = 0; k < 3; ++k) v[k] /= n;
+    };
+    long claims = 0, wrong = 0, clear = 0, clear_claimed = 0;
+    for (int i = 0; i < 400000; ++i) {
+        double d[3], n[3];
+        unit_vector(d);
+        unit_vector(n);
+        // n perpendicular to d (Gram-Schmidt; exactness does not matter:
+        // the truth reads the rounded ray).
+        const double dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+        for (int k = 0; k < 3; ++k) n[k] -= dn * d[k];
+        const double nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        if (nn < 0.1) continue;
+        for (int k = 0; k < 3; ++k) n[k] /= nn;
+        const double radius = std::ldexp(0.5 + u01(rng), static_cast<int>(rng() % 601) - 300);
+        const double eps = (rng() % 2 ? 1.0 : -1.0) * std::pow(10.0, -300.0 * u01(rng) * u01(rng) * u01(rng));
+        const double h = radius * (1.0 + eps);
+        // t > 0: the sphere lies ahead (s = t is the closest approach);
+        // t < 0: behind; |t| small: the origin near or inside the sphere.
+        const double t = radius * (rng() % 4 == 0 ? unit(rng) : 40.0 * unit(rng));
+        ObjectRay ray;
+        const int rad_kind = static_cast<int>(rng() % 5);
+        for (int k = 0; k < 3; ++k) {
+            const double o = h * n[k] - t * d[k];
+            double orad = 0.0, drad = 0.0;
+            switch (rad_kind) {
+                case 1: orad = std::fabs(o) * 0x1p-52 * u01(rng); drad = 0x1p-52 * u01(rng); break;
+                case 2: orad = 0x1p-1074 * static_cast<double>(rng() % 8); drad = 0x1p-1074 * static_cast<double>(rng() % 8); break;
+                case 3: orad = radius * 1e-3 * u01(rng); drad = 1e-3 * u01(rng); break;
+                case 4: orad = radius * std::pow(10.0, -16.0 * u01(rng)); drad = std::pow(10.0, -16.0 * u01(rng)); break;
+                default: break;
+            }
+            ray.origin[k] = Ball(o, orad);
+            ray.direction[k] = Ball(d[k], drad);
+        }
+        const bool claim = ray_misses_sphere(ray, radius);
+        claims += claim;
+        if (claim && !misses_sphere_truth(ray, radius)) {
+            ++wrong;
+            if (wrong < 5)
+                std::fprintf(stderr, "false miss: radius %a eps %g t %g radii kind %d\n", radius, eps, t, rad_kind);
+        }
+        if (rad_kind <= 1 && eps > 1e-9 && radius > 0x1p-190 && radius < 0x1p190) {  // (|o|^2 within the tested range)
+            ++clear;
+            clear_claimed += claim;
+        }
+    }
+    std::printf("ray_misses_sphere: %ld claims, %ld clear misses of which %ld claimed\n", claims, clear, clear_claimed);
+    CHECK(wrong == 0);
+    CHECK(claims > 10000);
+    CHECK(clear > 1000 && clear_claimed == clear);
+    // Degenerate and non-finite rays claim nothing; a plain miss and a
+    // plain hit.
+    ObjectRay ray;
+    for (int k = 0; k < 3; ++k) {
+        ray.origin[k] = Ball(k == 0 ? -10.0 : 0.0);
+        ray.direction[k] = Ball(k == 0 ? 1.0 : 0.0);
+    }
+    CHECK(!ray_misses_sphere(ray, 2.0));  // through the centre
+    ray.origin[1] = Ball(3.0);
+    CHECK(ray_misses_sphere(ray, 2.0));   // passes at distance 3
+    CHECK(!ray_misses_sphere(ray, 3.0));  // touches: |o + 10 d| = 3 exactly
+    ray.direction[0] = Ball(-1.0);        // away from the sphere
+    CHECK(ray_misses_sphere(ray, 3.0));
+    ray.origin[1] = Ball(0.0);
+    CHECK(ray_misses_sphere(ray, 9.0));   // behind the origin, |o| = 10 > 9
+    CHECK(!ray_misses_sphere(ray, 10.0)); // the origin on the sphere
+    CHECK(!ray_misses_sphere(ray, 11.0)); // the origin inside
+    for (double bad : {0.0, static_cast<double>(INFINITY), -static_cast<double>(INFINITY), static_cast<double>(NAN), 1e300}) {
+        ObjectRay r2 = ray;
+        for (int k = 0; k < 3; ++k) r2.direction[k] = Ball(bad);
+        CHECK(!ray_misses_sphere(r2, 1.0));
+        r2 = ray;
+        r2.origin[2] = Ball(bad);
+        if (!std::isfinite(bad)) CHECK(!ray_misses_sphere(r2, 1.0));
+        r2 = ray;
+        r2.origin[2].rad = bad;
+        if (!std::isfinite(bad)) CHECK(!ray_misses_sphere(r2, 1.0));
+    }
+}
+
 /// p(t) = F(o + t d) in long double (a reference for the radii).
 static void reference_coefficients(const SurfaceSpec& s, const double* o, const double* d, long double* out) {
     for (int k = 0; k <= s.degree; ++k) out[k] = 0;
@@ -727,6 +846,7 @@ int main() {
     test_band_membership();
     test_trig_assumption();
     test_clip();
+    test_ray_misses_sphere();
     test_fast_decisions();
     test_classify_discs();
     test_ray_coefficients();

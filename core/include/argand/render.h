@@ -217,6 +217,12 @@ struct TileView {
     // Figures (TileAOVs's).
     std::int64_t escalations = 0;
     std::int64_t root_calls = 0;
+    // Counted as the pixels are written (render_frame's and the farm's
+    // figures, without a pass over the AOVs): pixels per status code, per
+    // ladder level, and pixels whose alpha is above 0 (some sample hit).
+    std::int64_t by_status[4] = {0, 0, 0, 0};
+    std::int64_t by_level[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    std::int64_t hits = 0;
 };
 
 /// A ray: exact double origin and (unit, up to rounding) direction.
@@ -352,6 +358,7 @@ struct ExplainedPolynomial {
     bool seeded;             // started from the neighbouring pixel's roots
     int root_escalation;     // the root core's own tier (0 double, 1 double-double)
     bool complete;           // every disc verified (they cover every root)
+    bool outside_sphere = false;  // the ray provably misses the clipping sphere: not solved, no disc
 };
 struct PixelExplanation {
     Ray ray;

@@ -123,8 +123,12 @@ class FrameResult:
     root_calls: int
     figures: dict[str, Any] = field(default_factory=dict)
     #: [pixels per status code 0..3, pixels that hit], when the renderer
-    #: counted them (the farm's path); else they are counted from the AOVs.
+    #: counted them (render_frame's and the farm's paths); else they are
+    #: counted from the AOVs.
     stats: np.ndarray | None = None
+    #: Pixels per ladder level (escalation code), when the renderer counted
+    #: them (render_frame); else frame_figures counts the AOV.
+    levels: np.ndarray | None = None
 
     @cached_property
     def status_counts(self) -> np.ndarray:
@@ -247,18 +251,24 @@ def render_frame(
     }
     planes = (rgba,) + tuple(aovs[name] for name in AOV_CHANNELS)
     escalations = calls = 0
+    # Status counts, hits and ladder levels, as the tiles counted them while
+    # writing their pixels (no pass over the frame's AOVs afterwards).
+    stats = np.zeros(len(STATUS_NAMES) + 1, np.int64)
+    levels = np.zeros(8, np.int64)
     rects = tiles(w, h, tile)
     n_workers = max(1, workers or os.cpu_count() or 1)
 
-    def render(r: TileRect) -> tuple[TileRect, int, int]:
-        esc, n_calls = _core.render_tile_frame(frame_plan, r.x0, r.y0, r.x1, r.y1, *planes, exact=decide_pixel)
-        return r, int(esc), int(n_calls)
+    def render(r: TileRect) -> tuple:
+        return (r,) + _core.render_tile_frame(frame_plan, r.x0, r.y0, r.x1, r.y1, *planes, exact=decide_pixel)
 
-    def place(done: tuple[TileRect, int, int]) -> None:
+    def place(done: tuple) -> None:
         nonlocal escalations, calls
-        r, esc, n_calls = done
+        r, esc, n_calls, by_status, hits, by_level = done
         escalations += esc
         calls += n_calls
+        stats[: len(STATUS_NAMES)] += by_status
+        stats[len(STATUS_NAMES)] += hits
+        levels[:] += by_level
         if on_tile:
             # (Views of the frame's arrays: the tile's pixels, as rendered.)
             on_tile(TileAOVs(r, rgba[r.y0 : r.y1, r.x0 : r.x1],
@@ -272,7 +282,7 @@ def render_frame(
             for done in pool.map(render, rects):
                 place(done)
     seconds = time.perf_counter() - start
-    result = FrameResult(params, rgba, aovs, seconds, escalations, calls)
+    result = FrameResult(params, rgba, aovs, seconds, escalations, calls, stats=stats, levels=levels)
     result.figures = frame_figures(result)
     return result
 
@@ -280,8 +290,11 @@ def render_frame(
 def frame_figures(result: FrameResult) -> dict[str, Any]:
     p = result.params
     n = p.width * p.height
-    levels = np.bincount(np.asarray(result.aovs["escalation"]).astype(np.intp, copy=False).ravel(),
-                         minlength=len(ESCALATION_NAMES))
+    if result.levels is not None:
+        levels = result.levels
+    else:
+        levels = np.bincount(np.asarray(result.aovs["escalation"]).astype(np.intp, copy=False).ravel(),
+                             minlength=len(ESCALATION_NAMES))
     exact = int(sum(levels[k] for k in EXACT_LEVELS))
     return {
         "sigma": p.sigma,
