@@ -288,17 +288,16 @@ ARGAND_AVX2 inline void v_edge(const FastEdge& f, __m256d x, __m256d y, __m256d 
 /// o'_a.rad, |d'_a.mid| + d'_a.rad, d'_a.rad], summed lane by lane as ((a = 0)
 /// + (a = 1)) + (a = 2): clip_sums' operations in its order.
 ARGAND_AVX2 __attribute__((always_inline)) inline __m256d v_clip_sums(const ObjectRay& ray) {
-    static_assert(sizeof(ObjectRay) == 12 * sizeof(double), "ObjectRay: six balls (mid, rad) in a row");
-    const double* p = &ray.origin[0].mid;
-    const __m256d A = _mm256_loadu_pd(p), B = _mm256_loadu_pd(p + 4), C = _mm256_loadu_pd(p + 8);
-    // A = [o0m, o0r, o1m, o1r], B = [o2m, o2r, d0m, d0r], C = [d1m, d1r, d2m, d2r].
-    const __m256d mids = _mm256_castsi256_pd(_mm256_set_epi64x(0, static_cast<long long>(0x8000000000000000ULL), 0,
-                                                               static_cast<long long>(0x8000000000000000ULL)));
+    // (Loaded double by double: the tracer has just written the ray's balls
+    // (PrimaryBatch::fill) with 8-byte stores, and a 32-byte load spanning
+    // several of them cannot be forwarded from the store buffer; it waited
+    // for the stores to retire, some 5% of a Bicube frame.)
+    const Ball *o = ray.origin, *d = ray.direction;
+    const __m256d x0 = _mm256_set_pd(d[0].rad, std::fabs(d[0].mid), o[0].rad, std::fabs(o[0].mid));
+    const __m256d x1 = _mm256_set_pd(d[1].rad, std::fabs(d[1].mid), o[1].rad, std::fabs(o[1].mid));
+    const __m256d x2 = _mm256_set_pd(d[2].rad, std::fabs(d[2].mid), o[2].rad, std::fabs(o[2].mid));
     // Per axis [|om|, or, |dm|, dr], then lane 2: |dm| + dr (the others as
     // they are).
-    const __m256d x0 = _mm256_andnot_pd(mids, _mm256_permute2f128_pd(A, B, 0x30));
-    const __m256d x1 = _mm256_andnot_pd(mids, _mm256_permute2f128_pd(A, C, 0x21));
-    const __m256d x2 = _mm256_andnot_pd(mids, _mm256_permute2f128_pd(B, C, 0x30));
     const __m256d y0 = _mm256_blend_pd(x0, _mm256_add_pd(x0, _mm256_permute_pd(x0, 0xF)), 0x4);
     const __m256d y1 = _mm256_blend_pd(x1, _mm256_add_pd(x1, _mm256_permute_pd(x1, 0xF)), 0x4);
     const __m256d y2 = _mm256_blend_pd(x2, _mm256_add_pd(x2, _mm256_permute_pd(x2, 0xF)), 0x4);
