@@ -22,6 +22,10 @@
 #include <stdexcept>
 #include <string>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "argand/arith.h"
 #include "argand/roots_batch.h"
 #include "pixel_decision.h"
@@ -1709,6 +1713,99 @@ TileView allocate(TileAOVs& out, int w, int h) {
     return v;
 }
 
+/// A tile's AOVs in arrays of its own (render_tile's staging area when it
+/// writes into a larger frame), one per thread, grown as needed and reused:
+/// view() is a TileView of w x h pixels over them; flush copies its rows
+/// into another view's and adds its figures to that view's.
+class TileStaging {
+public:
+    TileView& view(int w, int h) {
+        const std::size_t n = static_cast<std::size_t>(std::max(0, w)) * static_cast<std::size_t>(std::max(0, h));
+        if (n > capacity_) {
+            capacity_ = n;
+            rgba_.resize(4 * n);
+            modulus_.resize(n);
+            argument_.resize(n);
+            re_.resize(n);
+            im_.resize(n);
+            count_.resize(n);
+            status_.resize(n);
+            escalation_.resize(n);
+            certified_share_.resize(n);
+        }
+        view_ = TileView{};
+        view_.width = w;
+        view_.height = h;
+        view_.stride = w;
+        view_.rgba = rgba_.data();
+        view_.modulus = modulus_.data();
+        view_.argument = argument_.data();
+        view_.re = re_.data();
+        view_.im = im_.data();
+        view_.count = count_.data();
+        view_.status = status_.data();
+        view_.escalation = escalation_.data();
+        view_.certified_share = certified_share_.data();
+        return view_;
+    }
+
+    /// Copies the staged tile into out (rows out.stride apart) and adds its
+    /// figures.
+    void flush(TileView& out) const {
+        const std::size_t w = static_cast<std::size_t>(view_.width), stride = static_cast<std::size_t>(out.stride);
+        for (int y = 0; y < view_.height; ++y) {
+            const std::size_t from = static_cast<std::size_t>(y) * w, to = static_cast<std::size_t>(y) * stride;
+            auto copy = [&](auto* dst, const auto* src, std::size_t k) {
+                stream_copy(dst + k * to, src + k * from, sizeof(*src) * k * w);
+            };
+            copy(out.rgba, view_.rgba, 4);
+            copy(out.modulus, view_.modulus, 1);
+            copy(out.argument, view_.argument, 1);
+            copy(out.re, view_.re, 1);
+            copy(out.im, view_.im, 1);
+            copy(out.count, view_.count, 1);
+            copy(out.status, view_.status, 1);
+            copy(out.escalation, view_.escalation, 1);
+            copy(out.certified_share, view_.certified_share, 1);
+        }
+#if defined(__SSE2__)
+        _mm_sfence();  // (the streaming stores ordered before anything after)
+#endif
+        out.escalations = view_.escalations;
+        out.root_calls = view_.root_calls;
+        out.hits = view_.hits;
+        std::copy(std::begin(view_.by_status), std::end(view_.by_status), std::begin(out.by_status));
+        std::copy(std::begin(view_.by_level), std::end(view_.by_level), std::begin(out.by_level));
+    }
+
+private:
+    /// memcpy, with the 16-byte-aligned middle of dst written by streaming
+    /// stores: the frame's lines are not read first (nor kept in the
+    /// caches), as a plain store to a line not cached would.
+    static void stream_copy(void* dst_v, const void* src_v, std::size_t bytes) {
+        auto* dst = static_cast<unsigned char*>(dst_v);
+        const auto* src = static_cast<const unsigned char*>(src_v);
+#if defined(__SSE2__)
+        const std::size_t head = std::min(bytes, (16 - reinterpret_cast<std::uintptr_t>(dst) % 16) % 16);
+        std::memcpy(dst, src, head);
+        std::size_t i = head;
+        for (; i + 16 <= bytes; i += 16)
+            _mm_stream_si128(reinterpret_cast<__m128i*>(dst + i),
+                             _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + i)));
+        std::memcpy(dst + i, src + i, bytes - i);
+#else
+        std::memcpy(dst, src, bytes);
+#endif
+    }
+
+    std::size_t capacity_ = 0;
+    std::vector<float> rgba_, modulus_, argument_, re_, im_;
+    std::vector<std::int32_t> count_;
+    std::vector<std::uint8_t> status_, escalation_;
+    std::vector<float> certified_share_;
+    TileView view_;
+};
+
 const char* status_reason(std::uint8_t status) {
     switch (status) {
         case kCertified: return "every decision proven";
@@ -1736,7 +1833,33 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileAOVs& out, 
     out.root_calls = v.root_calls;
 }
 
+namespace {
+void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& out, const ExactSolver* exact);
+}  // namespace
+
 void render_tile(const FramePlan& plan, const TileRect& rect_in, TileView& out, const ExactSolver* exact) {
+    const TileRect r = clamp_rect(plan, rect_in);
+    const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
+    if (out.stride <= w || h <= 1) {
+        render_tile_view(plan, r, out, exact);
+        return;
+    }
+    // Rows of out a frame's row apart: render into the thread's staging
+    // tile and copy it over once done. (Written pixel by pixel at such
+    // strides, the frame's cache lines were fetched while the tile was
+    // traced, and the loads of the next run of samples waited behind those
+    // pending stores: a 64x64 tile of a 1024x1024 frame took some 12% longer
+    // than the same tile traced into arrays of its own.)
+    static thread_local TileStaging staging;
+    TileView& v = staging.view(w, h);
+    render_tile_view(plan, r, v, exact);
+    staging.flush(out);
+    out.width = w;
+    out.height = h;
+}
+
+namespace {
+void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& out, const ExactSolver* exact) {
     const FrameParams& fp = plan.params;
     const TileRect r = clamp_rect(plan, rect_in);
     const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
@@ -1819,6 +1942,7 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileView& out, 
     }
     out.root_calls = tracer.root_calls;
 }
+}  // namespace
 
 PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample,
                                const ExactSolver* exact, int column_start) {
