@@ -22,7 +22,7 @@ import pytest
 from argand.core import BATCH_MAX_DEGREE, KERNELS, batch_kernel, find_roots_batch
 from stability_families import generate, mignotte
 from test_roots_random import family
-from truth import Truth, check_roots, reproducer
+from truth import Truth, check_members, check_roots, reproducer
 
 SEED = 15_2026
 DENORM_MIN = 5e-324
@@ -203,14 +203,8 @@ def test_family_radii_in_the_lanes(method):
             roots = result.row(r)
             assert int(roots.count.sum()) + roots.n_infinite == n
             assert int(scalar.row(r).count.sum()) + scalar.row(r).n_infinite == n
-            for q in members(rows[r], radii[r], rng, 2):
-                truth = Truth(q)
-                if truth.n_infinite != roots.n_infinite:
-                    if roots.verified.any():
-                        problems.append(f"row {r}: member {q} of another degree, yet verified")
-                    continue
-                problems += [f"{reproducer(rows[r], method)} radius {radii[r]} member {q}: {p}"
-                             for p in check_roots(q, roots, truth)]
+            problems += check_members(members(rows[r], radii[r], rng, 2), roots,
+                                      f"row {r}: {reproducer(rows[r], method)} radius {radii[r]}")
     assert not problems, "\n".join(problems[:10])
     assert kept > 0
     with pytest.raises(ValueError, match="radius"):
@@ -319,7 +313,6 @@ def test_family_radii_in_the_lanes_high_degree(n):
     problems: list[str] = []
     for r in range(len(matrix)):
         roots = result.row(r)
-        for q in members(matrix[r].tolist(), rad[r].tolist(), rng, 1):
-            problems += [f"{reproducer(matrix[r], 'auto')} radius {rad[r].tolist()} member {q}: {p}"
-                         for p in check_roots(q, roots, Truth(q))]
+        problems += check_members(members(matrix[r].tolist(), rad[r].tolist(), rng, 1), roots,
+                                  f"{reproducer(matrix[r], 'auto')} radius {rad[r].tolist()}")
     assert not problems, "\n".join(problems[:10])

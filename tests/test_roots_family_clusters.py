@@ -21,7 +21,7 @@ import pytest
 
 from argand.core import find_roots_batch
 from test_roots_family import members
-from truth import Truth, check_roots, reproducer
+from truth import check_members, reproducer
 
 ULP = 2.0**-53
 
@@ -62,14 +62,8 @@ def _check(rows: list[list[float]], radii: list[list[float]], rng: random.Random
             n = len(rows[r]) - 1
             if int(roots.count.sum()) + roots.n_infinite != n:
                 problems.append(f"{kernel} row {r}: counts do not add up to {n}")
-            for q in [rows[r]] + members(rows[r], radii[r], rng, 1):
-                truth = Truth(q)
-                if truth.n_infinite != roots.n_infinite:
-                    if roots.verified.any():
-                        problems.append(f"{kernel} row {r}: member {q} of another degree, yet verified")
-                    continue
-                problems += [f"{kernel} {reproducer(rows[r], 'auto')} radius {radii[r]} member {q}: {p}"
-                             for p in check_roots(q, roots, truth)]
+            problems += check_members([rows[r]] + members(rows[r], radii[r], rng, 1), roots,
+                                      f"{kernel} row {r}: {reproducer(rows[r], 'auto')} radius {radii[r]}")
     return problems
 
 

@@ -289,6 +289,23 @@ def check_roots(coeffs: Sequence[float], roots, truth: Truth | None = None) -> l
     return problems
 
 
+def check_members(members: Sequence[Sequence[float]], roots, label: str) -> list[str]:
+    """check_roots for each member of a row's family (polynomials whose
+    coefficients lie within the row's radii): the row's discs hold the roots
+    of every member. A member of another degree (a leading coefficient
+    inside its radius, zero) has roots the discs cannot count: then nothing
+    may be verified."""
+    problems: list[str] = []
+    for q in members:
+        truth = Truth(q)
+        if truth.n_infinite != roots.n_infinite:
+            if roots.verified.any():
+                problems.append(f"{label}: member {q} of another degree, yet verified")
+            continue
+        problems += [f"{label} member {q}: {p}" for p in check_roots(q, roots, truth)]
+    return problems
+
+
 def reproducer(coeffs: Sequence[float], method: str) -> str:
     """A one-line reproducer: exact coefficients as float.hex()."""
     hexes = ", ".join(f"float.fromhex({float(c).hex()!r})" for c in coeffs)
