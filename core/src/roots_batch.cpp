@@ -309,20 +309,10 @@ inline void write_lane_fast(const BatchBlock& b, int n, int l, bool verify, Root
     res.escalation = 0;
 }
 
-/// Where a driver's rows come from. RowMajor: coefficient k of row j at
-/// coeffs[j * n_coeffs + k] (find_roots_rows' layout, no starts);
-/// otherwise SoaRows' layout.
-struct Source {
-    const double* coeffs = nullptr;
-    const double* radius = nullptr;
-    const double* start_re = nullptr;
-    const double* start_im = nullptr;
-    const std::uint8_t* skip = nullptr;
-    std::int64_t rows = 0;
-    std::int64_t stride = 0;        // (structure of arrays)
-    std::int64_t start_stride = 0;  // (structure of arrays)
-    int n_coeffs = 0;
-};
+/// Where a driver's rows come from: SoaRows' fields. RowMajor: coefficient
+/// k of row j at coeffs[j * n_coeffs + k] (find_roots_rows' layout; no
+/// starts, no skips, stride unused); otherwise SoaRows' layout.
+using Source = SoaRows;
 
 /// Sink of find_roots_soa: RootsResult and Status per row.
 struct SoaSink {
@@ -674,19 +664,9 @@ std::int64_t drive(const Source& in, Method method, Sink& sink, Status* bad, Bat
 void find_roots_soa(const SoaRows& in, Method method, RootsResult* out, Status* status, BatchIsa isa,
                     BatchCounters* counters) {
     BatchCounters local;
-    Source src;
-    src.coeffs = in.coeffs;
-    src.radius = in.radius;
-    src.start_re = in.start_re;
-    src.start_im = in.start_im;
-    src.skip = in.skip;
-    src.rows = in.rows;
-    src.stride = in.stride;
-    src.start_stride = in.start_stride;
-    src.n_coeffs = in.n_coeffs;
     SoaSink sink{out, status};
     Status bad = Status::Ok;
-    drive<false>(src, method, sink, &bad, isa, counters ? *counters : local);
+    drive<false>(in, method, sink, &bad, isa, counters ? *counters : local);
 }
 
 Status find_roots_rows_into(const double* coeffs, std::int64_t rows, int n_coeffs, Method method, const RowsOut& out,
