@@ -795,8 +795,11 @@ public:
     /// (optional) receives every decision.
     /// `pre` (primary rays only): the sample's roots, solved in a batch, for
     /// the objects the batch covers.
+    /// `filled` (with pre): intersect_batched has put the batch's roots in
+    /// the depth-0 slots already and decide_fast did not certify them: they
+    /// are not filled again, and decided in full straight away.
     HitInfo intersect(const double* o, const double* d, bool primary, Seeds* seeds, int depth, PixelExplanation* trace,
-                      const BatchedCell* pre = nullptr) {
+                      const BatchedCell* pre = nullptr, bool filled = false) {
         const int n_obj = static_cast<int>(plan_.scene.objects.size());
         const int slot = std::min(depth, plan_.params.max_depth + 1);
         ObjectRoots* roots = scratch_.data() + static_cast<std::size_t>(slot) * n_obj;
@@ -808,7 +811,7 @@ public:
             const SurfaceSpec& s = plan_.scene.objects[obj];
             ObjectRoots& r = roots[obj];
             if (primary && pre != nullptr && pre->batch->batched(obj)) {
-                pre->batch->fill(obj, pre->cell, r, trace != nullptr);
+                if (!filled) pre->batch->fill(obj, pre->cell, r, trace != nullptr);
                 if (!r.outside_sphere) ++root_calls;
                 r.have_dd = false;
                 if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
@@ -827,7 +830,7 @@ public:
             any_seeded = any_seeded || r.seeded;
             if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
         }
-        HitInfo h = decide(roots, infos);
+        HitInfo h = filled ? decide_full(roots, infos) : decide(roots, infos);
         if (h.status != kCertified && any_seeded) {
             level = kLevelUnseeded;
             for (int obj = 0; obj < n_obj; ++obj)
@@ -915,9 +918,12 @@ public:
     /// roots into the depth-0 slots, the level, decide's result, the root
     /// calls counted) without the rest of the ladder, and returns true with
     /// h (default-constructed by the caller) exactly intersect's result.
-    /// Otherwise false (nothing counted, h unspecified): the caller runs
-    /// intersect, which fills the same slots again and decides in full.
-    bool intersect_batched(const BatchedCell& pre, HitInfo& h) {
+    /// Otherwise false (nothing counted, h unspecified), with `filled` true
+    /// when the slots hold the batch's roots (decide_fast ran and did not
+    /// certify): the caller runs intersect with that, which decides them in
+    /// full without filling them again.
+    bool intersect_batched(const BatchedCell& pre, HitInfo& h, bool& filled) {
+        filled = false;
         if (full_only_) return false;
         const int n_obj = static_cast<int>(plan_.scene.objects.size());
         ObjectRoots* roots = scratch_.data();  // (depth 0's slots)
@@ -932,6 +938,7 @@ public:
             if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
         }
         // (decide_fast, for one object straight to its decide_one.)
+        filled = true;
         if (!(n_obj == 1 ? decide_one(roots, h) : decide_fast(roots, h))) return false;
         root_calls += calls;
         h.level = level;
@@ -1583,7 +1590,8 @@ struct SampleResult {
 /// known; see PixelAccumulator::add for what that asks of add.)
 [[gnu::always_inline]] inline SampleResult trace_sample(const FramePlan& plan, Tracer& tracer, int sx_cell, int sy_cell,
                                                        int side, Seeds* seeds, PixelExplanation* trace,
-                                                       const BatchedCell* pre = nullptr, const double* dir = nullptr) {
+                                                       const BatchedCell* pre = nullptr, const double* dir = nullptr,
+                                                       bool filled = false) {
     Ray ray;
     if (dir) {
         for (int a = 0; a < 3; ++a) {
@@ -1597,7 +1605,7 @@ struct SampleResult {
     tracer.pixel_x_ = sx_cell / side;  // the pixel holding the sample (for the exact tier)
     tracer.pixel_y_ = sy_cell / side;
     SampleResult s;
-    s.hit = tracer.intersect(ray.origin, ray.direction, true, seeds, 0, trace, pre);
+    s.hit = tracer.intersect(ray.origin, ray.direction, true, seeds, 0, trace, pre, filled);
     if (trace) trace->ray = ray;
     double rgb[3];
     if (s.hit.hit) tracer.shade(ray.origin, ray.direction, s.hit, 0, rgb);
@@ -1919,7 +1927,8 @@ void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& 
                     // (The run's directions are sample_direction's, to the bit.)
                     const double dir[3] = {dx[c], dy[c], dz[c]};
                     SampleResult sample;
-                    if (all_batched && tracer.intersect_batched(pre, sample.hit)) {
+                    bool filled = false;
+                    if (all_batched && tracer.intersect_batched(pre, sample.hit, filled)) {
                         // trace_sample's shading of the certified hit (the
                         // ray's origin is the eye's doubles).
                         double rgb[3];
@@ -1928,7 +1937,7 @@ void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& 
                         for (int a = 0; a < 3; ++a) sample.rgb[a] = static_cast<float>(rgb[a]);
                     } else {
                         sample = trace_sample(plan, tracer, sx, sy, side, seeds.data(), nullptr,
-                                              batch.any() ? &pre : nullptr, batch.any() ? dir : nullptr);
+                                              batch.any() ? &pre : nullptr, batch.any() ? dir : nullptr, filled);
                     }
                     // One sample per pixel: straight to the AOVs (the same
                     // bits as add() then write(), without the copies).
