@@ -668,6 +668,7 @@ void init_render(py::module_& m) {
                 d["root_escalation"] = p.root_escalation;
                 d["complete"] = p.complete;
                 d["outside_sphere"] = p.outside_sphere;
+                d["provisional"] = p.provisional;
                 polys.append(d);
             }
             out["polynomials"] = polys;

@@ -30,6 +30,7 @@
 #include "argand/roots_batch.h"
 #include "pixel_decision.h"
 #include "ray_polynomial.h"
+#include "solver.h"
 
 namespace argand {
 namespace {
@@ -442,6 +443,14 @@ struct ObjectRoots {
     bool seeded = false;
     bool complete = false;   // status Ok, finite, every disc verified
     bool outside_sphere = false;  // set_outside_sphere: not solved, a proven miss
+    // The batch's lane merged its discs into clusters instead of solving
+    // the row again (SoaRows::provisional): proven discs, which
+    // Tracer::settle replaces with find_roots' answer from the lane's
+    // approximations (lane_re, lane_im: the batch's) where a decision needs
+    // more than they prove.
+    bool provisional = false;
+    const double* lane_re = nullptr;
+    const double* lane_im = nullptr;
     bool have_dd = false;
     // ray.origin holds the object's plan origin (a primary ray's, as fill
     // and primary_ray_polynomial write it): fill need not copy it again.
@@ -475,6 +484,7 @@ struct ObjectRoots {
         seeded = false;
         complete = true;
         outside_sphere = true;
+        provisional = false;
         own.n_discs = 0;
         own.n_infinite = 0;
         own.wants_exact = false;
@@ -492,6 +502,7 @@ struct ObjectRoots {
         seeded = false;
         complete = false;
         outside_sphere = false;
+        provisional = false;
         own.n_discs = 0;
         own.n_infinite = 0;
         own.wants_exact = false;
@@ -656,6 +667,9 @@ public:
             rows.rows = cells;
             rows.stride = kCells;
             rows.n_coeffs = n + 1;
+            rows.provisional = o.provisional;
+            rows.lane_re = o.lane_re;
+            rows.lane_im = o.lane_im;
             find_roots_soa(rows, plan_.params.method, o.res, o.status, isa_);
             // What fill's ObjectRoots::complete was (status Ok, every disc
             // verified), once per cell here.
@@ -679,7 +693,14 @@ public:
             for (int c = 0; c < cells; ++c) {
                 const std::size_t a = static_cast<std::size_t>(first + c);
                 int m = 0;
-                if (!o.skip[c] && o.status[c] == Status::Ok && o.res[c].n_infinite == 0) {
+                if (!o.skip[c] && o.provisional[c]) {
+                    // (The lane's own approximations: n distinct ones, where
+                    // its merged discs would repeat a cluster's centre.)
+                    for (; m < n; ++m) {
+                        o.above_re[m * w + a] = o.lane_re[c * n + m];
+                        o.above_im[m * w + a] = o.lane_im[c * n + m];
+                    }
+                } else if (!o.skip[c] && o.status[c] == Status::Ok && o.res[c].n_infinite == 0) {
                     const RootsResult& res = o.res[c];
                     for (int i = 0; i < res.n_discs && m < n; ++i)
                         for (int k = 0; k < std::max(1, static_cast<int>(res.discs[i].count)) && m < n; ++k) {
@@ -736,6 +757,32 @@ public:
         r.res.bind(o.res[c]);
         r.status = o.status[c];
         r.complete = o.complete[c] != 0;
+        r.provisional = o.provisional[c] != 0;
+        if (r.provisional) {
+            const int n = plan_.scene.objects[obj].degree;
+            r.lane_re = o.lane_re + c * n;
+            r.lane_im = o.lane_im + c * n;
+        }
+    }
+
+    /// Replaces the provisional (merged) discs of cell c of object obj in
+    /// r with find_roots' answer from the lane's approximations: what
+    /// find_roots_soa answers without SoaRows::provisional, to the bit.
+    void settle(int obj, int c, ObjectRoots& r) const {
+        const Object& o = objects_[obj];
+        const detail::PrimaryRun& p = o.run;
+        const int n = p.n;
+        double coeffs[kMaxDegree + 1], radius[kMaxDegree + 1];
+        for (int k = 0; k <= n; ++k) {
+            coeffs[k] = p.c[k][c];
+            radius[k] = p.r[k][c];
+        }
+        r.status = detail::find_roots_lane_seeded(coeffs, n + 1, plan_.params.method, r.own, r.lane_re, r.lane_im,
+                                                  radius);
+        r.res.bind(r.own);
+        r.complete = r.status == Status::Ok;
+        for (int i = 0; i < r.res.n_discs && r.complete; ++i) r.complete = r.res.discs[i].verified;
+        r.provisional = false;
     }
 
 private:
@@ -755,6 +802,8 @@ private:
         RootsResult res[kCells];
         Status status[kCells];
         std::uint8_t complete[kCells];  // solved, status Ok, every disc verified
+        std::uint8_t provisional[kCells];  // SoaRows::provisional (its lane's merged discs)
+        double lane_re[kCells * kBatchKernelMaxDegree], lane_im[kCells * kBatchKernelMaxDegree];  // (cell c's at c * n)
         bool clipped = false;  // a clipping sphere: the decisions read the ray
     };
     const FramePlan& plan_;
@@ -831,6 +880,20 @@ public:
             if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
         }
         HitInfo h = filled ? decide_full(roots, infos) : decide(roots, infos);
+        if (h.status != kCertified && primary && pre != nullptr) {
+            // Discs a lane merged into clusters did not prove the pixel:
+            // the rows solved as find_roots_soa would without merging, and
+            // decided again (the batch's answer; not a ladder level).
+            bool settled = false;
+            for (int obj = 0; obj < n_obj; ++obj) {
+                ObjectRoots& r = roots[obj];
+                if (!r.provisional) continue;
+                pre->batch->settle(obj, pre->cell, r);
+                settled = true;
+                if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
+            }
+            if (settled) h = decide(roots, infos);
+        }
         if (h.status != kCertified && any_seeded) {
             level = kLevelUnseeded;
             for (int obj = 0; obj < n_obj; ++obj)
@@ -1119,6 +1182,7 @@ private:
     void solve(ObjectRoots& r, int degree, const Seeds* seed) {
         ++root_calls;
         r.outside_sphere = false;
+        r.provisional = false;
         if (!r.poly.finite) {
             r.set_non_finite();  // (not seeded: no seed was used, so no retry without)
             return;
@@ -1422,6 +1486,7 @@ private:
             p.root_escalation = r.res.escalation;
             p.complete = r.complete && !r.outside_sphere;  // (no disc covers its roots: none was sought)
             p.outside_sphere = r.outside_sphere;
+            p.provisional = r.provisional;
             t->polynomials.push_back(std::move(p));
         }
         for (const DiscInfo& i : infos) {

@@ -318,19 +318,43 @@ using Source = SoaRows;
 struct SoaSink {
     RootsResult* out;
     Status* status;
+    std::uint8_t* provisional;  // (SoaRows::provisional, nullable)
     static constexpr bool kStops = false;
     template <int N>
     void lane(const BatchBlock& b, int l, std::int64_t j, bool verify) {
         write_lane_fast(b, N, l, verify, out[j]);
         status[j] = Status::Ok;
+        if (provisional) provisional[j] = 0;
     }
     /// Every lane of the block kept, rows j0..j0 + kBatchLanes - 1.
     template <int N>
     void whole(const BatchBlock& b, std::int64_t j0, bool verify) {
-        for (int l = 0; l < kBatchLanes; ++l) lane<N>(b, l, j0 + l, verify);
+        for (int l = 0; l < kBatchLanes; ++l) {
+            lane<N>(b, l, j0 + l, verify);
+            if (provisional) provisional[j0 + l] = 0;
+        }
+    }
+    /// Lane l (Smith's discs proven, not disjoint) into row j: its discs
+    /// merged into proven clusters, and its approximations kept.
+    template <int N>
+    void merged(const BatchBlock& b, int l, std::int64_t j, const SoaRows& in) {
+        detail::MemberDisc members[N];
+        for (int i = 0; i < N; ++i) {
+            members[i] = {b.xr[i][l], b.xi[i][l], b.r[i][l], 1};
+            in.lane_re[j * N + i] = b.xr[i][l];
+            in.lane_im[j * N + i] = b.xi[i][l];
+        }
+        RootsResult& res = out[j];
+        res.n_discs = detail::enclose_and_merge(members, N, /*real_axis_centers=*/true, res.discs);
+        res.n_infinite = 0;
+        res.wants_exact = false;
+        res.escalation = 0;
+        status[j] = Status::Ok;
+        in.provisional[j] = 1;
     }
     Status scalar(std::int64_t j, const double* c, int nc, Method method, const double* r, const double* seed_re,
                   const double* seed_im) {
+        if (provisional) provisional[j] = 0;
         return status[j] = seed_re != nullptr
                                ? detail::find_roots_lane_seeded(c, nc, method, out[j], seed_re, seed_im, r)
                                : find_roots(c, nc, method, out[j], nullptr, nullptr, r);
@@ -578,6 +602,14 @@ std::int64_t blocks(const Source& in, Method method, Sink& sink, Status* bad, Ba
                 ++cnt.rows;
                 ++cnt.kept;
             } else if (N >= 5 && block.active[l] != 0.0 && block.converged[l] != 0.0) {
+                if constexpr (!RowMajor) {
+                    if (in.provisional != nullptr && verify && block.discs_ok[l] != 0.0) {
+                        // The lane's own discs, merged (see SoaRows::provisional).
+                        sink.template merged<N>(block, l, j, in);
+                        ++cnt.rows;
+                        continue;
+                    }
+                }
                 // The lane scaled exactly and Aberth stopped every root, but
                 // Smith's discs were not proven disjoint (a cluster):
                 // find_roots starts from the lane's approximations (mapped
@@ -664,7 +696,7 @@ std::int64_t drive(const Source& in, Method method, Sink& sink, Status* bad, Bat
 void find_roots_soa(const SoaRows& in, Method method, RootsResult* out, Status* status, BatchIsa isa,
                     BatchCounters* counters) {
     BatchCounters local;
-    SoaSink sink{out, status};
+    SoaSink sink{out, status, in.provisional};
     Status bad = Status::Ok;
     drive<false>(in, method, sink, &bad, isa, counters ? *counters : local);
 }

@@ -53,6 +53,14 @@ struct alignas(64) BatchBlock {
     alignas(64) double r[kBatchMaxDegree][kBatchLanes];
     alignas(64) double ok[kBatchLanes];
     alignas(64) double converged[kBatchLanes];  // Aberth stopped every root (diagnostic)
+    // Out (verify): 1.0 iff every r_i is Smith's radius for x_i (distinct
+    // approximations, every guard of the radii passed, the mapping back
+    // exact), whether or not the discs are pairwise disjoint: then the
+    // union of the D(x_i, r_i) holds every root of every member of the
+    // family and each connected component of m discs holds exactly m
+    // (Smith's theorem), so they may be merged into cluster discs
+    // (enclose_and_merge). ok implies discs_ok.
+    alignas(64) double discs_ok[kBatchLanes];
 };
 
 // One kernel per instruction set (roots_batch_{generic,avx2,avx512}.cpp):

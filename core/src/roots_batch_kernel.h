@@ -582,6 +582,8 @@ ARGAND_LANES
             r[i] = up(N * up(numerator / denominator));
             ok = ok & finite(r[i]);
         }
+        // (Every radius is Smith's here; disjoint is the test below.)
+        b.discs_ok[l] = ok ? 1.0 : 0.0;
 #pragma GCC unroll 12
         for (int i = 0; i < N; ++i)
 #pragma GCC unroll 12
@@ -620,6 +622,7 @@ ARGAND_LANES
             const double est = N * std::sqrt(pr * pr + pi * pi) / std::sqrt(dr * dr + di * di);
             b.r[i][l] = finite(est) ? est : __builtin_inf();
             b.ok[l] = b.active[l];
+            b.discs_ok[l] = 0.0;  // (estimates: nothing proven)
         }
 }
 
@@ -695,18 +698,19 @@ ARGAND_LANES
     for (int l = 0; l < L; ++l) {
         const double e = b.e[l];
         const double f = pow2_of(exponent_ok(e) ? e : 0.0);
-        bool ok = b.ok[l] != 0.0;
+        bool exact = true;
 #pragma GCC unroll 12
         for (int i = 0; i < N; ++i) {
             const double vr = b.xr[i][l] * f, vi = b.xi[i][l] * f, vd = b.r[i][l] * f;
-            ok = ok & ((b.xr[i][l] == 0.0) | ((std::fabs(vr) >= 0x1p-1022) & (std::fabs(vr) <= kHuge)));
-            ok = ok & ((b.xi[i][l] == 0.0) | ((std::fabs(vi) >= 0x1p-1022) & (std::fabs(vi) <= kHuge)));
-            ok = ok & ((b.r[i][l] == 0.0) | ((std::fabs(vd) >= 0x1p-1022) & (std::fabs(vd) <= kHuge)));
+            exact = exact & ((b.xr[i][l] == 0.0) | ((std::fabs(vr) >= 0x1p-1022) & (std::fabs(vr) <= kHuge)));
+            exact = exact & ((b.xi[i][l] == 0.0) | ((std::fabs(vi) >= 0x1p-1022) & (std::fabs(vi) <= kHuge)));
+            exact = exact & ((b.r[i][l] == 0.0) | ((std::fabs(vd) >= 0x1p-1022) & (std::fabs(vd) <= kHuge)));
             b.xr[i][l] = vr;
             b.xi[i][l] = vi;
             b.r[i][l] = vd;
         }
-        b.ok[l] = ok ? 1.0 : 0.0;
+        b.ok[l] = (b.ok[l] != 0.0) & exact ? 1.0 : 0.0;
+        b.discs_ok[l] = (b.discs_ok[l] != 0.0) & exact ? 1.0 : 0.0;
     }
 }
 

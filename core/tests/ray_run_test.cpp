@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "../src/ray_polynomial.h"
+#include "../src/solver.h"
 #include "argand/render.h"
 #include "argand/roots_batch.h"
 #include "check.h"
@@ -198,7 +199,7 @@ static bool same_result(const RootsResult& a, const RootsResult& b) {
 static void test_soa_driver() {
     std::mt19937_64 rng(99);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
-    long rows_compared = 0, kept = 0, scalar = 0;
+    long rows_compared = 0, kept = 0, scalar = 0, merged = 0;
     for (int trial = 0; trial < 496; ++trial) {
         const int n = trial < 400 ? 1 + trial % 8 : 9 + (trial / 4) % 4, nc = n + 1;  // (then degrees 9 to 12)
         const int rows = 1 + static_cast<int>(rng() % 40);
@@ -224,6 +225,21 @@ static void test_soa_driver() {
             if (kind == 3)
                 for (int k = 0; k < nc; ++k) aos[j * nc + k] = 0.0;
             if (kind == 4 && with_radius) aos_rad[j * nc + rng() % nc] = (rng() % 2) ? -1.0 : NAN;
+            if (kind >= 9 && kind <= 11 && n >= 5) {
+                // Real roots in [-1, 1], two of them 1e-9 apart (and, for
+                // kind 11, two more 1e-7 apart): a cluster the lanes'
+                // discs prove but cannot separate.
+                double root[16];
+                for (int i = 0; i < n; ++i) root[i] = u(rng);
+                root[1] = root[0] + 1e-9 * (1.5 + u(rng));
+                if (kind == 11 && n >= 6) root[3] = root[2] + 1e-7 * (1.5 + u(rng));
+                double poly[17] = {1.0};
+                for (int i = 0; i < n; ++i) {
+                    for (int k = i + 1; k >= 1; --k) poly[k] = poly[k - 1] - root[i] * poly[k];
+                    poly[0] = -root[i] * poly[0];
+                }
+                for (int k = 0; k < nc; ++k) aos[j * nc + k] = poly[k];
+            }
             if (kind == 5 && n >= 2) {  // (t - 1)^2 (t^(n-2) + ...)
                 for (int k = 0; k < nc; ++k) aos[j * nc + k] = 0.0;
                 aos[j * nc] = 1.0;
@@ -308,8 +324,43 @@ static void test_soa_driver() {
             }
             for (int j = 0; j < rows; ++j)
                 if (skip[j]) CHECK(got_status[j] == Status::TooLarge);  // untouched
+            // With SoaRows::provisional: a row is either the same answer, or
+            // its lane's discs merged, which find_roots_lane_seeded from the
+            // lane's approximations turns into the same answer to the bit
+            // (what Tracer::settle does); the merged discs count every root.
+            if (method == Method::Unverified) continue;
+            std::vector<std::uint8_t> prov(rows, 9);
+            std::vector<double> lre(static_cast<std::size_t>(rows) * n), lim(lre.size());
+            in.provisional = prov.data();
+            in.lane_re = lre.data();
+            in.lane_im = lim.data();
+            std::vector<RootsResult> got2(rows);
+            std::vector<Status> got2_status(rows, Status::TooLarge);
+            find_roots_soa(in, method, got2.data(), got2_status.data(), isa);
+            for (std::int64_t i = 0; i < m; ++i) {
+                const int j = index[i];
+                CHECK(prov[j] == 0 || prov[j] == 1);
+                if (prov[j] == 1) {
+                    ++merged;
+                    int total = 0;
+                    for (int d = 0; d < got2[j].n_discs; ++d) {
+                        total += got2[j].discs[d].count;
+                        CHECK(got2[j].discs[d].verified);
+                    }
+                    CHECK(total == n && got2_status[j] == Status::Ok);
+                    RootsResult settled;
+                    const Status st = detail::find_roots_lane_seeded(
+                        aos.data() + j * nc, nc, method, settled, lre.data() + j * n, lim.data() + j * n,
+                        with_radius ? aos_rad.data() + j * nc : nullptr);
+                    CHECK(st == ref_status[i] && same_result(settled, ref[i]));
+                } else {
+                    CHECK(got2_status[j] == ref_status[i] && same_result(got2[j], ref[i]));
+                }
+            }
         }
     }
+    std::printf("find_roots_soa with provisional rows: %ld rows merged by their lanes\n", merged);
+    CHECK(merged > 50);
     std::printf("find_roots_soa: %ld rows compared (%ld kept by the lanes, %ld by find_roots)\n", rows_compared, kept,
                 scalar);
     CHECK(kept > 1000 && scalar > 500);

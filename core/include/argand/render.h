@@ -359,6 +359,7 @@ struct ExplainedPolynomial {
     int root_escalation;     // the root core's own tier (0 double, 1 double-double)
     bool complete;           // every disc verified (they cover every root)
     bool outside_sphere = false;  // the ray provably misses the clipping sphere: not solved, no disc
+    bool provisional = false;     // the batch lane's discs merged into clusters (SoaRows::provisional)
 };
 struct PixelExplanation {
     Ray ray;

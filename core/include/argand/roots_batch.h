@@ -114,6 +114,19 @@ struct SoaRows {
     std::int64_t stride = 0;
     std::int64_t start_stride = 0;
     int n_coeffs = 0;
+    // Optional (degree 5 to 12, verified methods): a row whose lane
+    // converged and whose Smith discs are proven but not pairwise disjoint
+    // is not sent to find_roots; out[j] gets those discs merged into
+    // proven cluster discs (enclose_and_merge: each holds exactly its count
+    // of roots of every member of the row's family; status Ok), and
+    // provisional[j] = 1 with the lane's approximations at lane_re[j * (n_coeffs
+    // - 1) + i], lane_im[...] (i < n_coeffs - 1): the caller may keep them,
+    // or call find_roots_lane_seeded(row, lane_re, lane_im) for what
+    // find_roots_soa would have answered without these arrays. Every other
+    // row: provisional[j] = 0.
+    std::uint8_t* provisional = nullptr;
+    double* lane_re = nullptr;
+    double* lane_im = nullptr;
 };
 
 /// find_roots_rows for rows in structure-of-arrays form, without stopping:

@@ -55,6 +55,9 @@ def format_explanation(e: dict) -> list[str]:
         )
         for k, (c, r) in enumerate(zip(p["coeffs"], p["radius"])):
             lines.append(f"  c_{k} = {c!r} [{float(c).hex()}]  r_{k} = {r:.3e}")
+        if p.get("provisional"):
+            lines.append("  discs: the batch lane's own Smith discs, merged where they overlap (each cluster holds "
+                         "exactly its count of roots); they decided the pixel, so the row was not solved again")
         if p.get("outside_sphere"):
             lines.append("  not solved: the ray provably misses the object's clipping sphere "
                          "(|o + s d| > radius for every s >= 0), so none of its roots can be shown")
