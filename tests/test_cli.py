@@ -244,6 +244,11 @@ def test_bench_render_kernels_only(tmp_path):
     assert whole["kernels"]["instruction_set"] == alone["instruction_set"]
     assert "Root kernel of the primary rays" in (tmp_path / "render.md").read_text()
     assert "| bicube | 4 | 64×64 |" in (tmp_path / "render_kernels.md").read_text()
+    # The culled rays' figure: some rays of each scene culled, not all.
+    assert (tmp_path / "render_cull.png").stat().st_size > 1000
+    assert set(alone["culled_share"]) == {"bicube", "barth-sextic", "chmutov-octic"}
+    assert all(0.0 < v < 1.0 for v in alone["culled_share"].values())
+    assert "![Culled primary rays](render_cull.png)" in (tmp_path / "render_kernels.md").read_text()
 
 
 def test_bench_render_smoke(tmp_path):
