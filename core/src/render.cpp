@@ -480,16 +480,9 @@ struct ObjectRoots {
     /// with every disc's inside_clip No). Every header field is defined, as
     /// in set_non_finite.
     void set_outside_sphere() {
-        status = Status::Ok;
-        seeded = false;
+        set_empty(Status::Ok);
         complete = true;
         outside_sphere = true;
-        provisional = false;
-        own.n_discs = 0;
-        own.n_infinite = 0;
-        own.wants_exact = false;
-        own.escalation = 0;
-        res.bind(own);
     }
 
     /// A ray polynomial whose coefficients are not all finite: nothing is
@@ -497,8 +490,13 @@ struct ObjectRoots {
     /// roots at infinity, no root tier, not seeded), so nothing of the
     /// slot's previous sample (its escalation, say, which sets the pixel's
     /// ladder level) is read for this one.
-    void set_non_finite() {
-        status = Status::NonFinite;
+    void set_non_finite() { set_empty(Status::NonFinite); }
+
+private:
+    /// No discs, no roots at infinity, no root tier, not seeded, not
+    /// complete, with status s.
+    void set_empty(Status s) {
+        status = s;
         seeded = false;
         complete = false;
         outside_sphere = false;
@@ -1787,38 +1785,13 @@ TileView allocate(TileAOVs& out, int w, int h) {
 }
 
 /// A tile's AOVs in arrays of its own (render_tile's staging area when it
-/// writes into a larger frame), one per thread, grown as needed and reused:
-/// view() is a TileView of w x h pixels over them; flush copies its rows
-/// into another view's and adds its figures to that view's.
+/// writes into a larger frame), one per thread, reused from tile to tile:
+/// view() is a TileView of w x h pixels over them (allocate's); flush
+/// copies its rows into another view's and adds its figures to that view's.
 class TileStaging {
 public:
     TileView& view(int w, int h) {
-        const std::size_t n = static_cast<std::size_t>(std::max(0, w)) * static_cast<std::size_t>(std::max(0, h));
-        if (n > capacity_) {
-            capacity_ = n;
-            rgba_.resize(4 * n);
-            modulus_.resize(n);
-            argument_.resize(n);
-            re_.resize(n);
-            im_.resize(n);
-            count_.resize(n);
-            status_.resize(n);
-            escalation_.resize(n);
-            certified_share_.resize(n);
-        }
-        view_ = TileView{};
-        view_.width = w;
-        view_.height = h;
-        view_.stride = w;
-        view_.rgba = rgba_.data();
-        view_.modulus = modulus_.data();
-        view_.argument = argument_.data();
-        view_.re = re_.data();
-        view_.im = im_.data();
-        view_.count = count_.data();
-        view_.status = status_.data();
-        view_.escalation = escalation_.data();
-        view_.certified_share = certified_share_.data();
+        view_ = allocate(aovs_, w, h);
         return view_;
     }
 
@@ -1871,11 +1844,7 @@ private:
 #endif
     }
 
-    std::size_t capacity_ = 0;
-    std::vector<float> rgba_, modulus_, argument_, re_, im_;
-    std::vector<std::int32_t> count_;
-    std::vector<std::uint8_t> status_, escalation_;
-    std::vector<float> certified_share_;
+    TileAOVs aovs_;
     TileView view_;
 };
 
