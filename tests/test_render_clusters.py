@@ -67,12 +67,14 @@ def test_merged_lane_discs_hold_exactly_their_counts(name, size, delta):
     scene = SCENES[name]()
     params = FrameParams(delta=delta, width=size, height=size)
     objects = scene_objects(scene)
-    merged_rows = clusters = 0
+    merged_rows = clusters = settled = 0
     problems = []
     for y in range(size):
         for x in range(size):
             e = explain_pixel(scene, params, x, y)
             for k, poly in enumerate(e["polynomials"]):
+                assert not (poly["provisional"] and poly["settled"])
+                settled += poly["settled"]
                 if not poly["provisional"]:
                     continue
                 merged_rows += 1
@@ -87,8 +89,12 @@ def test_merged_lane_discs_hold_exactly_their_counts(name, size, delta):
                         problems.append(f"pixel ({x}, {y}) object {k}: disc {d['center']} r {d['radius']:.3e} "
                                         f"count {d['count']} holds {got} exact roots")
     assert not problems, "\n".join(problems[:10])
-    # (Not vacuous: every scene gives merged rows with clusters.)
+    # (Not vacuous: every scene gives merged rows with clusters; on
+    # Endrass's octic some pixels need the row solved again, and that path
+    # is what decides them.)
     assert merged_rows >= 10 and clusters >= 10, (merged_rows, clusters)
+    if name == "endrass-octic":
+        assert settled >= 5, settled
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
@@ -103,14 +109,18 @@ def test_merged_discs_change_no_decision_against_the_scalar_kernel(name, monkeyp
     assert batched.certified_share == 1.0
 
 
-def test_explain_says_when_merged_discs_decided():
+def test_explain_says_when_merged_discs_decided_or_did_not():
     scene = load_scene("endrass-octic")
-    params = FrameParams(delta=math.pi / 9, width=40, height=40)
+    params = FrameParams(delta=0.0, width=40, height=40)
+    said = set()
     for y in range(40):
         for x in range(40):
             e = explain_pixel(scene, params, x, y)
-            if e["polynomials"][0]["provisional"]:
-                text = "\n".join(format_explanation(e))
-                assert "the batch lane's own Smith discs, merged where they overlap" in text
-                return
-    pytest.fail("no pixel of the frame was decided by merged discs")
+            poly = e["polynomials"][0]
+            text = "\n".join(format_explanation(e))
+            merged = "the batch lane's own Smith discs, merged where they overlap" in text
+            again = "the batch lane's merged discs did not decide the pixel, so the row was solved again" in text
+            assert merged == poly["provisional"] and again == poly["settled"]
+            said |= {"merged"} if merged else set()
+            said |= {"settled"} if again else set()
+    assert said == {"merged", "settled"}

@@ -669,6 +669,7 @@ void init_render(py::module_& m) {
                 d["complete"] = p.complete;
                 d["outside_sphere"] = p.outside_sphere;
                 d["provisional"] = p.provisional;
+                d["settled"] = p.settled;
                 polys.append(d);
             }
             out["polynomials"] = polys;

@@ -445,12 +445,10 @@ struct ObjectRoots {
     bool outside_sphere = false;  // set_outside_sphere: not solved, a proven miss
     // The batch's lane merged its discs into clusters instead of solving
     // the row again (SoaRows::provisional): proven discs, which
-    // Tracer::settle replaces with find_roots' answer from the lane's
-    // approximations (lane_re, lane_im: the batch's) where a decision needs
-    // more than they prove.
+    // PrimaryBatch::settle replaces with find_roots' answer from the lane's
+    // approximations where a decision needs more than they prove.
     bool provisional = false;
-    const double* lane_re = nullptr;
-    const double* lane_im = nullptr;
+    bool settled = false;  // (its merged discs did not decide: solved again, for --explain)
     bool have_dd = false;
     // ray.origin holds the object's plan origin (a primary ray's, as fill
     // and primary_ray_polynomial write it): fill need not copy it again.
@@ -501,6 +499,7 @@ private:
         complete = false;
         outside_sphere = false;
         provisional = false;
+        settled = false;
         own.n_discs = 0;
         own.n_infinite = 0;
         own.wants_exact = false;
@@ -756,11 +755,7 @@ public:
         r.status = o.status[c];
         r.complete = o.complete[c] != 0;
         r.provisional = o.provisional[c] != 0;
-        if (r.provisional) {
-            const int n = plan_.scene.objects[obj].degree;
-            r.lane_re = o.lane_re + c * n;
-            r.lane_im = o.lane_im + c * n;
-        }
+        r.settled = false;
     }
 
     /// Replaces the provisional (merged) discs of cell c of object obj in
@@ -775,12 +770,13 @@ public:
             coeffs[k] = p.c[k][c];
             radius[k] = p.r[k][c];
         }
-        r.status = detail::find_roots_lane_seeded(coeffs, n + 1, plan_.params.method, r.own, r.lane_re, r.lane_im,
-                                                  radius);
+        r.status = detail::find_roots_lane_seeded(coeffs, n + 1, plan_.params.method, r.own, o.lane_re + c * n,
+                                                  o.lane_im + c * n, radius);
         r.res.bind(r.own);
         r.complete = r.status == Status::Ok;
         for (int i = 0; i < r.res.n_discs && r.complete; ++i) r.complete = r.res.discs[i].verified;
         r.provisional = false;
+        r.settled = true;
     }
 
 private:
@@ -1180,7 +1176,7 @@ private:
     void solve(ObjectRoots& r, int degree, const Seeds* seed) {
         ++root_calls;
         r.outside_sphere = false;
-        r.provisional = false;
+        r.provisional = r.settled = false;
         if (!r.poly.finite) {
             r.set_non_finite();  // (not seeded: no seed was used, so no retry without)
             return;
@@ -1485,6 +1481,7 @@ private:
             p.complete = r.complete && !r.outside_sphere;  // (no disc covers its roots: none was sought)
             p.outside_sphere = r.outside_sphere;
             p.provisional = r.provisional;
+            p.settled = r.settled;
             t->polynomials.push_back(std::move(p));
         }
         for (const DiscInfo& i : infos) {

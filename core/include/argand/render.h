@@ -360,6 +360,7 @@ struct ExplainedPolynomial {
     bool complete;           // every disc verified (they cover every root)
     bool outside_sphere = false;  // the ray provably misses the clipping sphere: not solved, no disc
     bool provisional = false;     // the batch lane's discs merged into clusters (SoaRows::provisional)
+    bool settled = false;         // the lane's merged discs did not decide: the row solved again
 };
 struct PixelExplanation {
     Ray ray;

@@ -58,6 +58,9 @@ def format_explanation(e: dict) -> list[str]:
         if p.get("provisional"):
             lines.append("  discs: the batch lane's own Smith discs, merged where they overlap (each cluster holds "
                          "exactly its count of roots); they decided the pixel, so the row was not solved again")
+        if p.get("settled"):
+            lines.append("  discs: the batch lane's merged discs did not decide the pixel, so the row was solved "
+                         "again from the lane's approximations (find_roots)")
         if p.get("outside_sphere"):
             lines.append("  not solved: the ray provably misses the object's clipping sphere "
                          "(|o + s d| > radius for every s >= 0), so none of its roots can be shown")
