@@ -6,7 +6,7 @@ VENV    ?= .venv
 PY      := $(VENV)/bin/python
 PIP     := $(PY) -m pip
 STAMP   := $(VENV)/.argand-deps
-SOURCES := $(shell find core python api worker web -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name '*.mako' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
+SOURCES := $(shell find core src -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name '*.mako' -o -name '*.conf' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
 .PHONY: docs-atlas setup build run test test-cpp test-py test-sanitize test-fuzz fuzz fuzz-build bench bench-render bench-smoke bench-all load clean
 
@@ -70,7 +70,7 @@ test-py: setup
 
 # The C++ core, its tests and the Python module with AddressSanitizer and
 # UndefinedBehaviorSanitizer (GCC; any report is fatal), in build/sanitize;
-# then the C++ tests and a Python smoke (tests/sanitizer_smoke.py) with the
+# then the C++ tests and a Python smoke (tests/core/sanitizer_smoke.py) with the
 # sanitized module loaded in place of the installed one (libstdc++ is
 # preloaded with libasan so that ASan's __cxa_throw interceptor finds it).
 # Debug: the bindings compile quickly; the core keeps its own -O2.
@@ -85,7 +85,7 @@ test-sanitize: setup
 	$(VENV)/bin/cmake --build $(SANITIZE_DIR) -j2 >/dev/null
 	$(SANITIZE_ENV) $(VENV)/bin/ctest --test-dir $(SANITIZE_DIR) --output-on-failure
 	$(SANITIZE_ENV) LD_PRELOAD="$$(g++ -print-file-name=libasan.so) $$(g++ -print-file-name=libstdc++.so)" \
-	  $(PY) tests/sanitizer_smoke.py $$(ls $(SANITIZE_DIR)/core/_core*.so)
+	  $(PY) tests/core/sanitizer_smoke.py $$(ls $(SANITIZE_DIR)/core/_core*.so)
 
 # Fuzzing (docs/reliability.md): libFuzzer targets fuzz/*_fuzz.cpp (Clang,
 # with ASan + UBSan, built in build/fuzz) and fuzz/scene_fuzz.py (atheris).

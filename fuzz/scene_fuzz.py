@@ -1,7 +1,7 @@
 """Atheris (libFuzzer for Python) target for the scene/expression path.
 
 Each input is one of: a surface expression (argand.scene.parse_surface), an
-angle (argand.render.angles.parse_angle), or a JSON scene
+angle (argand.frames.angles.parse_angle), or a JSON scene
 (argand.scene.scene_from_text) that, when valid, is planned and rendered as
 a 4x4 frame through the C++ binding. The contract checked: the parsers
 either return or raise ValueError (ExpressionError / SceneError), never
@@ -21,7 +21,7 @@ import sys
 
 import atheris
 
-from argand.render.angles import parse_angle
+from argand.frames.angles import parse_angle
 from argand.render.frames import FrameParams, TileRect, render_tile
 from argand.scene import scene_from_text
 from argand.scene.expression import MAX_DEGREE, MAX_TERMS, parse_surface

@@ -3,10 +3,9 @@ from pathlib import Path
 
 import pytest
 
-# Test helpers (the independent ground truth) live beside the tests.
-sys.path.insert(0, str(Path(__file__).parent))
-
 REPO = Path(__file__).resolve().parents[1]
+# The independent oracles are the package tests.helpers (tests/helpers/).
+sys.path.insert(0, str(REPO))
 
 
 @pytest.fixture(scope="session")

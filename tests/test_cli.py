@@ -93,7 +93,7 @@ def test_render_writes_frames_aovs_and_animation(tmp_path):
     assert r.returncode == 0, r.stderr
     import OpenImageIO as oiio
 
-    from argand.render.output import read_exr
+    from argand.media.frame_files import read_exr
 
     for i in range(3):
         names, pixels = read_exr(out / f"frame_{i:04d}.exr")
@@ -123,8 +123,8 @@ def test_render_sweeps_sigma_and_grids_with_an_atlas_and_an_mp4(tmp_path):
     import av
     from PIL import Image
 
-    from argand.render.grid import atlas_grid
-    from argand.render.output import read_band
+    from argand.frames.frame_set import atlas_grid
+    from argand.media.frame_files import read_band
 
     # A sigma sweep at one delta: a "rotating band"; 3 frames, no atlas.
     out = tmp_path / "rotating"

@@ -2,7 +2,7 @@
 
 * fuzz/corpus/find_roots: the hand-made seeds (seed-*) and the inputs that
   fuzzing kept for their coverage (libFuzzer -merge=1): every case makes no
-  false claim (tests/truth.py) and returns (about 750 cases, ~10 s of CPU).
+  false claim (tests/helpers/truth.py) and returns (about 750 cases, ~10 s of CPU).
 * fuzz/findings/find_roots: what fuzzing found (see docs/reliability.md);
   each runs in its own process with a time limit, since some hung: each must
   return within FINDING_SECONDS and make no false claim. A finding stays here
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from fuzz_input import decode_roots_case, replay
-from test_properties import watchdog
+from tests.helpers.fuzz_input import decode_roots_case, replay
+from tests.test_properties import watchdog
 
 FUZZ = Path(__file__).resolve().parents[1] / "fuzz"
 CORPUS = sorted((FUZZ / "corpus" / "find_roots").iterdir())
@@ -47,7 +47,7 @@ def test_seed_corpus_makes_no_false_claim():
 def test_fuzz_finding_returns_and_makes_no_false_claim(path):
     try:
         out = subprocess.run(
-            [sys.executable, str(Path(__file__).parent / "fuzz_input.py"), str(path)],
+            [sys.executable, str(Path(__file__).parent / "helpers" / "fuzz_input.py"), str(path)],
             capture_output=True, text=True, timeout=FINDING_SECONDS, check=False,
         )
     except subprocess.TimeoutExpired:

@@ -13,12 +13,11 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-#: Where each part of the `argand` package lives in the repository (pyproject's wheel.packages).
-ROOTS = {"argand": REPO / "python" / "argand", "argand.core": REPO / "core", "argand.api": REPO / "api",
-         "argand.worker": REPO / "worker"}
+#: The `argand` package is src/argand: every module argand.X.Y is the file src/argand/X/Y.py.
+ROOTS = {"argand": REPO / "src" / "argand"}
 #: Layer of each part: a module may import its own layer and the ones below.
-LAYERS = {"argand.cli": 3, "argand.bench": 3, "argand.api": 3, "argand.worker": 3, "argand.farm": 2,
-          "argand.render": 1, "argand.scene": 1, "argand.core": 0, "argand": 0}
+LAYERS = {"argand.cli": 4, "argand.serve": 4, "argand.bench": 3, "argand.api": 3, "argand.worker": 3, "argand.farm": 2,
+          "argand.render": 1, "argand.frames": 1, "argand.media": 1, "argand.scene": 1, "argand.core": 0, "argand": 0}
 MAX_FUNCTION_LINES = 60
 
 
@@ -117,6 +116,28 @@ def test_imports_point_down_the_layers():
     assert len(farm) > 10
     for name in farm:
         assert not {m for m in imports(name, MODULES[name], False) if m.startswith(("argand.api", "argand.worker"))}
+
+
+def test_only_serve_and_the_cli_import_both_api_and_worker():
+    """argand.serve is the composition root: the API and the workers never
+    import each other, and nothing else imports both."""
+    both = []
+    for name, path in MODULES.items():
+        found = imports(name, path, top_level_only=False)
+        if name.startswith("argand.api") and any(m.startswith("argand.worker") for m in found):
+            both.append((name, "worker"))
+        if name.startswith("argand.worker") and any(m.startswith("argand.api") for m in found):
+            both.append((name, "api"))
+    assert both == []
+    packages = {name.split(".")[1] for name in MODULES if name.count(".") >= 1}
+    importers = {p for p in packages
+                 if any(m.startswith("argand.api") for n, path in MODULES.items() if n.split(".")[1:2] == [p]
+                        for m in imports(n, path, False))
+                 and any(m.startswith("argand.worker") for n, path in MODULES.items() if n.split(".")[1:2] == [p]
+                         for m in imports(n, path, False))}
+    assert importers <= {"serve", "cli"}, importers
+    # The supervisor composes the farm: it serves the API itself and starts the workers as processes.
+    assert "argand.api.app" in imports("argand.serve.supervisor", MODULES["argand.serve.supervisor"], False)
 
 
 def test_the_farm_imports_at_the_top_only():

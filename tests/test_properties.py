@@ -23,9 +23,9 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from argand.core import find_roots
-from argand.render.angles import MAX_ANGLE_LENGTH, parse_angle
+from argand.frames.angles import MAX_ANGLE_LENGTH, parse_angle
 from argand.scene import MAX_DEGREE, MAX_LENGTH, MAX_TERMS, ExpressionError, parse_surface
-from truth import check_roots, reproducer
+from tests.helpers.truth import check_roots, reproducer
 
 def reproducible(max_examples: int, deadline: timedelta | None) -> settings:
     """Settings for CI: derandomized (the examples follow from the test),

@@ -9,7 +9,7 @@
 #include <immintrin.h>
 #endif
 
-#include "solver.h"
+#include "root_kernels.h"
 
 namespace argand::detail {
 namespace {
@@ -551,7 +551,7 @@ ClassifyDiscs classify_discs_best(bool scalar) {
 namespace {
 
 /// Horner in double-double with a running error bound, as eval_bound
-/// (solver.h) but with double-double coefficients: |p(x) - value| <= err
+/// (root_kernels.h) but with double-double coefficients: |p(x) - value| <= err
 /// for the exact dd coefficients c and the exact dd point x.
 bool eval_dd(const DoubleDouble* c, int n, Complex<DoubleDouble> x, Complex<DoubleDouble>& value, double& err) {
     using E = ErrorModel<DoubleDouble>;

@@ -30,7 +30,7 @@
 #include "argand/roots_batch.h"
 #include "pixel_decision.h"
 #include "ray_polynomial.h"
-#include "solver.h"
+#include "root_kernels.h"
 
 namespace argand {
 namespace {

@@ -8,7 +8,7 @@
 #include <cstring>
 #include <limits>
 
-#include "solver.h"
+#include "root_kernels.h"
 
 namespace argand {
 namespace {

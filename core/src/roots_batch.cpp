@@ -11,7 +11,7 @@
 #include <limits>
 
 #include "roots_batch_block.h"
-#include "solver.h"
+#include "root_kernels.h"
 
 #if defined(__x86_64__) || defined(_M_X64)
 #define ARGAND_BATCH_X86 1

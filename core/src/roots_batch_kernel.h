@@ -15,7 +15,7 @@
 // flush-to-zero / denormals-are-zero or a directed rounding mode, so every
 // lane performs exactly the IEEE-754 binary64 operations written here, in
 // this order: the same operations, in the same order, as the scalar
-// smith_radii_lanes_reference (solver.h), whose rounding argument therefore holds lane
+// smith_radii_lanes_reference (root_kernels.h), whose rounding argument therefore holds lane
 // by lane (the C++ test compares the two bit for bit).
 //
 // What a lane proves: ok[l] = 1 iff Smith's discs D(x_i, r_i) (Smith 1970,
@@ -499,7 +499,7 @@ int aberth_lanes(BatchBlock& b, int max_iter) {
     return it;
 }
 
-/// Smith's discs, lane by lane, exactly as smith_radii_lanes_reference (solver.h) with
+/// Smith's discs, lane by lane, exactly as smith_radii_lanes_reference (root_kernels.h) with
 /// no coefficient radii, after the same snapping of real approximations;
 /// then the pairwise separation test of smith_discs<double>. Sets ok[l] and
 /// r[i][l]; real roots are those with xi == 0 (a disc centred on the real

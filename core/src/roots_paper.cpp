@@ -20,7 +20,7 @@
 #include <complex>
 #include <vector>
 
-#include "solver.h"
+#include "root_kernels.h"
 
 namespace argand::detail {
 namespace {

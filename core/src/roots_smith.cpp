@@ -2,7 +2,7 @@
 // Smith's inclusion discs; the "smith", "auto" and "unverified" methods.
 #include <cmath>
 
-#include "solver.h"
+#include "root_kernels.h"
 
 namespace argand::detail {
 namespace {

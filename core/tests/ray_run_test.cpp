@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "../src/ray_polynomial.h"
-#include "../src/solver.h"
+#include "../src/root_kernels.h"
 #include "argand/render.h"
 #include "argand/roots_batch.h"
 #include "check.h"

@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "../src/roots_batch_block.h"
-#include "../src/solver.h"
+#include "../src/root_kernels.h"
 #include "argand/roots.h"
 #include "argand/roots_batch.h"
 

@@ -7,7 +7,7 @@
 #include <cstdio>
 #include <limits>
 
-#include "../src/solver.h"
+#include "../src/root_kernels.h"
 #include "argand/roots.h"
 
 using namespace argand;

@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <random>
 
-#include "../src/solver.h"
+#include "../src/root_kernels.h"
 
 using namespace argand;
 using namespace argand::detail;

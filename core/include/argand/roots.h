@@ -4,7 +4,7 @@
 //  * find_roots(): the safe entry point. Validates input, strips exact zero
 //    roots and roots at infinity, scales the polynomial by exact powers of
 //    two, runs the chosen method and maps the discs back.
-//  * detail::solve_smith() / detail::solve_paper() (core/src/solver.h): the
+//  * detail::solve_smith() / detail::solve_paper() (core/src/root_kernels.h): the
 //    kernels. Preconditions: degree >= 1, finite coefficients, nonzero p_0
 //    and p_n. No allocation.
 #pragma once

@@ -1,0 +1,233 @@
+"""Request and response bodies of the HTTP API."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from argand.core import METHODS
+from argand.farm.models import Job
+from argand.farm.job_limits import MAX_FRAMES, MAX_SIDE
+from argand.farm.planning import MAX_TILE, MIN_TILE
+from argand.farm.progress import eta_seconds, job_progress
+from argand.farm.queue import PRIORITIES
+from argand.frames.angles import parse_angle
+from argand.render.frames import MAX_SAMPLES
+from argand.scene.model import check_samples
+from argand.frames.frame_set import FrameGrid, FramePoint
+
+Priority = Field(5, ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
+
+
+def _angle(v: Any) -> float:
+    """An angle: a JSON number or an expression such as "pi/9", read by
+    argand.frames.angles.parse_angle (bounded: no recursion, no big integers,
+    at most MAX_ANGLE_LENGTH characters); anything else is a ValueError (a 422)."""
+    return parse_angle(v)
+
+
+class AngleRange(BaseModel):
+    """A sweep of σ or δ: ``count`` values from start to stop inclusive."""
+    model_config = ConfigDict(extra="forbid")
+    start: float | str
+    stop: float | str
+    count: int = Field(ge=1, le=MAX_FRAMES, description="Values in the sweep (the farm's max_frames may be lower)")
+
+    @field_validator("start", "stop", mode="before")
+    @classmethod
+    def _parse(cls, v: Any) -> float:
+        return _angle(v)
+
+
+def _axis(v: Any, name: str) -> Any:
+    """A number or angle text (one value), a list of them, or a range (left to pydantic)."""
+    if isinstance(v, list):
+        if not v:
+            raise ValueError(f"{name} must not be empty")
+        if len(v) > MAX_FRAMES:
+            raise ValueError(f"{name} has {len(v)} entries; at most {MAX_FRAMES} (and the farm's max_frames)")
+        return [_angle(d) for d in v]
+    if isinstance(v, dict):
+        return v
+    return [_angle(v)]
+
+
+#: Most steps of an atlas (its frames, steps (steps + 1) / 2, meet the farm's max_frames too).
+MAX_ATLAS_STEPS = 140
+
+
+class JobRequest(BaseModel):
+    """A job's frames are (σ, δ) pairs: ``sigmas`` x ``deltas`` (each a
+    number, a list or a range; ``sigma`` is one σ, the default 0), or with
+    ``atlas`` the triangular grid over the whole space σ ≥ 0, σ + δ ≤ π.
+    Every pair must keep the band rule."""
+    model_config = ConfigDict(extra="forbid")
+    scene: str | dict = Field(description="A preset name or a scene object")
+    sigma: float | str | None = Field(None, description="One σ (the default, 0); or give sigmas")
+    sigmas: float | str | list[float | str] | AngleRange | None = Field(
+        None, description="σ values: a number, a list or {start, stop, count}; with several deltas, a grid")
+    deltas: float | str | list[float | str] | AngleRange | None = Field(
+        None, description="δ values: a number, a list or {start, stop, count} (default 0)")
+    atlas: int | None = Field(None, ge=1, le=MAX_ATLAS_STEPS, description=(
+        "N: the whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of N rows and columns, step π/N "
+        "(N(N+1)/2 frames); instead of sigma, sigmas and deltas"))
+    width: int = Field(256, ge=1, le=MAX_SIDE)
+    height: int = Field(256, ge=1, le=MAX_SIDE)
+    tile: int | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
+    priority: int = Priority
+    method: Literal[METHODS] = "auto"
+    samples: int | None = Field(None, ge=1, le=MAX_SAMPLES,
+                                description="Samples per pixel, a square (1, 4, 9, ..., MAX_SAMPLES; default: the "
+                                "scene's): the colour is their mean, the status the worst of theirs")
+
+    @field_validator("samples")
+    @classmethod
+    def _samples(cls, v: int | None) -> int | None:
+        return None if v is None else check_samples(v)
+
+    @field_validator("sigma", mode="before")
+    @classmethod
+    def _sigma(cls, v: Any) -> float:
+        return _angle(v)
+
+    @field_validator("sigmas", mode="before")
+    @classmethod
+    def _sigmas(cls, v: Any) -> Any:
+        return _axis(v, "sigmas")
+
+    @field_validator("deltas", mode="before")
+    @classmethod
+    def _deltas(cls, v: Any) -> Any:
+        return _axis(v, "deltas")
+
+    @model_validator(mode="after")
+    def _one_way(self) -> "JobRequest":
+        given = [k for k in ("sigma", "sigmas", "deltas") if getattr(self, k) is not None]
+        if self.atlas is not None and given:
+            raise ValueError(f"atlas lays out its own sigmas and deltas: give it without {' and '.join(given)}")
+        if self.sigma is not None and self.sigmas is not None:
+            raise ValueError("give sigma (one value) or sigmas, not both")
+        return self
+
+    def axes(self) -> tuple[Any, Any]:
+        """(sigmas, deltas), each a list or {start, stop, count}."""
+        def plain(axis, default):
+            return default if axis is None else axis.model_dump() if isinstance(axis, AngleRange) else axis
+        sigmas = [self.sigma] if self.sigma is not None else plain(self.sigmas, [0.0])
+        return sigmas, plain(self.deltas, [0.0])
+
+
+class PriorityPatch(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    priority: int = Field(ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
+
+
+class FrameBrief(BaseModel):
+    """A frame in the job list: no figures (their JSON is read by the job's own view only)."""
+    index: int
+    sigma: float
+    delta: float
+    sigma_index: int = Field(description="The frame's row in the job's grid (its σ in the job's sigmas)")
+    delta_index: int = Field(description="The frame's column in the job's grid (its δ in the job's deltas)")
+    status: str
+    png_url: str | None
+    exr_url: str | None
+    thumbnail_url: str | None
+    finished: float | None
+
+
+class FrameOut(FrameBrief):
+    certified_share: float | None
+    figures: dict | None
+
+
+class JobSummary(BaseModel):
+    """A job in the list: its counters and frames, without the scene and the frames' figures."""
+    id: str
+    status: str
+    scene_name: str
+    sigmas: list[float] = Field(description="The grid's σ axis (rows), by sigma_index")
+    deltas: list[float] = Field(description="The grid's δ axis (columns), by delta_index")
+    width: int
+    height: int
+    tile: int
+    method: str
+    priority: int
+    progress: float
+    tiles_done: int
+    tiles_total: int
+    eta_s: float | None
+    created: float
+    started: float | None
+    finished: float | None
+    error: str | None
+    frames: list[FrameBrief]
+    animation_url: str | None
+    webp_url: str | None
+    mp4_url: str | None
+    atlas_url: str | None = Field(description="atlas.png, the frames as a labelled contact sheet (a grid job)")
+
+
+class JobOut(JobSummary):
+    scene: dict
+    frames: list[FrameOut]
+
+
+class JobPage(BaseModel):
+    total: int
+    page: int
+    per_page: int
+    jobs: list[JobSummary]
+
+
+def _urls(base: str, index: int, done: bool) -> dict:
+    return {"png_url": f"{base}/frames/{index}.png" if done else None,
+            "exr_url": f"{base}/frames/{index}.exr" if done else None,
+            "thumbnail_url": f"{base}/frames/{index}/thumbnail.png" if done else None}
+
+
+def _job_fields(job: Job, done: int, total: int, places: list[FramePoint]) -> dict:
+    base = f"/api/jobs/{job.id}"
+    animated = job.status == "done" and len(places) > 1
+    grid = FrameGrid.from_points(places)
+    sigmas, deltas = list(grid.sigmas), list(grid.deltas)
+    return dict(
+        id=job.id, status=job.status, scene_name=job.scene_name, sigmas=sigmas, deltas=deltas, width=job.width,
+        height=job.height, tile=job.tile, method=job.method, priority=job.priority,
+        progress=done / total if total else 0.0, tiles_done=done, tiles_total=total,
+        eta_s=eta_seconds(job, done, total), created=job.created, started=job.started, finished=job.finished,
+        error=job.error, animation_url=f"{base}/animation.gif" if animated else None,
+        webp_url=f"{base}/animation.webp" if animated else None,
+        mp4_url=f"{base}/animation.mp4" if animated else None,
+        atlas_url=f"{base}/atlas.png" if grid.is_grid else None,
+    )
+
+
+def frame_out(base: str, f) -> FrameOut:
+    return FrameOut(index=f.index, sigma=f.sigma, delta=f.delta, sigma_index=f.sigma_index, delta_index=f.delta_index,
+                    status=f.status, **_urls(base, f.index, f.status == "done"),
+                    finished=f.finished, certified_share=(f.figures or {}).get("certified_share"), figures=f.figures)
+
+
+def frame_brief(base: str, index: int, sigma: float, delta: float, sigma_index: int, delta_index: int, status: str,
+                finished: float | None) -> FrameBrief:
+    return FrameBrief(index=index, sigma=sigma, delta=delta, sigma_index=sigma_index, delta_index=delta_index,
+                      status=status, **_urls(base, index, status == "done"), finished=finished)
+
+
+def job_out(job: Job) -> JobOut:
+    """The job's own view: every frame with its figures."""
+    done, total = job_progress(job)
+    base = f"/api/jobs/{job.id}"
+    places = [FramePoint(f.sigma_index, f.delta_index, f.sigma, f.delta) for f in job.frames]
+    return JobOut(scene=job.scene, frames=[frame_out(base, f) for f in job.frames],
+                  **_job_fields(job, done, total, places))
+
+
+def job_summary(job: Job, progress: tuple[int, int], frames: list[tuple]) -> JobSummary:
+    """A job in the list, from its row (scene deferred), its (tiles done, total) and its
+    frames' (index, sigma, delta, sigma_index, delta_index, status, finished)."""
+    base = f"/api/jobs/{job.id}"
+    places = [FramePoint(f[3], f[4], f[1], f[2]) for f in frames]
+    return JobSummary(frames=[frame_brief(base, *f) for f in frames], **_job_fields(job, *progress, places))

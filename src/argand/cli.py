@@ -1,0 +1,599 @@
+"""The `argand` command line."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich import box
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+app = typer.Typer(
+    help="Argand: verified complex roots and renders of algebraic surfaces in complex space.",
+    no_args_is_help=True,
+    add_completion=False,
+)
+bench_app = typer.Typer(help="Benchmarks against the alternatives; JSON and charts under docs/bench/.", no_args_is_help=True)
+app.add_typer(bench_app, name="bench")
+
+console = Console()
+err = Console(stderr=True)
+
+
+def fail(message: str, code: int = 2) -> None:
+    err.print(f"[bold red]error:[/] {message}")
+    raise typer.Exit(code)
+
+
+# ---------------------------------------------------------------------------
+# argand roots
+# ---------------------------------------------------------------------------
+
+
+@app.command(context_settings={"ignore_unknown_options": True, "allow_interspersed_args": True})
+def roots(
+    coefficients: List[str] = typer.Argument(..., help="p_0 p_1 ... p_n, lowest degree first (negative numbers are fine)."),
+    method: str = typer.Option("auto", "--method", "-m", help="auto | smith | paper | unverified"),
+) -> None:
+    """All complex roots of p(t) = p_0 + p_1 t + ... + p_n t^n, with proven enclosures."""
+    from argand.core import METHODS, find_roots
+
+    if method not in METHODS:
+        fail(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
+    values = []
+    for i, text in enumerate(coefficients):
+        try:
+            v = float(text)
+        except ValueError:
+            fail(f"coefficient {i} ({text!r}) is not a number")
+        if not math.isfinite(v):
+            fail(f"coefficient {i} ({text!r}) must be finite")
+        values.append(v)
+    try:
+        r = find_roots(values, method=method)
+    except ValueError as exc:
+        fail(str(exc))
+    table = Table(title=f"roots of a degree-{len(values) - 1} polynomial ({method})", title_justify="left")
+    table.add_column("center", no_wrap=True)
+    for col in ("radius", "count", "verified", "real"):
+        table.add_column(col, justify="right" if col in ("radius", "count") else "left")
+    for i in range(len(r)):
+        z = complex(r.center[i])
+        table.add_row(
+            f"{z.real:.16g} {'+' if z.imag >= 0 else '-'} {abs(z.imag):.16g}i",
+            f"{float(r.radius[i]):.3g}",
+            str(int(r.count[i])),
+            "[green]yes[/]" if r.verified[i] else "[yellow]no[/]",
+            "yes" if r.real[i] else "",
+        )
+    console.print(table)
+    levels = {0: "double", 1: "double-double", 2: "exact (python-flint)"}
+    if len(r) == 0:
+        verified_text = "no finite roots"
+    elif r.all_verified:
+        verified_text = "all verified"
+    else:
+        verified_text = f"{int(r.verified.sum())}/{len(r)} verified (unverified discs are estimates, not proofs)"
+    console.print(
+        f"degree {len(values) - 1}; roots at infinity {r.n_infinite}; "
+        f"{verified_text}; "
+        f"precision used: {levels.get(r.escalation, r.escalation)}"
+    )
+
+
+# ---------------------------------------------------------------------------
+# argand render
+# ---------------------------------------------------------------------------
+
+
+def _parse_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        fail(f"--size must look like 512x512, got {text!r}")
+    if not (1 <= w <= 8192 and 1 <= h <= 8192):
+        fail(f"--size must be between 1x1 and 8192x8192, got {text!r}")
+    return w, h
+
+
+#: The EXR compressions (argand.media.frame_files.exr_compressions, which checks them).
+EXR_COMPRESSION_HELP = "none, rle, zip, zips, piz, zstd (OpenEXR 3.5+ readers only); zip:N, zstd:N for a level."
+
+
+@app.command()
+def render(
+    scene: str = typer.Argument(..., help="A preset name (argand presets) or a scene file (.yaml/.json)."),
+    sigma: Optional[str] = typer.Option(None, "--sigma", help="Start of the argument band, one value (default 0; e.g. pi/36)."),
+    sigmas: Optional[str] = typer.Option(None, "--sigmas", help="A sweep of sigma START:STOP:COUNT (e.g. 0:pi/2:12); "
+                                         "with --deltas, a grid sigmas x deltas."),
+    delta: Optional[str] = typer.Option(None, "--delta", help="Width of the band, one value (default 0; e.g. pi/9)."),
+    deltas: Optional[str] = typer.Option(None, "--deltas", help="A sweep START:STOP:COUNT (e.g. 0:pi/9:24)."),
+    atlas: Optional[int] = typer.Option(None, "--atlas", min=1, help="N: the whole space sigma >= 0, sigma + delta <= pi "
+                                        "on a triangular grid of N rows and columns (N(N+1)/2 frames), step pi/N."),
+    size: str = typer.Option("512x512", "--size", help="WxH in pixels."),
+    out: Path = typer.Option(Path("render"), "--out", help="Output folder."),
+    workers: int = typer.Option(0, "--workers", help="Threads (0: all cores)."),
+    tile: int = typer.Option(64, "--tile", help="Tile size in pixels."),
+    method: str = typer.Option("auto", "--method", help="Root method: auto | smith | paper | unverified."),
+    hue: bool = typer.Option(False, "--hue", help="Colour complex roots by their argument."),
+    samples: Optional[int] = typer.Option(
+        None, "--samples", help="Samples per pixel, a square (1, 4, 9, ..., 64; default: the scene's, else 1): the "
+        "colour is their mean, the status the worst of theirs (the certified_share AOV counts them)."),
+    fps: float = typer.Option(8.0, "--fps", help="Frames per second of the animation."),
+    exr_compression: str = typer.Option("zip", "--exr-compression",
+                                        help=EXR_COMPRESSION_HELP),
+    explain: Optional[str] = typer.Option(
+        None, "--explain", help="X,Y (or X,Y,SAMPLE with --samples): print that pixel's (sample's) ray, ray "
+        "polynomial with coefficient radii, discs, decisions, the exact tier's steps and status (first frame only), "
+        "and render nothing."),
+    exact_per_tile: Optional[int] = typer.Option(
+        None, "--exact-per-tile", help="The exact tier: at most N pixels per tile decided on the exact rational "
+        "ray polynomial when the double-double tier leaves them unproven (0: off; default: the renderer's, "
+        "argand.render.frames.EXACT_PIXELS_PER_TILE)."),
+    exact_bits: Optional[int] = typer.Option(
+        None, "--exact-bits", help="The exact tier's highest precision in bits (default: EXACT_MAX_BITS)."),
+) -> None:
+    """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, animation.gif and .mp4,
+    and atlas.png for a grid of (sigma, delta)."""
+    from argand.render import FrameParams, parse_angle, parse_sweep
+    from argand.frames.frame_set import atlas_grid, axis_values, frame_grid
+    from argand.media.frame_files import check_exr_compression
+    from argand.render.sweep import render_sweep
+    from argand.scene import load_scene
+
+    if delta is not None and deltas is not None:
+        fail("give --delta or --deltas, not both")
+    if sigma is not None and sigmas is not None:
+        fail("give --sigma or --sigmas, not both")
+    if atlas is not None and any(v is not None for v in (sigma, sigmas, delta, deltas)):
+        fail("--atlas lays out its own sigmas and deltas: give it without --sigma(s) and --delta(s)")
+    try:
+        check_exr_compression(exr_compression)
+    except ValueError as exc:
+        fail(f"--exr-compression: {exc}")
+    try:
+        if atlas is not None:
+            grid = atlas_grid(atlas)
+        else:
+            def axis(one: Optional[str], sweep: Optional[str], name: str) -> list[float]:
+                try:
+                    return axis_values(parse_sweep(sweep) if sweep is not None else parse_angle("0" if one is None else one))
+                except ValueError as exc:
+                    raise ValueError(f"--{name}: {exc}") from None
+            grid = frame_grid(axis(sigma, sigmas, "sigmas" if sigmas else "sigma"),
+                              axis(delta, deltas, "deltas" if deltas else "delta"))
+    except ValueError as exc:
+        fail(str(exc))
+    width, height = _parse_size(size)
+    try:
+        loaded = load_scene(scene)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    exact = {}
+    if exact_per_tile is not None:
+        exact["exact_pixels_per_tile"] = exact_per_tile
+    if exact_bits is not None:
+        exact["exact_max_bits"] = exact_bits
+    try:
+        params = [FrameParams(sigma=p.sigma, delta=p.delta, width=width, height=height, method=method,
+                              hue_by_argument=hue, samples=loaded.samples if samples is None else samples, **exact)
+                  for p in grid.points]
+    except ValueError as exc:
+        fail(f"--samples: {exc}" if "samples" in str(exc) else str(exc))
+    if explain is not None:
+        _explain(loaded, params[0], explain, tile)
+        return
+    tiles_per_frame = math.ceil(width / tile) * math.ceil(height / tile)
+    with Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("tiles"),
+        TimeElapsedColumn(), TimeRemainingColumn(), console=err,
+    ) as progress:
+        task = progress.add_task("rendering", total=tiles_per_frame * len(params))
+        try:
+            summary = render_sweep(
+                loaded, params, out, tile=tile, workers=workers or None, compression=exr_compression, fps=fps,
+                on_frame=lambda i, p: progress.update(
+                    task, description=f"frame {i + 1}/{len(params)} (sigma={p.sigma:.4g}, delta={p.delta:.4g})"),
+                on_tile=lambda t: progress.advance(task), grid=grid)
+        except ValueError as exc:
+            fail(str(exc))
+    for f in summary:
+        console.print(
+            f"sigma={f['sigma']:.5g} delta={f['delta']:.5g}: {f['seconds'] * 1000:.0f} ms, "
+            f"{f['ns_per_pixel']:.0f} ns/pixel, "
+            f"certified {100 * f['certified_share']:.3f}%, escalated {100 * f['escalated_share']:.3f}%, "
+            f"exact {f['exact_pixels']} (multiple roots proven {f['exact_multiple_roots']}, "
+            f"over the work cap {f['exact_over_cap']})"
+        )
+    extras = (["animation.gif", "animation.mp4"] if len(params) > 1 else []) + (["atlas.png"] if grid.is_grid else [])
+    console.print(f"wrote {len(params)} frame(s) to {out}/" + (f" and {', '.join(extras)}" if extras else ""))
+
+
+def _explain(scene, params, where: str, tile: int) -> None:
+    from argand.render.explain import explain_pixel, format_explanation
+
+    try:
+        x, y, *rest = (int(v) for v in where.split(","))
+        if len(rest) > 1:
+            raise ValueError
+    except ValueError:
+        fail(f"--explain must look like X,Y (pixel column, row) or X,Y,SAMPLE, got {where!r}")
+    sample = rest[0] if rest else 0
+    try:
+        e = explain_pixel(scene, params, x, y, tile=tile, sample=sample)
+    except ValueError as exc:
+        fail(str(exc))
+    which = f"sample {sample} of {params.samples} of " if params.samples > 1 else ""
+    console.print(f"{which}pixel ({x}, {y}) of {params.width}x{params.height}, sigma={params.sigma!r}, "
+                  f"delta={params.delta!r}, method {params.method}, tile {tile}")
+    for line in format_explanation(e):
+        console.print(line, markup=False, highlight=False, soft_wrap=True)
+
+
+@app.command()
+def presets() -> None:
+    """List the preset scenes."""
+    from argand.scene import load_scene
+    from argand.scene.presets import PRESETS
+
+    table = Table(title="presets")
+    table.add_column("name")
+    table.add_column("surfaces")
+    for name in PRESETS:
+        s = load_scene(name)
+        table.add_row(name, "; ".join(o.surface for o in s.objects))
+    console.print(table)
+
+
+# ---------------------------------------------------------------------------
+# argand bench
+# ---------------------------------------------------------------------------
+
+
+_BENCH_NAMES = {
+    "argand-auto": "auto",
+    "argand-smith": "smith",
+    "argand-paper": "paper",
+    "argand-unverified": "unverified",
+    "argand-auto (scalar)": "auto (scalar)",
+    "argand-smith (scalar)": "smith (scalar)",
+    "argand-unverified (scalar)": "unverified (scalar)",
+    "numpy-eigvals": "numpy eigvals",
+    "flint-acb_poly.roots": "flint roots()",
+    "flint-acb_poly.roots(tol=1e-14)": "flint roots(1e-14)",
+    "mpmath-polyroots": "mpmath polyroots",
+    "mpsolve": "MPSolve",
+}
+
+
+@bench_app.command("roots")
+def bench_roots_cmd(
+    count: int = typer.Option(20000, "--count", min=1, help="Polynomials per suite (alternatives run on subsets)."),
+    seed: int = typer.Option(1, "--seed", help="Seed of the random polynomials."),
+    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for roots.json, roots.md and roots.png."),
+    smoke: bool = typer.Option(False, "--smoke", help="A tiny run (seconds) that keeps the benchmark alive in CI."),
+) -> None:
+    """Verified roots vs numpy, python-flint, mpmath and MPSolve: speed and accuracy on the same polynomials."""
+    from argand.bench.roots import bench_roots
+
+    with Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
+        TimeElapsedColumn(), console=err,
+    ) as bar:
+        task = bar.add_task("benchmarking roots", total=None)
+
+        def progress(message: str, done: int, total: int) -> None:
+            bar.update(task, description=message, completed=done, total=total)
+
+        report = bench_roots(count=count, seed=seed, out_dir=out, smoke=smoke, progress=progress)
+    for suite, data in report["suites"].items():
+        table = Table(
+            title=f"{suite} ({data['results']['argand-auto']['polynomials']} polynomials): ns per polynomial; "
+            "accuracy against the exact roots",
+            title_justify="left", box=box.SIMPLE_HEAD,
+        )
+        table.add_column("method", overflow="fold")
+        table.add_column("kernel", no_wrap=True)
+        for col in ("ns/poly", "÷auto", "rad/|z|", "med err", "max err", "proved"):
+            table.add_column(col, justify="right", no_wrap=True)
+        auto = data["results"]["argand-auto"]["ns_per_poly"]
+
+        def sci(value) -> str:
+            return f"{value:.1e}" if value is not None else ""
+
+        for name, row in data["results"].items():
+            table.add_row(
+                _BENCH_NAMES.get(name, name),
+                row.get("kernel", ""),
+                f"{row['ns_per_poly']:.0f}",
+                f"{row['ns_per_poly'] / auto:.1f}",
+                sci(row.get("median_rel_radius")),
+                sci(row.get("median_rel_error")),
+                sci(row.get("max_rel_error")),
+                f"{100 * row['fully_verified_share']:.1f}%" if "fully_verified_share" in row else "",
+            )
+        console.print(table)
+    console.print("rad/|z|: median radius / |root|; med/max err: relative error of the centers; "
+                  "proved: share of polynomials with every root proven; kernel: the batched kernel's "
+                  f"instruction set ({report['batch_kernel']} on this CPU) or scalar", soft_wrap=True)
+    for line in report["headline"]:
+        console.print(f"  {line}", soft_wrap=True)
+    mps = report["mpsolve"]
+    if not mps["available"]:
+        console.print(f"MPSolve: unavailable ({mps['note']})")
+    console.print(f"wrote {out / 'roots.json'}, {out / 'roots.md'} and {out / 'roots.png'}")
+
+
+@bench_app.command("render")
+def bench_render_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out"),
+    smoke: bool = typer.Option(False, "--smoke", help="Small sizes, for CI."),
+    samples_only: bool = typer.Option(False, "--samples-only",
+                                      help="Only the cost of antialiasing (1, 4, 16 samples per pixel)."),
+    kernels_only: bool = typer.Option(False, "--kernels-only",
+                                      help="Only the primary rays' root kernels, scalar against batched (CPU time); "
+                                           "also updates render.json / render.md's kernel table."),
+) -> None:
+    """Every preset at 512x512 and 1024x1024 for delta in {0, pi/18, pi/9} on one core, and antialiasing's cost."""
+    from argand.bench.render import bench_kernels_report, bench_render, bench_samples_report
+
+    if kernels_only:
+        with console.status("benchmarking the root kernels") as status:
+            report = bench_kernels_report(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+        k = report["kernels"]
+        table = Table(title=f"primary rays' root kernel, one core, CPU time (batched: {k['instruction_set']})",
+                      title_justify="left")
+        for col in ("scene", "size", "delta", "scalar ns/pixel", "batched ns/pixel", "speed-up", "same status"):
+            table.add_column(col)
+        for row in k["rows"]:
+            table.add_row(row["scene"], f"{row['width']}x{row['height']}", f"{row['delta']:.4f}",
+                          f"{row['scalar_ns_per_pixel']:.0f}", f"{row['batched_ns_per_pixel']:.0f}",
+                          f"{row['speedup']:.2f}", "yes" if row["same_status"] and row["same_hit"] else "NO")
+        console.print(table)
+        console.print(f"wrote {out / 'render_kernels.json'}, {out / 'render_kernels.md'}")
+        return
+    with console.status("benchmarking render") as status:
+        if samples_only:
+            report = bench_samples_report(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+        else:
+            report = bench_render(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+    table = Table(title="render, one core", title_justify="left")
+    for col in ("scene", "size", "delta", "ms/frame", "ns/pixel", "certified", "unverified ms", "ratio"):
+        table.add_column(col)
+    for row in report.get("frames", []):
+        table.add_row(
+            row["scene"], f"{row['width']}x{row['height']}", f"{row['delta']:.4f}", f"{row['ms']:.0f}",
+            f"{row['ns_per_pixel']:.0f}", f"{100 * row['certified_share']:.3f}%", f"{row['unverified_ms']:.0f}",
+            f"{row['ms'] / row['unverified_ms']:.2f}",
+        )
+    console.print(table)
+    table = Table(title="samples per pixel, one core", title_justify="left")
+    for col in ("scene", "size", "delta", "samples", "ns/pixel", "ns/sample", "sample cost", "certified pixels"):
+        table.add_column(col)
+    for row in report["samples"]:
+        table.add_row(row["scene"], f"{row['width']}x{row['height']}", f"{row['delta']:.4f}", str(row["samples"]),
+                      f"{row['ns_per_pixel']:.0f}", f"{row['ns_per_sample']:.0f}", f"{row['sample_cost']:.2f}",
+                      f"{100 * row['certified_share']:.3f}%")
+    console.print(table)
+    console.print(f"wrote {out / ('render_samples.json' if samples_only else 'render.json')}")
+
+
+@bench_app.command("farm")
+def bench_farm_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out"),
+    smoke: bool = typer.Option(False, "--smoke", help="3 frames of 192x192, for CI."),
+    exr_compression: str = typer.Option(None, "--exr-compression",
+                                        help=f"The farms' EXR compression: {EXR_COMPRESSION_HELP} Default: the farm's."),
+    repeat: int = typer.Option(None, "--repeat", help="Runs of each configuration (the median is kept); default 3, smoke 1."),
+) -> None:
+    """One job of 36 frames at 512x512 on 1 and 2 workers, tile sizes 32/64/128/frame."""
+    from argand.bench.farm import bench_farm
+
+    if repeat is not None and repeat < 1:
+        fail(f"--repeat must be at least 1, got {repeat}")
+    from argand.media.frame_files import check_exr_compression
+
+    if exr_compression is not None:
+        try:
+            check_exr_compression(exr_compression)
+        except ValueError as exc:
+            fail(f"--exr-compression: {exc}")
+    with console.status("benchmarking the farm") as status:
+        report = bench_farm(out_dir=out, smoke=smoke, progress=lambda m: status.update(m), exr_compression=exr_compression,
+                            repeat=repeat)
+    table = Table(title=f"farm: {report['frames']} frames of {report['size']}x{report['size']}", title_justify="left")
+    for col in ("workers", "tile", "seconds", "frames/s", "first frame s", "encoding", "dispatch", "overhead", "vs render"):
+        table.add_column(col, justify="right")
+    for r in report["runs"]:
+        table.add_row(str(r["workers"]), str(r["tile"]), f"{r['wall_s']:.2f}", f"{r['fps']:.2f}",
+                      f"{r['first_frame_s']:.2f}", f"{100 * r['encode_share']:.1f}%",
+                      f"{100 * r['dispatch_share']:.1f}%", f"{100 * r['overhead_share']:.1f}%",
+                      f"{100 * (r['vs_local'] - 1):+.1f}%")
+    console.print(table)
+    console.print("scaling 2 workers / 1 worker: " + ", ".join(f"tile {k}: {v:.2f}x" for k, v in report["scaling_2_vs_1"].items()))
+    console.print("argand render of the same frames: " + ", ".join(
+        f"{r['threads']} thread(s) {r['wall_s']:.2f} s" for r in report["local"]))
+    console.print("shares are of the render time; encoding: the frames' files, as a local render writes them; "
+                  "dispatch: what the farm adds; vs render: a farm's time over argand render on as many threads")
+    console.print(f"wrote {out / 'farm.json'}, {out / 'farm.md'} and {out / 'farm.png'}")
+
+
+@bench_app.command("load")
+def bench_load_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for load.json, load.md and load.png."),
+    url: Optional[str] = typer.Option(None, "--url", help="An existing farm (default: start argand serve --workers 2 "
+                                      "on a free loopback port with its own data folder)."),
+    smoke: bool = typer.Option(False, "--smoke", help="Seconds, not minutes: keeps the harness alive in CI."),
+    users: Optional[str] = typer.Option(None, "--users", help="The ramp's steps, e.g. 1,5,10,20,40,60."),
+    step_s: Optional[float] = typer.Option(None, "--step-s", help="Seconds per ramp step (default 20, smoke 4)."),
+    steady_s: Optional[float] = typer.Option(None, "--steady-s", help="Seconds of the steady phase (default 90, smoke 6)."),
+    steady_users: Optional[int] = typer.Option(None, "--steady-users", help="Users in the steady phase "
+                                               "(default: the sustainable level the ramp found)."),
+    profile: bool = typer.Option(False, "--profile", help="Sample the API with py-spy during the steady phase."),
+    probes: Optional[bool] = typer.Option(None, "--probes/--no-probes", help="After the drain, time the list and "
+                                          "status requests under conditions that isolate the causes (default: on, "
+                                          "off with --smoke)."),
+    seed: int = typer.Option(1, "--seed", help="Seed of the users' choices."),
+) -> None:
+    """Simulated users (Locust) against a two-worker farm: ramp, steady, drain; latency per endpoint, lost jobs, throughput."""
+    from argand.bench.load import bench_load
+
+    ramp = None
+    if users is not None:
+        try:
+            ramp = tuple(int(u) for u in users.split(","))
+        except ValueError:
+            fail(f"--users must be user counts separated by commas (e.g. 1,5,10), got {users!r}")
+        if not ramp or min(ramp) < 1:
+            fail(f"--users: every step needs at least 1 user, got {users!r}")
+    for name, value in (("--step-s", step_s), ("--steady-s", steady_s)):
+        if value is not None and value <= 2:
+            fail(f"{name} must be above 2 seconds (a step's first 2 s are left out), got {value}")
+    if steady_users is not None and steady_users < 1:
+        fail(f"--steady-users must be at least 1, got {steady_users}")
+    with console.status("load test") as status:
+        report = bench_load(out_dir=out, url=url, smoke=smoke, ramp_users=ramp, step_s=step_s, steady_s=steady_s,
+                            steady_users=steady_users, seed=seed, profile=profile, probes=probes,
+                            progress=lambda m: status.update(m))
+    from argand.bench.load_report import markdown
+
+    console.print(markdown(report), soft_wrap=True, markup=False, highlight=False)
+    console.print(f"wrote {out / 'load.json'}, {out / 'load.md'} and {out / 'load.png'}")
+
+
+@bench_app.command("stability")
+def bench_stability_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for stability.json, stability.md and stability.png."),
+    smoke: bool = typer.Option(False, "--smoke", help="A small picture, for CI."),
+) -> None:
+    """The named stability suite: every method (argand's, numpy, python-flint, mpmath, MPSolve) on every case, classed."""
+    from argand.bench.stability import bench_stability, markdown
+
+    with console.status("stability suite") as status:
+        report = bench_stability(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+    console.print(markdown(report), soft_wrap=True, markup=False, highlight=False)
+    console.print(f"wrote {out / 'stability.json'}, {out / 'stability.md'} and {out / 'stability.png'}")
+
+
+@bench_app.command("all")
+def bench_all_cmd(
+    out: Path = typer.Option(None, "--out", help="Folder for every section's files (default docs/bench, "
+                             "smoke build/bench-smoke)."),
+    page: Path = typer.Option(None, "--page", help="The report (default docs/benchmarks.md, smoke "
+                              "build/bench-smoke/benchmarks.md)."),
+    smoke: bool = typer.Option(False, "--smoke", help="Every section at its smoke size (minutes): keeps them alive in CI."),
+    reuse: Optional[str] = typer.Option(None, "--reuse", help="Sections taken from their last JSON instead of run "
+                                        "again, e.g. farm,render (of: roots, stability, render, farm, load)."),
+) -> None:
+    """Every benchmark, then docs/benchmarks.md: machine and versions, roots, stability, render, farm, load."""
+    from argand.bench.report import SECTIONS, bench_all
+
+    default_out = Path("build/bench-smoke") if smoke else Path("docs/bench")
+    out = out or default_out
+    page = page or (out / "benchmarks.md" if smoke else Path("docs/benchmarks.md"))
+    chosen = tuple(s.strip() for s in reuse.split(",") if s.strip()) if reuse else ()
+    bad = [s for s in chosen if s not in SECTIONS]
+    if bad:
+        fail(f"--reuse: unknown section(s) {', '.join(bad)}; sections: {', '.join(SECTIONS)}")
+    with console.status("benchmarks") as status:
+        try:
+            bench_all(out_dir=out, page=page, smoke=smoke, reuse=chosen, progress=lambda m: status.update(m))
+        except FileNotFoundError as exc:
+            fail(str(exc))
+    console.print(f"wrote {page} (sections' files in {out}/)")
+
+
+# ---------------------------------------------------------------------------
+# The farm
+# ---------------------------------------------------------------------------
+
+
+def _farm_settings(data: Optional[Path], host: Optional[str], port: Optional[int]):
+    from argand.farm.settings import Settings
+
+    overrides = {}
+    if data is not None:
+        overrides["data_dir"] = data
+    if host is not None:
+        overrides["host"] = host
+    if port is not None:
+        overrides["port"] = port
+    return Settings(**overrides)
+
+
+@app.command()
+def serve(
+    workers: int = typer.Option(2, "--workers", min=0, help="Celery worker processes to start."),
+    host: Optional[str] = typer.Option(None, "--host", help="Default 127.0.0.1 (ARGAND_HOST)."),
+    port: Optional[int] = typer.Option(None, "--port", help="Default 8000 (ARGAND_PORT)."),
+    data: Optional[Path] = typer.Option(None, "--data", help="Data folder (default ./argand-data, ARGAND_DATA_DIR)."),
+) -> None:
+    """The render farm: Redis (embedded unless ARGAND_REDIS_URL), the API and N workers. Ctrl-C stops it."""
+    from argand.serve.supervisor import serve as run
+
+    from argand.serve.supervisor import FarmLocked
+
+    settings = _farm_settings(data, host, port)
+    _refuse_exposure(settings)
+    try:
+        run(settings, workers, announce=lambda m: console.print(m))
+    except FarmLocked as exc:
+        fail(str(exc))
+
+
+def _refuse_exposure(settings) -> None:
+    try:
+        problem = settings.exposure_problem()
+    except ValueError as exc:
+        fail(str(exc))
+    if problem:
+        fail(problem)
+
+
+@app.command()
+def worker(
+    name: Optional[str] = typer.Option(None, "--name", help="Worker name (default worker-PID@host)."),
+    data: Optional[Path] = typer.Option(None, "--data", help="Data folder shared with the API (ARGAND_DATA_DIR)."),
+) -> None:
+    """One worker that joins an existing Redis + database + store (ARGAND_REDIS_URL, ARGAND_DATABASE_URL)."""
+    import os
+
+    from argand.worker.app import run_worker
+
+    settings = _farm_settings(data, None, None)
+    if settings.redis_url is None:
+        fail("set ARGAND_REDIS_URL to the farm's Redis (a worker does not start its own broker)")
+    run_worker(settings, name or f"worker-{os.getpid()}@{os.uname().nodename}")
+
+
+@app.command()
+def api(
+    host: Optional[str] = typer.Option(None, "--host"),
+    port: Optional[int] = typer.Option(None, "--port"),
+    data: Optional[Path] = typer.Option(None, "--data"),
+) -> None:
+    """The API alone (ARGAND_REDIS_URL and ARGAND_DATABASE_URL point at the farm); upgrades the database's schema first."""
+    import uvicorn
+
+    from argand.api.app import create_app
+    from argand.farm.database import upgrade
+
+    settings = _farm_settings(data, host, port)
+    if settings.redis_url is None:
+        fail("set ARGAND_REDIS_URL to the farm's Redis (argand api does not start its own broker; argand serve does)")
+    _refuse_exposure(settings)
+    upgrade(settings.sqlalchemy_url)
+    console.print(f"Argand API on http://{settings.host}:{settings.port}/")
+    uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="warning")
+
+
+def main() -> None:  # pragma: no cover
+    app()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,217 @@
+"""Tiles -> a frame's files; frames -> the job's animation.
+
+The commit that completes a frame elects its assembler (compare-and-set on
+the frame's state); assembly (EXR with every channel, PNG, thumbnail, the
+frame's GIF fragment) is idempotent. The frame that completes the job
+splices the animation from the fragments (argand.media.gif). The WebP, the
+MP4 and a grid's atlas.png are made from the frames' files on their first
+request, so no encoding stands between the last frame and the job's end."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+import uuid
+from typing import Any
+
+import numpy as np
+import OpenImageIO as oiio
+from sqlalchemy import func, select, update
+
+from argand.farm.database import engine_for
+from argand.farm.layout import JobLayout
+from argand.farm.models import Frame, Job, Tile
+from argand.farm.planning import samples_of, tile_rects
+from argand.farm.settings import Settings
+from argand.farm.states import FRAME, JOB
+from argand.farm.store import FrameStore, store_for
+from argand.media import gif
+from argand.media.atlas import atlas_png as draw_atlas, cell_size, scale_to_cell
+from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, STATUS_NAMES, FrameParams, FrameResult, frame_figures
+from argand.frames.frame_set import FrameGrid, FramePoint
+from argand.media.frame_files import to_srgb8, write_exr, write_png
+from argand.media.video import Mp4Encoder
+
+#: The thumbnail keeps every step-th pixel, step = max(width, height) // THUMBNAIL_SIZE.
+THUMBNAIL_SIZE = 160
+
+
+def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler: str = "reaper",
+                   local: dict[int, Any] | None = None, frame_px: np.ndarray | None = None) -> bool:
+    """Assembles the frame if all its tiles are done and nobody else is at
+    it (compare-and-set on the frame's state); the last frame also makes the
+    animation and finishes the job. ``frame_px``: the whole frame, rendered
+    in place by this process (every tile in ``local``)."""
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        won = c.execute(update(Frame).where(
+            Frame.job_id == job_id, Frame.index == frame_index, Frame.status.in_(FRAME.sources("assembling")),
+            Frame.tiles_done >= Frame.tiles_total,
+        ).values(status="assembling", assembler=assembler, assembling_since=time.time())).rowcount
+    if not won:
+        return False
+    assemble_frame(settings, job_id, frame_index, local, frame_px=frame_px)
+    finish_job_if_last(settings, job_id)
+    return True
+
+
+def finish_job_if_last(settings: Settings, job_id: str) -> None:
+    """When every frame is done: the animation, then the job is done."""
+    url = settings.sqlalchemy_url
+    with engine_for(url).connect() as c:
+        remaining = c.execute(select(func.count()).select_from(Frame).where(
+            Frame.job_id == job_id, Frame.status != "done")).scalar()
+        status = c.execute(select(Job.status).where(Job.id == job_id)).scalar()
+    if remaining == 0 and status is not None and JOB.allowed(status, "done"):
+        build_animation(settings, job_id)
+        with engine_for(url).begin() as c:
+            c.execute(update(Job).where(Job.id == job_id, Job.status.in_(JOB.sources("done")))
+                      .values(status="done", finished=time.time()))
+
+
+def _gather(store: FrameStore, job_id: str, frame_index: int, rects, local: dict[int, Any], chunks: dict[int, str | None],
+            frame_px: np.ndarray | None, px: np.ndarray) -> tuple[int, int, np.ndarray]:
+    """Copies every tile into ``px`` (unless it is ``frame_px`` already):
+    this process's tiles from memory, the others from their chunk files.
+    Returns (escalations, root calls, [pixels per status code, hits])."""
+    stored: dict[int, dict[str, np.ndarray]] = {}
+    for name in {chunks[i] for i in chunks if i not in local and chunks[i]}:
+        stored.update(store.read_chunk(job_id, frame_index, name))
+    escalations = calls = 0
+    stats = np.zeros(len(STATUS_NAMES) + 1, np.int64)
+    for i, (x0, y0, x1, y1) in enumerate(rects):
+        if i in local:
+            block, esc, n, st = local[i]
+        else:
+            d = stored[i]
+            block, (esc, n), st = d["px"], d["meta"][:2], d["meta"][2:]
+        if frame_px is None:
+            px[y0:y1, x0:x1] = block
+        escalations += int(esc)
+        calls += int(n)
+        stats += st
+    return escalations, calls, stats
+
+
+def _write_files(settings: Settings, store: FrameStore, layout: JobLayout, index: int, result: FrameResult,
+                 px: np.ndarray) -> None:
+    """The frame's EXR, PNG, figures, thumbnail and GIF fragment."""
+    srgb = to_srgb8(result.rgba)
+    write_exr(result, store.prepare(layout.frame(index, "exr")), px, settings.exr_compression)
+    write_png(srgb, layout.frame(index, "png"))
+    store.write_atomic(layout.frame(index, "json"), (json.dumps(dict(result.figures, index=index), indent=2) + "\n").encode())
+    h, w = srgb.shape[:2]
+    step = max(1, max(w, h) // THUMBNAIL_SIZE)
+    write_png(np.ascontiguousarray(srgb[::step, ::step]), layout.thumbnail(index))
+    store.write_atomic(store.prepare(layout.gif_fragment(index)), gif.encode_frame(srgb))
+
+
+def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dict[int, Any] | None = None,
+                   seconds: float | None = None, commit: bool = True, frame_px: np.ndarray | None = None) -> dict:
+    """Tiles -> the frame's files (idempotent). Tiles this process rendered
+    are taken from memory, the others from the store; the EXR's interleaved
+    buffer is filled directly. With ``commit`` the frame is marked done and
+    its tile files dropped. Returns the frame's figures."""
+    t_start = time.perf_counter()
+    store, local = store_for(settings), local or {}
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        job = c.execute(select(Job.width, Job.height, Job.tile, Job.method, Job.scene).where(Job.id == job_id)).one()
+        sigma, delta = c.execute(select(Frame.sigma, Frame.delta).where(Frame.job_id == job_id, Frame.index == frame_index)).one()
+        key = (Tile.job_id == job_id, Tile.frame_index == frame_index)
+        if seconds is None:
+            seconds = c.execute(select(func.sum(Tile.seconds)).where(*key)).scalar() or 0.0
+        rects = tile_rects(job.width, job.height, job.tile)
+        chunks = {} if len(local) == len(rects) else dict(c.execute(select(Tile.tile_index, Tile.chunk).where(*key)).all())
+    w, h = job.width, job.height
+    px = frame_px if frame_px is not None else np.empty((h, w, len(INTERLEAVED_CHANNELS)), np.float32)
+    escalations, calls, stats = _gather(store, job_id, frame_index, rects, local, chunks, frame_px, px)
+    params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method, samples=samples_of(job.scene))
+    aovs = {name: px[..., INTERLEAVED_CHANNELS.index(name)] for name in AOV_CHANNELS}
+    result = FrameResult(params, px[..., :4], aovs, seconds, escalations, calls, stats=stats)
+    result.figures = frame_figures(result)
+    t_encode = time.perf_counter()
+    _write_files(settings, store, store.job(job_id), frame_index, result, px)
+    t_end = time.perf_counter()
+    # Where the assembler's time went (argand bench farm reports it).
+    figures = dict(result.figures, assembly_s=t_end - t_start, encode_s=t_end - t_encode)
+    if commit:
+        with engine_for(settings.sqlalchemy_url).begin() as c:
+            c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index,
+                                          Frame.status == FRAME.step("assembling", "done"))
+                      .values(status="done", figures=figures, assembly_s=figures["assembly_s"], finished=time.time()))
+        store.remove_tiles(job_id, frame_index)
+    return figures
+
+
+def build_animation(settings: Settings, job_id: str, fps: float = 8.0) -> None:
+    """animation.gif, spliced from the frames' GIF fragments (no frame is
+    encoded again)."""
+    store = store_for(settings)
+    layout = store.job(job_id)
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        n = c.execute(select(func.count()).select_from(Frame).where(Frame.job_id == job_id)).scalar()
+    fragments = [layout.gif_fragment(i).read_bytes() for i in range(n)]
+    store.write_atomic(layout.animation("gif"), gif.splice(fragments, fps=fps))
+
+
+def _frame_pngs(layout: JobLayout, n_frames: int):
+    """The frames' PNGs as (h, w, 3) uint8, one at a time."""
+    for i in range(n_frames):
+        yield oiio.ImageBuf(str(layout.frame(i, "png"))).get_pixels(oiio.UINT8)[..., :3]
+
+
+def animation_webp(settings: Settings, job_id: str, n_frames: int, fps: float = 8.0) -> bool:
+    """animation.webp from the frames' PNGs, made once and kept (False: this
+    installation's Pillow has no WebP)."""
+    store = store_for(settings)
+    layout = store.job(job_id)
+    path = layout.animation("webp")
+    if path.exists():
+        return True
+    data = gif.encode_animation_webp(list(_frame_pngs(layout, n_frames)), fps=fps)
+    if data is None:
+        return False
+    store.write_atomic(path, data)
+    return True
+
+
+def animation_mp4(settings: Settings, job_id: str, n_frames: int, fps: float = 8.0) -> None:
+    """animation.mp4 (H.264, yuv420p) from the frames' PNGs, read and encoded
+    one at a time, made on first request and kept: encoding it is no step
+    between the last frame and the job's end. Two first requests at once
+    each write their own temporary file; the last rename wins, whole."""
+    layout = store_for(settings).job(job_id)
+    path = layout.animation("mp4")
+    if path.exists():
+        return
+    tmp = path.with_name(f"animation.{uuid.uuid4().hex[:12]}.tmp.mp4")
+    try:
+        with Mp4Encoder(tmp, fps) as encoder:
+            for picture in _frame_pngs(layout, n_frames):
+                encoder.add(picture)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def atlas_png(settings: Settings, job_id: str) -> bool:
+    """atlas.png of a finished grid job, from the frames' thumbnails, made on
+    first request and kept (False: the job is not a grid of several σ and δ)."""
+    store = store_for(settings)
+    layout = store.job(job_id)
+    path = layout.atlas()
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        job = c.execute(select(Job.scene_name, Job.width, Job.height).where(Job.id == job_id)).one()
+        rows = c.execute(select(Frame.sigma_index, Frame.delta_index, Frame.sigma, Frame.delta)
+                         .where(Frame.job_id == job_id).order_by(Frame.index)).all()
+    grid = FrameGrid.from_points([FramePoint(*r) for r in rows])
+    if not grid.is_grid:
+        return False
+    if path.exists():
+        return True
+    size = cell_size(job.width, job.height)
+    cells = {i: scale_to_cell(oiio.ImageBuf(str(layout.thumbnail(i))).get_pixels(oiio.UINT8)[..., :3], size)
+             for i in range(len(grid))}
+    title = f"{job.scene_name}: {len(grid)} frames of {job.width}x{job.height}"
+    store.write_atomic(path, draw_atlas(grid, cells, job.width, job.height, title=title))
+    return True

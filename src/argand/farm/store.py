@@ -1,0 +1,150 @@
+"""The frame store: a folder (the data folder's store/, shared by every
+process of the farm), laid out by argand.farm.layout. Every write goes
+through :meth:`FrameStore.write_atomic` (a temporary name, then a rename:
+readers see a whole file or none); the EXR and PNG writers of
+argand.media.frame_files rename the same way.
+
+Tiles are stored raw, several to a file (a "chunk": a short JSON header,
+then the arrays' bytes): a tile is written once and read once, so neither
+compression nor zip containers pay for themselves, and a chunk is one open,
+one write and one rename.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import shutil
+import struct
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+from argand.farm.layout import JobLayout
+
+_MAGIC = b"ARGT1\n"
+
+
+def pack_buffers(arrays: dict[str, np.ndarray]) -> list:
+    """dict of arrays -> the buffers of the file (magic, header length, JSON
+    header, the arrays' bytes), without copying the arrays."""
+    header, chunks, offset = [], [], 0
+    for name, a in arrays.items():
+        a = np.ascontiguousarray(a)
+        header.append([name, a.dtype.str, list(a.shape), offset])
+        chunks.append(memoryview(a).cast("B"))
+        offset += a.nbytes
+    head = json.dumps(header, separators=(",", ":")).encode()
+    return [_MAGIC, struct.pack("<I", len(head)), head, *chunks]
+
+
+def pack_arrays(arrays: dict[str, np.ndarray]) -> bytes:
+    return b"".join(pack_buffers(arrays))
+
+
+def unpack_arrays(data: bytes) -> dict[str, np.ndarray]:
+    if not data.startswith(_MAGIC):
+        raise ValueError("not an Argand tile (bad magic)")
+    (n,) = struct.unpack_from("<I", data, len(_MAGIC))
+    start = len(_MAGIC) + 4
+    header = json.loads(data[start:start + n])
+    base = start + n
+    out = {}
+    for name, dtype, shape, offset in header:
+        dt = np.dtype(dtype)
+        count = int(np.prod(shape))
+        out[name] = np.frombuffer(data, dt, count, base + offset).reshape(shape)
+    return out
+
+
+#: A write that fails with one of these is the store's fault, not the
+#: tile's: the job stops at once with the reason (retrying elsewhere would
+#: fail the same way), and a retry takes it up once the store is fixed.
+STORE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EACCES, errno.EPERM, errno.EROFS, errno.EFBIG})
+
+
+def is_store_error(exc: BaseException) -> bool:
+    """A failed write to the store: a full disk or quota, a folder or file
+    system that refuses writes, a file size limit; or an image writer's
+    refusal (argand.media.frame_files raises OSError("cannot write ...") with
+    OpenImageIO's message, without an errno)."""
+    if not isinstance(exc, OSError):
+        return False
+    return exc.errno in STORE_ERRNOS or (exc.errno is None and str(exc).startswith("cannot write"))
+
+
+class FrameStore:
+    def __init__(self, root: Path) -> None:
+        self.root = Path(root)
+        self._dirs: set[Path] = set()
+        self.root.mkdir(parents=True, exist_ok=True)
+
+    def job(self, job_id: str) -> JobLayout:
+        return JobLayout(self.root, job_id)
+
+    def _open_new(self, path: Path) -> int:
+        parent = path.parent
+        if parent not in self._dirs:
+            parent.mkdir(parents=True, exist_ok=True)
+            self._dirs.add(parent)
+        try:
+            return os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        except FileNotFoundError:  # the folder was removed under us (job deleted, or frame done)
+            parent.mkdir(parents=True, exist_ok=True)
+            return os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+
+    def write_atomic(self, path: Path, data) -> None:
+        """Writes ``data`` (bytes, or a list of buffers written in order) to
+        ``path``: readers see the whole file or none."""
+        tmp = path.with_name(f"{path.name}.{uuid.uuid4().hex}.tmp")
+        try:
+            with os.fdopen(self._open_new(tmp), "wb") as f:
+                for part in data if isinstance(data, list) else [data]:
+                    f.write(part)
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)  # nothing half-written stays behind
+            raise
+
+    def prepare(self, path: Path) -> Path:
+        """``path``, its folder made if missing: for OpenImageIO's EXR and PNG
+        writers (argand.media.frame_files), which write a temporary file and rename it."""
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return path
+
+    def write_chunk(self, job_id: str, frame: int, name: str, tiles: dict[int, dict[str, np.ndarray]]) -> None:
+        """Several tiles of a frame in one file (one write and one rename for
+        all the tiles a worker finished between two commits)."""
+        arrays = {f"{t}/{k}": a for t, d in tiles.items() for k, a in d.items()}
+        self.write_atomic(self.job(job_id).chunk(frame, name), pack_buffers(arrays))
+
+    def read_chunk(self, job_id: str, frame: int, name: str) -> dict[int, dict[str, np.ndarray]]:
+        out: dict[int, dict[str, np.ndarray]] = {}
+        for key, a in unpack_arrays(self.job(job_id).chunk(frame, name).read_bytes()).items():
+            t, k = key.split("/", 1)
+            out.setdefault(int(t), {})[k] = a
+        return out
+
+    def remove_tiles(self, job_id: str, frame: int) -> None:
+        """Drops a frame's tiles once the frame is assembled (its EXR holds them)."""
+        folder = self.job(job_id).tiles(frame)
+        self._dirs.discard(folder)
+        shutil.rmtree(folder, ignore_errors=True)
+
+    def remove_job(self, job_id: str) -> None:
+        folder = self.job(job_id).folder
+        self._dirs = {d for d in self._dirs if folder not in d.parents and d != folder}
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+_stores: dict[Path, FrameStore] = {}
+
+
+def store_for(settings) -> FrameStore:
+    """The store of these settings (one object per process and folder)."""
+    root = settings.store_path
+    if root not in _stores:
+        _stores[root] = FrameStore(root)
+    return _stores[root]

@@ -1,0 +1,182 @@
+"""A new job: its limits checked, its rows stored (job, frames, tiles) and
+its first messages sent."""
+
+from __future__ import annotations
+
+import shutil
+import time
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import func, insert, select
+
+from argand.farm.database import engine_for
+from argand.farm.dispatch import alive_workers
+from argand.farm.models import Frame, Job, Tile
+from argand.farm.outbox import add_runs, try_drain
+from argand.farm.planning import batch_pixels, plan_runs, samples_of, tile_rects
+from argand.farm.tile_work import core_scene_of, frame_plan
+from argand.farm.settings import Settings
+from argand.farm.states import ENDED
+from argand.frames.frame_set import (BandRuleError, FrameGrid, atlas_frames, atlas_grid, axis_values, check_band_rule,
+                               frame_grid)
+
+
+class JobRefused(ValueError):
+    """A job the farm does not take; the message says which limit and why."""
+
+
+class FarmBusy(JobRefused):
+    """The farm has as many jobs in flight as its settings allow (a 429)."""
+
+
+@dataclass(frozen=True)
+class JobSpec:
+    scene_name: str
+    scene: dict
+    frames: FrameGrid
+    width: int
+    height: int
+    tile: int
+    priority: int = 5
+    method: str = "auto"
+
+
+def _count(axis: Any) -> int:
+    return int(axis["count"]) if isinstance(axis, dict) else len(axis)
+
+
+def sweep_axis(axis: Any) -> list[float]:
+    """One axis of a job (σ or δ): a list, or {start, stop, count} swept as
+    `argand render --sigmas/--deltas` sweeps it (the same values to the last bit)."""
+    if isinstance(axis, dict):
+        return axis_values((float(axis["start"]), float(axis["stop"]), int(axis["count"])))
+    return [float(v) for v in axis]
+
+
+def job_frames(sigmas: Any = (0.0,), deltas: Any = (0.0,), atlas: int | None = None,
+               max_frames: int | None = None) -> FrameGrid:
+    """A job's (σ, δ) frames: the grid sigmas x deltas (each a list or
+    {start, stop, count}), or with ``atlas`` the triangular grid of that many
+    steps over σ ≥ 0, σ + δ ≤ π (argand.frames.frame_set). With ``max_frames`` a
+    job above it is refused before anything is expanded; a pair that breaks
+    the band rule is refused naming it."""
+    n = atlas_frames(atlas) if atlas is not None else _count(sigmas) * _count(deltas)
+    if max_frames is not None and n > max_frames:
+        raise JobRefused(f"{n} frames exceed the limit of {max_frames}")
+    try:
+        return atlas_grid(atlas) if atlas is not None else frame_grid(sweep_axis(sigmas), sweep_axis(deltas))
+    except ValueError as exc:
+        raise JobRefused(str(exc)) from None
+
+
+def check_limits(settings: Settings, spec: JobSpec) -> None:
+    """Raises JobRefused, naming the limit, for a job above the settings' limits."""
+    n_frames = len(spec.frames)
+    try:
+        check_band_rule([(p.sigma, p.delta) for p in spec.frames.points])
+    except BandRuleError as exc:
+        raise JobRefused(str(exc)) from None
+    if spec.width > settings.max_width or spec.height > settings.max_height:
+        raise JobRefused(f"frame size {spec.width}x{spec.height} exceeds the limit "
+                         f"{settings.max_width}x{settings.max_height}")
+    if n_frames > settings.max_frames:
+        raise JobRefused(f"{n_frames} frames exceed the limit of {settings.max_frames}")
+    pixels = spec.width * spec.height * n_frames
+    samples = samples_of(spec.scene)  # a sample costs what a pixel does: the limit counts traced rays
+    if pixels * samples > settings.max_job_pixels:
+        rays = f" x {samples} samples per pixel = {pixels * samples} rays" if samples > 1 else ""
+        raise JobRefused(f"the job has {pixels} pixels{rays}, above the limit of {settings.max_job_pixels}")
+    tiles = -(-spec.width // spec.tile) * -(-spec.height // spec.tile) * n_frames
+    if tiles > settings.max_job_tiles:
+        raise JobRefused(f"the job has {tiles} tiles ({spec.tile}-pixel tiles), above the limit of "
+                         f"{settings.max_job_tiles}: use larger tiles or fewer frames")
+
+
+def check_renderable(spec: JobSpec) -> None:
+    """Plans every distinct frame with the code a worker runs before its
+    first tile (argand.farm.tile_work.frame_plan): a frame that breaks the
+    band rule or cannot be planned (a camera or coefficient out of range) is
+    refused here, with the renderer's reason, instead of failing in a worker."""
+    try:
+        core = core_scene_of(spec.scene)
+    except (ValueError, ArithmeticError, RuntimeError) as exc:
+        raise JobRefused(f"the scene cannot be rendered: {exc}") from None
+    first: dict[tuple[float, float], int] = {}
+    for index, p in enumerate(spec.frames.points):
+        first.setdefault((p.sigma, p.delta), index)
+    for (sigma, delta), index in sorted(first.items()):
+        try:
+            frame_plan(core, sigma, delta, spec.width, spec.height, spec.method, samples_of(spec.scene))
+        except (ValueError, ArithmeticError, RuntimeError) as exc:
+            where = f"frame {index} (sigma {sigma:.17g}, delta {delta:.17g})" if len(first) > 1 else \
+                f"sigma {sigma:.17g}, delta {delta:.17g}"
+            raise JobRefused(f"the scene cannot be rendered: {exc} [at {where}]") from None
+
+
+class StoreFull(JobRefused):
+    """The data folder's free space is below the floor (a 507)."""
+
+
+def free_bytes(path) -> int:
+    """Free bytes (for an unprivileged user) on the file system of ``path``
+    (or of its nearest existing parent)."""
+    path = Path(path)
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return shutil.disk_usage(path).free
+
+
+def check_disk(settings: Settings) -> None:
+    """Raises StoreFull when the data folder has less free space than
+    min_free_bytes: a new job would fill the disk, and the jobs already
+    accepted need the room to finish."""
+    free = free_bytes(settings.store_path)
+    if free < settings.min_free_bytes:
+        raise StoreFull(f"the data folder {settings.data_path} has {free // (1 << 20)} MiB free, below the floor of "
+                        f"{settings.min_free_bytes // (1 << 20)} MiB (setting ARGAND_MIN_FREE_BYTES): new jobs are "
+                        "refused until space is freed (delete finished jobs)")
+
+
+def check_in_flight(settings: Settings) -> None:
+    """Raises FarmBusy when the farm already holds max_active_jobs unfinished jobs."""
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        n = c.execute(select(func.count()).select_from(Job).where(Job.status.not_in(ENDED))).scalar()
+    if n >= settings.max_active_jobs:
+        raise FarmBusy(f"the farm has {n} jobs queued, running or paused (the limit is {settings.max_active_jobs}); "
+                       "retry when some have finished")
+
+
+def create_job(settings: Settings, spec: JobSpec, send: bool = True) -> str:
+    """Checks the limits, then stores the job, its frames, its tiles and its
+    messages (outbox rows, argand.farm.outbox) in one transaction: a broker
+    outage, or a crash right after the commit, cannot leave a queued job
+    without work. With ``send``, the messages are then sent here if the
+    broker answers (else they wait for a drainer); the API passes False and
+    wakes its drainer instead, so a submission never waits on the broker.
+    Returns the job's id."""
+    check_limits(settings, spec)
+    check_renderable(spec)
+    check_in_flight(settings)
+    check_disk(settings)
+    job_id = uuid.uuid4().hex[:12]
+    rects = tile_rects(spec.width, spec.height, spec.tile)
+    n_frames, positions = len(spec.frames), spec.frames.positions
+    workers = max(1, alive_workers(settings))
+    runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects,
+                     batch_pixels(settings.batch_pixels, spec.scene), workers, positions)
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=spec.scene,
+                                     width=spec.width, height=spec.height, tile=spec.tile,
+                                     method=spec.method, priority=spec.priority, created=time.time()))
+        c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=p.sigma, delta=p.delta, sigma_index=p.sigma_index,
+                                       delta_index=p.delta_index, status="queued", tiles_total=len(rects), tiles_done=0)
+                                  for i, p in enumerate(spec.frames.points)])
+        c.execute(insert(Tile), [dict(job_id=job_id, frame_index=i, tile_index=t, status="queued", attempts=0,
+                                      renders=0) for i in range(n_frames) for t in range(len(rects))])
+        add_runs(c, job_id, runs, spec.priority)
+    if send:
+        try_drain(settings, job_id)
+    return job_id

@@ -1,0 +1,91 @@
+"""A sweep of frames rendered on this machine, with its files: what
+`argand render` does, and the baseline `argand bench farm` holds the farm
+against (the same frames and the same files, without the farm)."""
+
+from __future__ import annotations
+
+from contextlib import contextmanager, nullcontext
+from pathlib import Path
+from typing import Any, Callable, Iterator, Sequence
+
+from argand.render.frames import FrameParams, TileAOVs, render_frame
+from argand.frames.frame_set import FrameGrid
+from argand.media.frame_files import EXR_COMPRESSION
+
+
+@contextmanager
+def oiio_threads(n: int | None) -> Iterator[None]:
+    """OpenImageIO (and its OpenEXR) on ``n`` threads inside the block (None:
+    as they are; their default is every core), restored after."""
+    import OpenImageIO as oiio
+
+    saved = {k: oiio.get_int_attribute(k) for k in ("threads", "exr_threads")}
+    try:
+        if n:
+            for k in saved:
+                oiio.attribute(k, int(n))
+        yield
+    finally:
+        for k, v in saved.items():
+            oiio.attribute(k, v)
+
+
+def render_sweep(
+    scene: Any,
+    params: Sequence[FrameParams],
+    out: Path,
+    tile: int = 64,
+    workers: int | None = None,
+    compression: str = EXR_COMPRESSION,
+    fps: float = 8.0,
+    on_frame: Callable[[int, FrameParams], None] | None = None,
+    on_tile: Callable[[TileAOVs], None] | None = None,
+    grid: FrameGrid | None = None,
+    mp4: bool = True,
+) -> list[dict]:
+    """Renders ``params`` in order on ``workers`` threads (encoding too) and
+    writes frame_NNNN.exr/.png/.json under ``out``, animation.gif and
+    animation.mp4 (unless not ``mp4``) when there is more than one frame, and
+    atlas.png when ``grid`` (the frames' places, one per param) has more than
+    one σ and δ. Returns each frame's figures."""
+    from argand.media import gif
+    from argand.media.atlas import atlas_png, cell_size, scale_to_cell
+    from argand.media.frame_files import to_srgb8, write_frame
+    from argand.media.video import Mp4Encoder
+
+    if grid is not None and len(grid) != len(params):
+        raise ValueError(f"the grid has {len(grid)} frames, the sweep {len(params)}")
+
+    previews, figures, cells = [], [], {}
+    animated = len(params) > 1
+    atlas = grid is not None and grid.is_grid
+    mp4_tmp = out / "animation.mp4.tmp"
+    if animated:
+        out.mkdir(parents=True, exist_ok=True)
+    with oiio_threads(workers), (Mp4Encoder(mp4_tmp, fps) if animated and mp4 else nullcontext()) as video:
+        for index, p in enumerate(params):
+            if on_frame:
+                on_frame(index, p)
+            result = render_frame(scene, p, tile=tile, workers=workers, on_tile=on_tile)
+            srgb = to_srgb8(result.rgba)
+            write_frame(result, out, index, srgb8=srgb, compression=compression)
+            if animated:
+                previews.append(gif.encode_frame(srgb))
+                if video is not None:
+                    video.add(srgb)
+            if atlas:  # kept at the atlas's cell size only
+                cells[index] = scale_to_cell(srgb, cell_size(p.width, p.height))
+            figures.append(result.figures)
+    if previews:
+        _write_atomic(out / "animation.gif", gif.splice(previews, fps=fps))
+        if mp4:
+            mp4_tmp.replace(out / "animation.mp4")
+    if atlas:
+        _write_atomic(out / "atlas.png", atlas_png(grid, cells, params[0].width, params[0].height))
+    return figures
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(data)
+    tmp.replace(path)

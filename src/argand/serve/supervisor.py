@@ -1,0 +1,168 @@
+"""`argand serve`, the supervisor: Redis (embedded or external), the schema
+upgraded, N worker processes (`argand worker`) and the API (uvicorn) in the
+foreground; Ctrl-C stops everything. The settings travel to the workers as
+their environment (Settings.environment); this process's own are passed
+explicitly.
+
+* A lock on the data folder (``farm.lock``) refuses a second farm on it.
+* A worker or the embedded Redis that dies is started again, after a
+  backoff (1 s, doubling to 30 s; back to 1 s once it has lived a minute).
+* The children die with this process (PR_SET_PDEATHSIG), even on kill -9."""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from argand.farm.database import upgrade
+from argand.farm.settings import Settings
+from argand.serve.embedded_redis import EmbeddedRedis, dying_with_parent
+
+BACKOFF_S = (1.0, 30.0)
+STEADY_S = 60.0
+
+
+class FarmLocked(RuntimeError):
+    """Another `argand serve` holds this data folder."""
+
+
+def lock_data_dir(path: Path):
+    """Holds ``path/farm.lock`` (an exclusive flock) for this process's
+    life; returns the open file (keep it). Raises FarmLocked."""
+    path.mkdir(parents=True, exist_ok=True)
+    f = open(path / "farm.lock", "a+")  # noqa: SIM115 - held until exit
+    try:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        f.seek(0)
+        holder = f.read().strip() or "another process"
+        f.close()
+        raise FarmLocked(f"another farm (pid {holder}) serves the data folder {path}; stop it first, "
+                         "or give this one its own --data") from None
+    f.truncate(0)
+    f.write(str(os.getpid()))
+    f.flush()
+    return f
+
+
+def worker_command(name: str) -> list[str]:
+    return [sys.executable, "-m", "argand.cli", "worker", "--name", name]
+
+
+#: The workers' niceness above the API's: renders take every cycle the API leaves,
+#: and a request does not wait behind them for the CPU.
+WORKER_NICE = 10
+
+
+def start_worker(settings: Settings, name: str) -> subprocess.Popen:
+    """A worker that dies with the supervisor and runs below the API."""
+    env = dict(os.environ, **settings.environment())
+    return subprocess.Popen(dying_with_parent(worker_command(name), WORKER_NICE), env=env)
+
+
+def start_workers(settings: Settings, count: int) -> list[subprocess.Popen]:
+    return [start_worker(settings, f"w{i + 1}@{os.uname().nodename}") for i in range(count)]
+
+
+def stop_all(procs: list[subprocess.Popen]) -> None:
+    for p in procs:
+        if p.poll() is None:
+            p.send_signal(signal.SIGTERM)
+    for p in procs:
+        try:
+            p.wait(15)
+        except subprocess.TimeoutExpired:
+            p.kill()
+
+
+def restart_name(name: str) -> str:
+    """w1@host -> w1.2@host -> w1.3@host: each start of a worker slot its own name."""
+    base, _, host = name.partition("@")
+    slot, _, n = base.partition(".")
+    return f"{slot}.{int(n or 1) + 1}@{host}"
+
+
+class _Restarts:
+    """One child's backoff: the delay before its next start."""
+
+    def __init__(self) -> None:
+        self.delay, self.started, self.due = BACKOFF_S[0], time.monotonic(), None
+
+    def dead(self, now: float) -> bool:
+        """True when the dead child is due to be started again."""
+        if self.due is None:
+            if now - self.started > STEADY_S:
+                self.delay = BACKOFF_S[0]
+            self.due = now + self.delay
+            self.delay = min(self.delay * 2, BACKOFF_S[1])
+        return now >= self.due
+
+    def restarted(self, now: float) -> None:
+        self.started, self.due = now, None
+
+
+class Supervisor(threading.Thread):
+    """Starts again what dies: the workers and the embedded Redis."""
+
+    def __init__(self, settings: Settings, redis: EmbeddedRedis | None, procs: list[subprocess.Popen],
+                 names: list[str], announce=print) -> None:
+        super().__init__(name="argand-supervisor", daemon=True)
+        self.settings, self.redis, self.procs, self.names, self.announce = settings, redis, procs, names, announce
+        self.stop = threading.Event()
+        self._redis = _Restarts()
+        self._workers = [_Restarts() for _ in procs]
+
+    def run(self) -> None:
+        while not self.stop.wait(0.5):
+            now = time.monotonic()
+            if self.redis is not None and (self.redis.proc is None or self.redis.proc.poll() is not None):
+                if self._redis.dead(now):
+                    try:
+                        self.redis.start()
+                        self.announce("Redis died and was started again")
+                    except RuntimeError as exc:
+                        self.announce(f"Redis did not start again: {exc}")
+                    self._redis.restarted(time.monotonic())
+            for i, p in enumerate(self.procs):
+                if p.poll() is not None and self._workers[i].dead(now) and not self.stop.is_set():
+                    # A new name: the dead one's tiles stay claimed under its old
+                    # name until the reaper sees its heartbeats stop, which a
+                    # successor beating under the same name would hide.
+                    old, self.names[i] = self.names[i], restart_name(self.names[i])
+                    self.procs[i] = start_worker(self.settings, self.names[i])
+                    self._workers[i].restarted(time.monotonic())
+                    self.announce(f"worker {old} exited with {p.returncode}; started {self.names[i]} in its place")
+
+
+def serve(settings: Settings, workers: int, announce=print) -> None:
+    import uvicorn
+
+    from argand.api.app import create_app
+
+    lock = lock_data_dir(settings.data_path)
+    redis = None
+    if settings.redis_url is None:
+        redis = EmbeddedRedis(settings.redis_socket).start()
+        settings = settings.model_copy(update={"redis_url": redis.url})
+    upgrade(settings.sqlalchemy_url)  # before the workers and the API use it
+    names = [f"w{i + 1}@{os.uname().nodename}" for i in range(workers)]
+    procs = [start_worker(settings, n) for n in names]
+    supervisor = Supervisor(settings, redis, procs, names, announce)
+    supervisor.start()
+    try:
+        announce(f"Argand is serving on http://{settings.host}:{settings.port}/  (API docs: /docs; "
+                 f"{workers} worker(s); data in {settings.data_path})")
+        uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="warning")
+    finally:
+        supervisor.stop.set()
+        supervisor.join(5)
+        stop_all(supervisor.procs)
+        if redis:
+            redis.stop()
+        lock.close()

@@ -1,0 +1,71 @@
+"""A worker's background thread: a heartbeat every heartbeat_interval_s
+(what it renders and how many tiles it finished), and, in the one worker
+that holds the reaper's lease, a round of the reaper (argand.farm.reaper)
+at most every second.
+
+Why the reaper runs here: its work is to notice workers that stopped, so it
+is needed exactly while the farm has workers; in a worker it runs under
+`argand serve` and under docker-compose alike without a process of its own,
+and the API stays HTTP only. A lease in Redis (a key that expires unless its
+holder renews it) keeps it to one worker at a time; when that worker dies,
+another takes the lease after REAPER_LEASE_S."""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+
+from argand.farm.queue import broker_client
+from argand.farm.reaper import Reaper
+from argand.farm.tile_work import ACTIVITY
+from argand.farm.settings import Settings
+from argand.farm.workers import heartbeat
+
+REAPER_KEY = "argand:reaper-lease"
+REAPER_LEASE_S = 5.0
+REAPER_EVERY_S = 1.0
+
+
+def holds_lease(client, name: str) -> bool:
+    """Takes the reaper's lease if it is free, renews it if ``name`` holds it."""
+    ms = int(REAPER_LEASE_S * 1000)
+    if client.set(REAPER_KEY, name, nx=True, px=ms):
+        return True
+    if client.get(REAPER_KEY) == name.encode():
+        client.pexpire(REAPER_KEY, ms)
+        return True
+    return False
+
+
+class Heartbeat:
+    """The heartbeat's thread and the reaper's (a long round of the reaper,
+    an assembly, does not hold up the heartbeats)."""
+
+    def __init__(self, settings: Settings, name: str) -> None:
+        self.settings, self.name = settings, name
+        self.stop_event = threading.Event()
+
+    def beat(self) -> None:
+        heartbeat(self.settings, self.name, os.getpid(), ACTIVITY["tile"], ACTIVITY["done"])
+
+    def _every(self, seconds: float, step) -> None:
+        while not self.stop_event.wait(seconds):
+            try:
+                step()
+            except Exception as exc:  # the database may be briefly busy; next round
+                print(f"argand worker {self.name}: {exc!r}", file=sys.stderr)
+
+    def _reap_rounds(self) -> None:
+        client, reaper = broker_client(self.settings), Reaper(self.settings)
+        self._every(max(REAPER_EVERY_S, self.settings.heartbeat_interval_s),
+                    lambda: holds_lease(client, self.name) and reaper.round())
+
+    def start(self) -> None:
+        self.beat()  # registered before the first task
+        threading.Thread(target=self._every, args=(self.settings.heartbeat_interval_s, self.beat), daemon=True,
+                         name="argand-heartbeat").start()
+        threading.Thread(target=self._reap_rounds, daemon=True, name="argand-reaper").start()
+
+    def stop(self) -> None:
+        self.stop_event.set()

@@ -1,0 +1,367 @@
+"""The farm's work model in pieces (argand.farm): how tiles become messages,
+the tile store's files, the schema's migrations, and the task's body called
+directly on a real Redis and SQLite. (The whole farm, with real processes,
+is in test_farm.py.)"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sqlalchemy import inspect
+
+from argand.farm import assembly, control, tile_work
+from argand.farm.database import session_scope
+from argand.farm.models import Frame, Job, Tile
+from argand.farm.planning import batch_runs, plan_runs, preview_order, tile_rects
+from argand.farm.reaper import Reaper
+from argand.farm.store import FrameStore, pack_arrays, unpack_arrays
+from argand.farm.submission import JobSpec, create_job
+from argand.frames.frame_set import frame_grid
+from argand.scene import load_scene
+
+
+def pixels(rects, tiles):
+    return sum((rects[t][2] - rects[t][0]) * (rects[t][3] - rects[t][1]) for t in tiles)
+
+
+@pytest.mark.parametrize("width,height,tile,frames,workers,batch", [
+    (512, 512, 64, 36, 2, 512 * 512),  # the benchmark's job: whole frames
+    (512, 512, 64, 36, 1, 512 * 512),  # one worker
+    (96, 80, 16, 1, 2, 512 * 512),     # one small frame: split so both workers get work
+    (1000, 700, 128, 3, 3, 100_000),   # ragged edges, batch smaller than a frame
+    (40, 30, 64, 5, 4, 10),            # a tile larger than the batch: one tile per run
+])
+def test_runs_cover_every_tile_once_in_preview_order(width, height, tile, frames, workers, batch):
+    rects = tile_rects(width, height, tile)
+    by_frame = {f: list(range(len(rects))) for f in range(frames)}
+    runs = plan_runs(by_frame, frames, rects, batch, workers)
+    sent = [(f, t) for f, run in runs for t in run]
+    assert sorted(sent) == sorted((f, t) for f in range(frames) for t in range(len(rects)))
+    assert len(sent) == len(set(sent))
+    for f, run in runs:
+        assert run and (len(run) == 1 or pixels(rects, run[:-1]) < batch)  # a run stops once it reaches the batch
+    first_seen = list(dict.fromkeys(f for f, _ in runs))
+    assert first_seen == preview_order(frames)
+    if frames == 1:  # a one-frame job is still shared: every worker gets four runs or more
+        assert len(runs) >= 4 * workers
+
+
+def test_whole_frames_travel_as_one_message_when_there_are_enough_of_them():
+    rects = tile_rects(512, 512, 64)
+    by_frame = {f: list(range(64)) for f in range(36)}
+    for workers in (1, 2):
+        assert [len(r) for _, r in plan_runs(by_frame, 36, rects, 512 * 512, workers)] == [64] * 36
+    # A smaller batch cuts frames; a job too small to feed every worker four times is cut finer.
+    assert [len(r) for _, r in plan_runs(by_frame, 36, rects, 128 * 128, 2)] == [4] * 36 * 16
+    assert [len(r) for _, r in plan_runs({0: list(range(64))}, 1, rects, 512 * 512, 2)] == [8] * 8
+
+
+def test_batch_runs_keeps_tile_order():
+    rects = tile_rects(100, 10, 10)
+    assert batch_runs(list(range(10)), rects, 250) == [[0, 1, 2], [3, 4, 5], [6, 7, 8], [9]]
+    assert batch_runs([], rects, 250) == []
+
+
+def test_tile_files_round_trip_exactly(tmp_path):
+    rng = np.random.default_rng(7)
+    px = rng.standard_normal((16, 24, 10)).astype(np.float32)
+    px[0, 0, 4] = np.inf
+    px[1, 1, 5] = np.nan
+    arrays = {"px": px, "meta": np.array([3, 99], np.int64), "flags": np.arange(5, dtype=np.uint8)}
+    back = unpack_arrays(pack_arrays(arrays))
+    assert list(back) == list(arrays)
+    for k in arrays:
+        assert back[k].dtype == arrays[k].dtype and back[k].shape == arrays[k].shape
+        assert np.array_equal(back[k], arrays[k], equal_nan=True)
+    with pytest.raises(ValueError, match="bad magic"):
+        unpack_arrays(b"PK\x03\x04" + bytes(20))
+
+    store = FrameStore(tmp_path / "store")
+    tiles = {3: {"px": px, "meta": np.array([1, 2], np.int64)}, 4: {"px": px[::-1].copy(), "meta": np.array([0, 5], np.int64)}}
+    store.write_chunk("job", 2, "00003-abc", tiles)
+    got = store.read_chunk("job", 2, "00003-abc")
+    assert set(got) == {3, 4}
+    assert np.array_equal(got[4]["px"], px[::-1], equal_nan=True) and list(got[3]["meta"]) == [1, 2]
+    # Atomic: no temporary file is left, and the frame's tiles go away with it.
+    assert [p.name for p in (tmp_path / "store/jobs/job/tiles/0002").iterdir()] == ["00003-abc.chunk"]
+    store.remove_tiles("job", 2)
+    assert not (tmp_path / "store/jobs/job/tiles/0002").exists()
+    store.write_chunk("job", 2, "again", tiles)  # the folder comes back when needed
+    assert set(store.read_chunk("job", 2, "again")) == {3, 4}
+
+
+def test_the_migrations_make_the_models_schema_and_a_second_upgrade_changes_nothing(tmp_path):
+    from alembic.autogenerate import compare_metadata
+    from alembic.migration import MigrationContext
+
+    from argand.farm.database import engine_for, upgrade
+    from argand.farm.models import Base
+
+    url = f"sqlite:///{tmp_path / 'new.db'}"
+    upgrade(url)
+    eng = engine_for(url)
+    with eng.connect() as c:
+        assert compare_metadata(MigrationContext.configure(c), Base.metadata) == []
+        assert c.exec_driver_sql("select version_num from alembic_version").scalar() == "0003"
+    assert "ix_tiles_key" in {i["name"] for i in inspect(eng).get_indexes("tiles")}
+    upgrade(url)  # a second time: nothing to do, nothing fails
+    with eng.connect() as c:
+        assert compare_metadata(MigrationContext.configure(c), Base.metadata) == []
+
+
+def test_the_grid_migration_keeps_earlier_jobs_frames_as_row_zero(tmp_path):
+    """Frames stored before (σ, δ) jobs become row 0 with their index as
+    column, and none is lost (dropping the jobs' sigma in place, not by a
+    table copy, which with foreign keys on would delete every frame)."""
+    from argand.farm.database import engine_for, upgrade
+
+    url = f"sqlite:///{tmp_path / 'old.db'}"
+    upgrade(url, "0001")
+    eng = engine_for(url)
+    with eng.begin() as c:
+        c.exec_driver_sql("insert into jobs (id, status, scene_name, scene, sigma, width, height, tile, method, priority,"
+                          " created) values ('j', 'done', 'whitney', '{}', 0.25, 8, 8, 8, 'auto', 5, 0)")
+        for i in range(3):
+            c.exec_driver_sql("insert into frames (job_id, \"index\", sigma, delta, status, tiles_total, tiles_done)"
+                              f" values ('j', {i}, 0.25, {0.1 * i}, 'done', 1, 1)")
+        c.exec_driver_sql("insert into tiles (job_id, frame_index, tile_index, status, attempts, renders)"
+                          " values ('j', 0, 0, 'done', 1, 1)")
+    upgrade(url)
+    with eng.connect() as c:
+        rows = c.exec_driver_sql('select "index", sigma, sigma_index, delta_index from frames order by "index"').all()
+        assert [tuple(r) for r in rows] == [(0, 0.25, 0, 0), (1, 0.25, 0, 1), (2, 0.25, 0, 2)]
+        assert c.exec_driver_sql("select count(*) from tiles").scalar() == 1
+        assert "sigma" not in {col["name"] for col in inspect(eng).get_columns("jobs")}
+
+
+@pytest.fixture
+def farm_parts(tmp_path, monkeypatch):
+    """A real embedded Redis and a SQLite file, no worker: the tests call the
+    task's body directly."""
+    from argand.farm.database import upgrade
+    from argand.farm.settings import Settings
+    from argand.serve.embedded_redis import EmbeddedRedis
+
+    redis_server = EmbeddedRedis(tmp_path / "redis" / "redis.sock").start()
+    settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, max_tile_attempts=2)
+    upgrade(settings.sqlalchemy_url)
+    yield settings, redis_server
+    redis_server.stop()
+
+
+def submit(settings, scene: str, deltas: list[float], width: int, height: int, tile: int) -> str:
+    return create_job(settings, JobSpec(scene, load_scene(scene).to_dict(), frame_grid([0.0], deltas), width, height, tile))
+
+
+def queued_messages(redis_server) -> int:
+    import redis
+
+    client = redis.Redis(unix_socket_path=str(redis_server.socket_path))
+    return sum(client.llen(k) for k in client.keys("argand*") if client.type(k) == b"list")
+
+
+def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts, monkeypatch):
+
+    settings, redis_server = farm_parts
+    job_id = submit(settings, "steiner", [0.0], 64, 64, 16)
+    sent = queued_messages(redis_server)
+    assert sent >= 1
+    real = tile_work.render_tile_into
+    calls = []
+
+    def failing(plan, rect, out, ox=0, oy=0):
+        calls.append(rect)
+        if len(calls) == 6:
+            raise RuntimeError("the renderer broke")
+        return real(plan, rect, out, ox, oy)
+
+    monkeypatch.setattr(tile_work, "render_tile_into", failing)
+    monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)  # one commit, at the end or on the error
+    with pytest.raises(RuntimeError, match="renderer broke"):
+        tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w-test")
+    with session_scope(settings.sqlalchemy_url) as s:
+        tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
+        assert [i for i, t in sorted(tiles.items()) if t.status == "done"] == [0, 1, 2, 3, 4]
+        assert all(t.status == "queued" and t.worker is None for i, t in tiles.items() if i >= 5)
+        assert tiles[5].attempts == 1 and s.query(Frame).filter(Frame.job_id == job_id).one().tiles_done == 5
+        assert s.get(Job, job_id).status == "running"
+    assert queued_messages(redis_server) == sent + 1  # the rest was sent again
+    # The same tile fails again: with max_tile_attempts=2 the job fails, saying which tile.
+    # (this run starts at tile 5: tiles 5..9 render, the sixth call, tile 10, breaks)
+    calls.clear()
+    with pytest.raises(RuntimeError):
+        tile_work.run_tiles(settings, job_id, 0, list(range(5, 16)), "w-test")
+    with session_scope(settings.sqlalchemy_url) as s:
+        job = s.get(Job, job_id)
+        tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
+        assert tiles[10].attempts == 2 and tiles[10].status == "failed"
+        assert job.status == "failed" and job.error == "tile 0/10 failed 2 times (RuntimeError: the renderer broke)"
+    # Nothing more runs for a failed job, and what was rendered is kept.
+    monkeypatch.setattr(tile_work, "render_tile_into", real)
+    assert tile_work.run_tiles(settings, job_id, 0, list(range(11, 16)), "w-test") == "failed"
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.query(Frame).filter(Frame.job_id == job_id).one().tiles_done == 10
+    # Retry: the failed tile gets its attempts back and the rest is sent again; the frame then
+    # equals the local render, the ten tiles done before kept as they were.
+    sent = queued_messages(redis_server)
+    assert control.set_job_status(settings, job_id, "retry") == "running"
+    assert queued_messages(redis_server) > sent
+    with session_scope(settings.sqlalchemy_url) as s:
+        tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
+        assert tiles[10].status == "queued" and tiles[10].attempts == 0 and s.get(Job, job_id).error is None
+        assert [i for i, t in sorted(tiles.items()) if t.status == "done"] == list(range(10))
+    assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
+        assert {t.renders for t in s.query(Tile).filter(Tile.job_id == job_id)} == {1}
+    from argand.render import FrameParams, render_frame
+    from argand.media.frame_files import read_exr
+
+    names, px = read_exr(settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr")
+    local = render_frame(load_scene("steiner"), FrameParams(width=64, height=64), tile=16, workers=1)
+    assert np.array_equal(px[..., names.index("Z")], local.aovs["Z"]) and np.array_equal(px[..., names.index("A")], local.rgba[..., 3])
+
+
+def test_a_whole_frame_run_that_commits_on_the_way_assembles_the_same_frame(farm_parts, monkeypatch):
+    """A run holding a whole frame that takes longer than the commit
+    interval (a large frame) writes chunk files for the progress it reports
+    on the way; the frame it assembles still equals the local render, bit
+    for bit, and its tile files are gone after."""
+    from argand.render import FrameParams, render_frame
+    from argand.media.frame_files import EXR_CHANNELS, exr_pixels, read_exr
+
+    settings, _ = farm_parts
+    job_id = submit(settings, "steiner", [0.3], 48, 40, 16)
+    chunks = []
+    real_complete = tile_work._complete
+    monkeypatch.setattr(tile_work, "_complete", lambda run: (chunks.append(len(run.pending)), real_complete(run))[1])
+    real_assemble, buffers = assembly.assemble_frame, []
+    monkeypatch.setattr(assembly, "assemble_frame", lambda *a, **k: (buffers.append(k.get("frame_px")), real_assemble(*a, **k))[1])
+    monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 0.0)  # commit after every tile
+    assert tile_work.run_tiles(settings, job_id, 0, list(range(9)), "w-test") == "rendered"  # 3 x 3 tiles
+    assert chunks == [1] * 9  # one commit per tile, the last one included
+    assert len(buffers) == 1 and buffers[0] is not None  # assembled from the run's own buffer, not copied again
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
+        assert s.query(Frame).filter(Frame.job_id == job_id).one().status == "done"
+        assert {t.status for t in s.query(Tile).filter(Tile.job_id == job_id)} == {"done"}
+    names, px = read_exr(settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr")
+    want = exr_pixels(render_frame(load_scene("steiner"), FrameParams(delta=0.3, width=48, height=40), tile=16, workers=1))
+    assert np.array_equal(px[..., [names.index(n) for n in EXR_CHANNELS]].view(np.uint32), want.view(np.uint32))
+    assert not (settings.data_path / "store" / "jobs" / job_id / "tiles").exists() or not any(
+        (settings.data_path / "store" / "jobs" / job_id / "tiles").rglob("*.chunk"))
+
+
+def test_a_pause_stops_a_run_between_tiles_and_resume_sends_the_rest(farm_parts, monkeypatch):
+    import time
+
+
+    settings, redis_server = farm_parts
+    job_id = submit(settings, "whitney", [0.0], 64, 64, 16)
+    sent = queued_messages(redis_server)
+    real = tile_work.render_tile_into
+    calls = []
+
+    def pausing(plan, rect, out, ox=0, oy=0):
+        calls.append(rect)
+        if len(calls) == 3:  # someone pauses the job while the third tile renders
+            control.set_job_status(settings, job_id, "pause")
+            time.sleep(2 * tile_work.STOP_CHECK_S)
+        return real(plan, rect, out, ox, oy)
+
+    monkeypatch.setattr(tile_work, "render_tile_into", pausing)
+    assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "paused"
+    assert len(calls) == 3  # not one tile more
+    with session_scope(settings.sqlalchemy_url) as s:
+        tiles = {t.tile_index: t for t in s.query(Tile).filter(Tile.job_id == job_id)}
+        assert [i for i, t in sorted(tiles.items()) if t.status == "done"] == [0, 1, 2]
+        assert all(t.status == "queued" and t.worker is None for i, t in tiles.items() if i >= 3)
+        assert s.query(Frame).filter(Frame.job_id == job_id).one().status == "rendering"
+    assert queued_messages(redis_server) == sent  # a pause sends nothing
+    assert control.set_job_status(settings, job_id, "resume") == "running"
+    assert queued_messages(redis_server) > sent
+    monkeypatch.setattr(tile_work, "render_tile_into", real)
+    assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
+        frame = s.query(Frame).filter(Frame.job_id == job_id).one()
+        assert frame.status == "done" and frame.tiles_done == 16
+        assert {t.renders for t in s.query(Tile).filter(Tile.job_id == job_id)} == {1}
+    # The frame was assembled from the first run's chunk file and the second run's memory.
+    from argand.render import FrameParams, render_frame
+    from argand.media.frame_files import read_exr
+
+    names, px = read_exr(settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr")
+    local = render_frame(load_scene("whitney"), FrameParams(width=64, height=64), workers=1)
+    assert np.array_equal(px[..., names.index("A")], local.rgba[..., 3])
+    assert np.array_equal(px[..., names.index("status")], local.aovs["status"].astype(np.float32))
+
+
+def test_the_reaper_finishes_what_a_worker_dying_at_the_wrong_moment_left(farm_parts, monkeypatch):
+    """A worker killed right after its last completion (before assembling),
+    or right after the last frame (before the animation): the reaper notices
+    in two rounds and finishes the frame, then the job."""
+
+    settings, _ = farm_parts
+    reaper = Reaper(settings)
+    job_id = submit(settings, "plucker", [0.0, 0.1], 32, 32, 16)
+    real_assemble, real_finish = assembly.maybe_assemble, assembly.finish_job_if_last
+    monkeypatch.setattr(assembly, "maybe_assemble", lambda *a, **k: False)  # "dies" before assembling
+    assert tile_work.run_tiles(settings, job_id, 0, [0, 1], "w-test") == "rendered"
+    assert tile_work.run_tiles(settings, job_id, 0, [2, 3], "w-test") == "rendered"
+    monkeypatch.setattr(assembly, "maybe_assemble", real_assemble)
+    monkeypatch.setattr(assembly, "finish_job_if_last", lambda *a, **k: None)  # "dies" before the animation
+    assert tile_work.run_tiles(settings, job_id, 1, [0, 1, 2, 3], "w-test") == "rendered"  # whole frame: assembled
+    monkeypatch.setattr(assembly, "finish_job_if_last", real_finish)
+
+    def states():
+        with session_scope(settings.sqlalchemy_url) as s:
+            return s.get(Job, job_id).status, [f.status for f in s.query(Frame).filter(Frame.job_id == job_id).order_by(Frame.index)]
+
+    assert states() == ("running", ["rendering", "done"])
+    reaper.round()
+    assert states() == ("running", ["rendering", "done"])  # one round: it may be a live worker's moment
+    reaper.round()
+    assert states() == ("done", ["done", "done"])
+    assert (settings.data_path / "store" / "jobs" / job_id / "animation.gif").exists()
+    assert (settings.data_path / "store" / "jobs" / job_id / "frame_0000.exr").exists()
+
+    # The same for a job whose last frame was assembled but not finished.
+    job2 = submit(settings, "plucker", [0.0], 32, 32, 16)
+    monkeypatch.setattr(assembly, "finish_job_if_last", lambda *a, **k: None)
+    tile_work.run_tiles(settings, job2, 0, [0, 1, 2, 3], "w-test")
+    monkeypatch.setattr(assembly, "finish_job_if_last", real_finish)
+    reaper.round()
+    reaper.round()
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job2).status == "done"
+
+
+def test_a_jobs_sweep_is_argand_renders_sweep_to_the_last_bit():
+    """The same sweep over HTTP and on the command line gives the same
+    deltas, so a farm's frame and `argand render`'s are the same frame
+    (an earlier formula differed in the last bit for 13 of 36 frames)."""
+    from argand.api.schemas import AngleRange
+    from argand.farm.submission import sweep_axis
+    from argand.render import delta_sweep, parse_sweep
+
+    for count in (1, 2, 5, 12, 24, 36, 48, 100):
+        spec = AngleRange(start="pi/36", stop="pi/9", count=count).model_dump()
+        assert sweep_axis(spec) == delta_sweep(*parse_sweep(f"pi/36:pi/9:{count}")), count
+
+
+def test_one_worker_at_a_time_holds_the_reapers_lease(farm_parts, monkeypatch):
+    import time
+
+    from argand.farm.queue import broker_client
+    from argand.worker import heartbeat
+
+    settings, _ = farm_parts
+    client = broker_client(settings)
+    monkeypatch.setattr(heartbeat, "REAPER_LEASE_S", 0.3)
+    assert heartbeat.holds_lease(client, "w1") and not heartbeat.holds_lease(client, "w2")
+    assert heartbeat.holds_lease(client, "w1")  # renewed by its holder
+    time.sleep(0.2)
+    assert heartbeat.holds_lease(client, "w1") and not heartbeat.holds_lease(client, "w2")
+    time.sleep(0.4)  # w1 stopped renewing (it died): w2 takes over
+    assert heartbeat.holds_lease(client, "w2") and not heartbeat.holds_lease(client, "w1")
