@@ -66,10 +66,6 @@ def start_worker(settings: Settings, name: str) -> subprocess.Popen:
     return subprocess.Popen(dying_with_parent(worker_command(name), WORKER_NICE), env=env)
 
 
-def start_workers(settings: Settings, count: int) -> list[subprocess.Popen]:
-    return [start_worker(settings, f"w{i + 1}@{os.uname().nodename}") for i in range(count)]
-
-
 def stop_all(procs: list[subprocess.Popen]) -> None:
     for p in procs:
         if p.poll() is None:
