@@ -12,6 +12,7 @@ from argand.farm.job_limits import MAX_FRAMES, MAX_SIDE
 from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.farm.progress import eta_seconds, job_progress
 from argand.farm.queue import PRIORITIES
+from argand.farm.states import shown_frame_status
 from argand.frames.angles import parse_angle
 from argand.render.frames import MAX_SAMPLES
 from argand.scene.model import check_samples
@@ -130,7 +131,8 @@ class FrameBrief(BaseModel):
     delta: float
     sigma_index: int = Field(description="The frame's row in the job's grid (its σ in the job's sigmas)")
     delta_index: int = Field(description="The frame's column in the job's grid (its δ in the job's deltas)")
-    status: str
+    status: str = Field(description="queued, rendering, assembling or done; a frame not done of a stopped job "
+                        "shows the job's state (canceled, paused, failed)")
     png_url: str | None
     exr_url: str | None
     thumbnail_url: str | None
@@ -204,16 +206,17 @@ def _job_fields(job: Job, done: int, total: int, places: list[FramePoint]) -> di
     )
 
 
-def frame_out(base: str, f) -> FrameOut:
+def frame_out(base: str, f, job_status: str) -> FrameOut:
     return FrameOut(index=f.index, sigma=f.sigma, delta=f.delta, sigma_index=f.sigma_index, delta_index=f.delta_index,
-                    status=f.status, **_urls(base, f.index, f.status == "done"),
+                    status=shown_frame_status(job_status, f.status), **_urls(base, f.index, f.status == "done"),
                     finished=f.finished, certified_share=(f.figures or {}).get("certified_share"), figures=f.figures)
 
 
-def frame_brief(base: str, index: int, sigma: float, delta: float, sigma_index: int, delta_index: int, status: str,
-                finished: float | None) -> FrameBrief:
+def frame_brief(base: str, job_status: str, index: int, sigma: float, delta: float, sigma_index: int,
+                delta_index: int, status: str, finished: float | None) -> FrameBrief:
     return FrameBrief(index=index, sigma=sigma, delta=delta, sigma_index=sigma_index, delta_index=delta_index,
-                      status=status, **_urls(base, index, status == "done"), finished=finished)
+                      status=shown_frame_status(job_status, status), **_urls(base, index, status == "done"),
+                      finished=finished)
 
 
 def job_out(job: Job) -> JobOut:
@@ -221,7 +224,7 @@ def job_out(job: Job) -> JobOut:
     done, total = job_progress(job)
     base = f"/api/jobs/{job.id}"
     places = [FramePoint(f.sigma_index, f.delta_index, f.sigma, f.delta) for f in job.frames]
-    return JobOut(scene=job.scene, frames=[frame_out(base, f) for f in job.frames],
+    return JobOut(scene=job.scene, frames=[frame_out(base, f, job.status) for f in job.frames],
                   **_job_fields(job, done, total, places))
 
 
@@ -230,4 +233,4 @@ def job_summary(job: Job, progress: tuple[int, int], frames: list[tuple]) -> Job
     frames' (index, sigma, delta, sigma_index, delta_index, status, finished)."""
     base = f"/api/jobs/{job.id}"
     places = [FramePoint(f[3], f[4], f[1], f[2]) for f in frames]
-    return JobSummary(frames=[frame_brief(base, *f) for f in frames], **_job_fields(job, *progress, places))
+    return JobSummary(frames=[frame_brief(base, job.status, *f) for f in frames], **_job_fields(job, *progress, places))

@@ -17,10 +17,11 @@ def job_progress(job: Job) -> tuple[int, int]:
 
 
 def eta_seconds(job: Job, done: int, total: int) -> float | None:
-    """Seconds left at the job's pace so far: 0 when every tile is done,
-    None before the first."""
-    if not job.started or done == 0 or done >= total:
-        return 0.0 if done >= total and total else None
+    """Seconds left at the job's pace so far, only while it runs: None for a
+    job that is queued, paused, canceled, failed or done (nothing is being
+    rendered, so no time is running out), and before its first tile."""
+    if job.status != "running" or not job.started or done == 0 or done >= total:
+        return None
     elapsed = time.time() - job.started
     return elapsed / done * (total - done)
 

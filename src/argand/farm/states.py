@@ -93,6 +93,20 @@ STOPPED = ("canceled", "paused", "failed")
 #: A job in one of these states has nothing more to happen to it by itself.
 ENDED = ("done", "failed", "canceled")
 
+#: A frame as the API shows it: its own state, except that a frame not done
+#: of a job that stopped (canceled, paused, failed) shows the job's state, as
+#: nothing renders it (a frame's row keeps "rendering" so that a retry takes
+#: it up where it stopped).
+FRAME_SHOWN = FRAME.states + STOPPED
+
+
+def shown_frame_status(job_status: str, frame_status: str) -> str:
+    """The state the API gives a frame of a job in ``job_status``."""
+    if frame_status != "done" and job_status in STOPPED:
+        return job_status
+    return frame_status
+
+
 #: The user's actions on a job: action -> (the job states it applies to, the
 #: state it leads to; for resume and retry "queued", or "running" once the
 #: job has started). Asked of a job in another state, an action changes nothing.

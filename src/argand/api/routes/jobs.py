@@ -19,7 +19,7 @@ from argand.farm.control import delete_job, set_job_status, set_priority
 from argand.farm.database import session_scope
 from argand.farm.models import Frame, Job
 from argand.farm.progress import eta_seconds, jobs_progress
-from argand.farm.states import ACTIONS, ENDED, JOB
+from argand.farm.states import ACTIONS, ENDED, JOB, shown_frame_status
 from argand.farm.job_limits import MAX_PAGE
 from argand.farm.submission import FarmBusy, JobRefused, JobSpec, StoreFull, create_job, job_frames
 from argand.scene import SceneError, load_scene, scene_from_dict
@@ -141,7 +141,7 @@ def _progress(settings, job_id: str) -> dict | None:
         if job is None:
             return None
         done, total = jobs_progress(s, [job_id])[job_id]
-        frames = [{"index": i, "status": st} for i, st in
+        frames = [{"index": i, "status": shown_frame_status(job.status, st)} for i, st in
                   s.execute(select(Frame.index, Frame.status).where(Frame.job_id == job_id).order_by(Frame.index))]
         return {"id": job.id, "status": job.status, "progress": done / total if total else 0.0,
                 "eta_s": eta_seconds(job, done, total), "tiles_done": done, "tiles_total": total, "frames": frames}

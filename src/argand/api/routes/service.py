@@ -20,7 +20,7 @@ from argand.farm.outbox import pending
 from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.farm.previews import PREVIEW_CHANNELS, STATUS_COLOURS
 from argand.farm.queue import PRIORITIES, broker_client
-from argand.farm.states import ACTIONS, ENDED, FRAME, JOB
+from argand.farm.states import ACTIONS, ENDED, FRAME_SHOWN, JOB
 from argand.farm.workers import list_workers
 from argand.render import MAX_OBJECTS, FrameParams, render_frame
 from argand.render.frames import MAX_SAMPLES, STATUS_NAMES
@@ -39,7 +39,7 @@ def meta(settings: SettingsDep) -> dict:
     return {
         "job_states": list(JOB.states),
         "ended_states": list(ENDED),
-        "frame_states": list(FRAME.states),
+        "frame_states": list(FRAME_SHOWN),
         "actions": {action: list(applies_to) for action, (applies_to, _) in ACTIONS.items()},
         "pixel_statuses": [{"code": code, "name": name, "colour": "#%02x%02x%02x" % STATUS_COLOURS[name]}
                            for code, name in sorted(STATUS_NAMES.items())],
