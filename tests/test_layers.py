@@ -155,3 +155,27 @@ def test_no_function_of_the_farm_api_or_workers_is_long():
                     if n > MAX_FUNCTION_LINES:
                         long.append(f"{name}.{node.name}: {n} lines")
     assert long == []
+
+
+#: The only modules that read the process's environment: the engine's
+#: options, the farm's settings, the CLI; and the supervisor, which builds a
+#: worker's environment from its own (without ARGAND_* variables).
+ENVIRONMENT_READERS = {"argand.render.options", "argand.farm.settings", "argand.cli", "argand.serve.supervisor"}
+
+
+def reads_environment(path: Path) -> bool:
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Attribute) and node.attr in ("environ", "getenv", "environb", "putenv"):
+            return True
+        if isinstance(node, ast.ImportFrom) and node.module == "os" and {a.name for a in node.names} & {"environ", "getenv"}:
+            return True
+    return False
+
+
+def test_only_the_edges_read_the_environment():
+    readers = {name for name, path in MODULES.items() if reads_environment(path) and not name.startswith("argand.bench")}
+    assert readers <= ENVIRONMENT_READERS, readers - ENVIRONMENT_READERS
+    assert "argand.render.options" in readers
+    core = REPO / "core"
+    getenv = [str(p.relative_to(REPO)) for p in core.rglob("*") if p.suffix in (".cpp", ".h") and "getenv" in p.read_text()]
+    assert getenv == []

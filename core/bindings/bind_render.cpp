@@ -423,12 +423,22 @@ void init_render(py::module_& m) {
     py::class_<FramePlan>(m, "FramePlan", "A frame planned once (camera, Taylor expansions); render tiles from it.")
         .def_property_readonly("width", [](const FramePlan& p) { return p.params.width; })
         .def_property_readonly("height", [](const FramePlan& p) { return p.params.height; })
-        .def_property_readonly("samples", [](const FramePlan& p) { return p.params.samples; });
+        .def_property_readonly("samples", [](const FramePlan& p) { return p.params.samples; })
+        .def_property_readonly("engine", [](const FramePlan& p) {
+            // The engine options as planned (kernel as asked: "auto" stays "auto").
+            py::dict d;
+            d["kernel"] = p.params.engine.kernel == BatchIsa::Auto ? "auto" : batch_isa_name(p.params.engine.kernel);
+            d["cull"] = p.params.engine.cull;
+            d["decide"] = decide_mode_name(p.params.engine.decide);
+            d["shade"] = shade_mode_name(p.params.engine.shade);
+            return d;
+        });
     m.def(
         "plan_frame",
         [](const py::object& scene, double sigma, double delta, int width, int height, const std::string& method,
            int max_depth, bool hue_by_argument, bool seed_from_neighbour, int exact_pixels_per_tile,
-           int exact_max_bits, int samples) {
+           int exact_max_bits, int samples, const std::string& kernel, bool cull, const std::string& decide,
+           const std::string& shade) {
             const SceneSpec& spec =
                 instance_of<SceneSpec>(scene, "scene", "SceneSpec (argand.render.convert.to_core_scene makes one)");
             FrameParams fp;
@@ -443,6 +453,13 @@ void init_render(py::module_& m) {
             fp.exact_pixels_per_tile = exact_pixels_per_tile;
             fp.exact_max_bits = exact_max_bits;
             fp.samples = samples;
+            if (!batch_isa_from_name(kernel.c_str(), fp.engine.kernel))
+                throw py::value_error("kernel " + kernel + " names no root kernel: use auto, scalar, sse2, avx2 or avx512");
+            fp.engine.cull = cull;
+            if (!decide_mode_from_name(decide, fp.engine.decide))
+                throw py::value_error("decide " + decide + " names no decision mode: use fast, fast-scalar or full");
+            if (!shade_mode_from_name(shade, fp.engine.shade))
+                throw py::value_error("shade " + shade + " names no shading mode: use fast or reference");
             try {
                 return plan_frame(spec, fp);
             } catch (const std::invalid_argument& e) {
@@ -452,7 +469,8 @@ void init_render(py::module_& m) {
         py::arg("scene"), py::arg("sigma"), py::arg("delta"), py::arg("width"), py::arg("height"),
         py::arg("method") = "auto", py::arg("max_depth") = 3, py::arg("hue_by_argument") = false,
         py::arg("seed_from_neighbour") = true, py::arg("exact_pixels_per_tile") = FrameParams{}.exact_pixels_per_tile,
-        py::arg("exact_max_bits") = FrameParams{}.exact_max_bits, py::arg("samples") = 1);
+        py::arg("exact_max_bits") = FrameParams{}.exact_max_bits, py::arg("samples") = 1, py::arg("kernel") = "auto",
+        py::arg("cull") = true, py::arg("decide") = "fast", py::arg("shade") = "fast");
     m.def(
         "render_tile",
         [](const FramePlan& plan, int x0, int y0, int x1, int y1, const py::object& exact) {
@@ -719,9 +737,9 @@ void init_render(py::module_& m) {
         "and the ladder level.",
         py::arg("plan"), py::arg("x"), py::arg("y"), py::arg("row_start"), py::arg("sample") = 0,
         py::arg("exact") = py::none(), py::arg("column_start") = 0);
-    m.def("render_kernel", [] { return std::string(render_kernel()); },
-          "The root kernel of the primary rays (ARGAND_KERNEL: auto, scalar, sse2, avx2, avx512): 'scalar' or the "
-          "batched kernel's instruction set.");
+    m.def("render_kernel", [](const FramePlan& plan) { return std::string(render_kernel(plan)); },
+          "The root kernel of the plan's primary rays (its engine option kernel, auto resolved): 'scalar' or the "
+          "batched kernel's instruction set.", py::arg("plan"));
     m.attr("MAX_OBJECTS") = kMaxObjects;
     m.attr("MAX_SURFACE_DEGREE") = kMaxSurfaceDegree;
     m.attr("MAX_FRAME_SIDE") = kMaxFrameSide;

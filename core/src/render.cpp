@@ -203,14 +203,13 @@ struct ShadePlan {
     // Some light is a point light, or some object bounces rays: shade
     // needs the hit point.
     bool need_point = false;
-    // ARGAND_SHADE=reference: shade() runs its plain per-pixel code
+    // ShadeMode::Reference: shade() runs its plain per-pixel code
     // (gradient(), std::pow, std::exp, std::atan2 always), the reference
-    // the fast paths are tested against to the bit (tests/test_render.py).
+    // the fast paths are tested against to the bit (tests/render/test_shade.py).
     bool reference = false;
 
     void build(const FramePlan& plan) {
-        const char* env = std::getenv("ARGAND_SHADE");
-        reference = env != nullptr && std::string(env) == "reference";
+        reference = plan.params.engine.shade == ShadeMode::Reference;
         const SceneSpec& sc = plan.scene;
         objects.assign(sc.objects.size(), Object{});
         for (std::size_t i = 0; i < sc.objects.size(); ++i) {
@@ -541,32 +540,10 @@ bool centre_in_band(const RootDisc& d, double sigma, double delta, bool complex_
     return theta >= sigma && theta <= sigma + delta;
 }
 
-/// The root kernel of the primary rays, from ARGAND_KERNEL: unset, empty or
-/// "auto" (the widest batched kernel this CPU runs), "sse2", "avx2",
-/// "avx512", or "scalar" (find_roots sample by sample with the neighbour
-/// seeds: the reference).
-BatchIsa kernel_from_environment() {
-    const char* v = std::getenv("ARGAND_KERNEL");
-    if (v == nullptr || *v == '\0') return batch_isa_best();
-    BatchIsa isa;
-    if (!batch_isa_from_name(v, isa))
-        throw std::invalid_argument(std::string("ARGAND_KERNEL=") + v +
-                                    " names no root kernel: use auto, scalar, sse2, avx2 or avx512");
-    if (!batch_isa_supported(isa))
-        throw std::invalid_argument(std::string("ARGAND_KERNEL=") + v + ": this CPU does not run it (it runs " +
-                                    batch_isa_name(BatchIsa::Auto) + ")");
-    return isa == BatchIsa::Auto ? batch_isa_best() : isa;
-}
-
-/// Whether a ray that provably misses an object's clipping sphere skips
-/// that object's roots (detail::ray_misses_sphere): yes, unless
-/// ARGAND_CULL=off (the reference: every ray solved and decided disc by
-/// disc; tests compare the two).
-bool cull_from_environment() {
-    const char* v = std::getenv("ARGAND_CULL");
-    if (v == nullptr || *v == '\0' || std::string(v) == "on") return true;
-    if (std::string(v) == "off") return false;
-    throw std::invalid_argument(std::string("ARGAND_CULL=") + v + ": use on or off");
+/// The root kernel an engine option names, Auto resolved to the widest this
+/// CPU runs (plan_frame has refused the ones it does not run).
+BatchIsa resolved_kernel(const EngineOptions& engine) {
+    return engine.kernel == BatchIsa::Auto ? batch_isa_best() : engine.kernel;
 }
 
 /// The primary rays' root discs of a run of samples (consecutive cells of
@@ -821,9 +798,9 @@ public:
         const int levels = plan.params.max_depth + 2;
         scratch_.resize(static_cast<std::size_t>(levels) * plan.scene.objects.size());
         infos_.resize(static_cast<std::size_t>(levels));
-        const char* mode = std::getenv("ARGAND_DECIDE");
-        full_only_ = mode != nullptr && std::string(mode) == "full";
-        classify_ = detail::classify_discs_best(mode != nullptr && std::string(mode) == "fast-scalar");
+        const DecideMode mode = plan.params.engine.decide;
+        full_only_ = mode == DecideMode::Full;
+        classify_ = detail::classify_discs_best(mode == DecideMode::FastScalar);
         for (const SurfaceSpec& s : plan.scene.objects) {
             classify_plans_.push_back(detail::classify_plan(plan, s.complex_space, s.clip_radius));
             seed_objects_ = seed_objects_ || (s.degree > 4 && plan.params.seed_from_neighbour);
@@ -1513,15 +1490,15 @@ public:
 private:
     const FramePlan& plan_;
     const ExactSolver* exact_ = nullptr;
-    bool cull_ = true;  // ray_misses_sphere skips an object's roots (ARGAND_CULL)
+    bool cull_ = true;  // ray_misses_sphere skips an object's roots (EngineOptions::cull)
     int exact_used_ = 0;  // pixels of this tile sent to the exact tier
     std::vector<ObjectRoots> scratch_;
     std::vector<std::vector<DiscInfo>> infos_;
     int chosen_ = -1;
     bool recording_ = false;  // keep every disc's decisions (explain_pixel)
-    bool full_only_ = false;  // ARGAND_DECIDE=full: decide_full for every pixel (the reference)
+    bool full_only_ = false;  // DecideMode::Full: decide_full for every pixel (the reference)
     std::vector<detail::ClassifyPlan> classify_plans_;  // per object: band and sphere constants of decide_fast
-    detail::ClassifyDiscs classify_ = nullptr;  // decide_fast's verdicts (ARGAND_DECIDE=fast-scalar: the scalar form)
+    detail::ClassifyDiscs classify_ = nullptr;  // decide_fast's verdicts (DecideMode::FastScalar: the scalar form)
     bool seed_objects_ = false;  // some object's Seeds are kept (degree > 4, seed_from_neighbour)
 };
 
@@ -1543,6 +1520,29 @@ bool band_rule_holds(double sigma, double delta) {
     return err < kPiLo;
 }
 
+const char* decide_mode_name(DecideMode mode) {
+    switch (mode) {
+    case DecideMode::Fast: return "fast";
+    case DecideMode::FastScalar: return "fast-scalar";
+    case DecideMode::Full: return "full";
+    }
+    return "?";
+}
+
+const char* shade_mode_name(ShadeMode mode) { return mode == ShadeMode::Reference ? "reference" : "fast"; }
+
+bool decide_mode_from_name(const std::string& name, DecideMode& out) {
+    for (DecideMode m : {DecideMode::Fast, DecideMode::FastScalar, DecideMode::Full})
+        if (name == decide_mode_name(m)) return out = m, true;
+    return false;
+}
+
+bool shade_mode_from_name(const std::string& name, ShadeMode& out) {
+    for (ShadeMode m : {ShadeMode::Fast, ShadeMode::Reference})
+        if (name == shade_mode_name(m)) return out = m, true;
+    return false;
+}
+
 FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
     if (scene.objects.empty()) throw std::invalid_argument("the scene has no objects");
     if (static_cast<int>(scene.objects.size()) > kMaxObjects)
@@ -1562,6 +1562,9 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
         throw std::invalid_argument("exact_pixels_per_tile must be >= 0 (0: no exact tier)");
     if (params.exact_max_bits < 64 || params.exact_max_bits > kMaxExactBits)
         throw std::invalid_argument("exact_max_bits must be in 64.." + std::to_string(kMaxExactBits));
+    if (!batch_isa_supported(params.engine.kernel))
+        throw std::invalid_argument(std::string("kernel ") + batch_isa_name(params.engine.kernel) +
+                                    ": this CPU does not run it (it runs " + batch_isa_name(BatchIsa::Auto) + ")");
     FramePlan plan;
     plan.scene = scene;
     plan.params = params;
@@ -1620,7 +1623,7 @@ Ray primary_ray(const FramePlan& plan, int x, int y, int sample) {
     return sample_ray(plan, side * x + sample % side, side * y + sample / side, side);
 }
 
-const char* render_kernel() { return batch_isa_name(kernel_from_environment()); }
+const char* render_kernel(const FramePlan& plan) { return batch_isa_name(resolved_kernel(plan.params.engine)); }
 
 void ray_polynomial(const FramePlan& plan, int object, const double origin[3], const double direction[3], double* coeffs,
                     double* radius) {
@@ -1912,9 +1915,9 @@ void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& 
     const std::size_t stride = static_cast<std::size_t>(out.stride);
     const int side = sample_side(fp.samples);
     if (side == 0) throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples));
-    const bool cull = cull_from_environment();
+    const bool cull = plan.params.engine.cull;
     Tracer tracer(plan, exact, cull);
-    PrimaryBatch batch(plan, kernel_from_environment(), cull);
+    PrimaryBatch batch(plan, resolved_kernel(plan.params.engine), cull);
     batch.begin_tile(side * w);
     // Every object solved in the batch: a certified sample may take
     // Tracer::intersect_batched (intersect's result, the ladder unneeded).
@@ -1998,10 +2001,10 @@ PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_star
     // seeds render_tile would have), then trace the sample.
     const int side = sample_side(fp.samples);
     const int sx_cell = side * x + sample % side, sy_cell = side * y + sample / side;
-    const bool cull = cull_from_environment();
+    const bool cull = plan.params.engine.cull;
     Tracer tracer(plan, exact, cull);
     tracer.explaining_ = true;
-    PrimaryBatch batch(plan, kernel_from_environment(), cull);
+    PrimaryBatch batch(plan, resolved_kernel(plan.params.engine), cull);
     std::vector<Seeds> seeds(plan.scene.objects.size());
     PixelExplanation e;
     // A batched object's discs depend on its own ray and its seeds, the

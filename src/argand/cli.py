@@ -179,8 +179,10 @@ def render(
     if exact_bits is not None:
         exact["exact_max_bits"] = exact_bits
     try:
+        engine = _engine_options()
         params = [FrameParams(sigma=p.sigma, delta=p.delta, width=width, height=height, method=method,
-                              hue_by_argument=hue, samples=loaded.samples if samples is None else samples, **exact)
+                              hue_by_argument=hue, samples=loaded.samples if samples is None else samples,
+                              engine=engine, **exact)
                   for p in grid.points]
     except ValueError as exc:
         fail(f"--samples: {exc}" if "samples" in str(exc) else str(exc))
@@ -515,7 +517,7 @@ def bench_all_cmd(
 def _farm_settings(data: Optional[Path], host: Optional[str], port: Optional[int]):
     from argand.farm.settings import Settings
 
-    overrides = {}
+    overrides = {"engine": _engine_options()}
     if data is not None:
         overrides["data_dir"] = data
     if host is not None:
@@ -523,6 +525,17 @@ def _farm_settings(data: Optional[Path], host: Optional[str], port: Optional[int
     if port is not None:
         overrides["port"] = port
     return Settings(**overrides)
+
+
+def _engine_options():
+    """The engine's modes from ARGAND_KERNEL, ARGAND_CULL, ARGAND_DECIDE and
+    ARGAND_SHADE (argand.render.options), refused here, before any work, if wrong."""
+    from argand.render.options import engine_options_from_environment
+
+    try:
+        return engine_options_from_environment()
+    except ValueError as exc:
+        fail(str(exc))
 
 
 @app.command()

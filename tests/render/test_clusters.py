@@ -11,6 +11,8 @@ of the exact rational ray polynomial of the pixel's own doubles
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 
 import flint
@@ -19,6 +21,7 @@ import pytest
 from tests.helpers.pixel_truth import Precision, exact, object_ray, ray_polynomial, scene_objects
 
 from argand.render import FrameParams, render_frame
+from argand.render.options import EngineOptions
 from argand.render.explain import explain_pixel, format_explanation
 from argand.scene import load_scene, scene_from_dict
 
@@ -98,12 +101,11 @@ def test_merged_lane_discs_hold_exactly_their_counts(name, size, delta):
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
-def test_merged_discs_change_no_decision_against_the_scalar_kernel(name, monkeypatch):
+def test_merged_discs_change_no_decision_against_the_scalar_kernel(name):
     scene = SCENES[name]()
     params = FrameParams(delta=math.pi / 9, width=96, height=96)
     batched = render_frame(scene, params, workers=1)
-    monkeypatch.setenv("ARGAND_KERNEL", "scalar")
-    scalar = render_frame(scene, params, workers=1)
+    scalar = render_frame(scene, dataclasses.replace(params, engine=EngineOptions(kernel="scalar")), workers=1)
     assert np.array_equal(batched.aovs["status"], scalar.aovs["status"])
     assert np.array_equal(batched.rgba[..., 3] > 0, scalar.rgba[..., 3] > 0)
     assert batched.certified_share == 1.0

@@ -5,10 +5,12 @@ the sphere keeps only roots whose point o' + |t| d' lies inside it.
 The claim is checked here against exact rational arithmetic on the very
 doubles of each pixel's ray (no renderer code in the truth), for cameras
 inside, outside and grazing the sphere, with transformed objects; and the
-frames with culling (the default) against ARGAND_CULL=off, which solves
+frames with culling (the default) against EngineOptions(cull=False), which solves
 and decides every ray disc by disc."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import math
 from fractions import Fraction
@@ -18,6 +20,7 @@ import pytest
 
 from argand.core import _core
 from argand.render import FrameParams, render_frame
+from argand.render.options import EngineOptions, engine_options_from_environment
 from argand.render.convert import to_core_scene
 from argand.render.explain import explain_pixel, format_explanation
 from argand.render.frames import plan
@@ -117,15 +120,11 @@ def test_a_ray_is_culled_only_where_it_exactly_misses_the_sphere():
     ("family4", dict(delta=0.0)),
     ("family3", dict(delta=math.pi / 6, samples=4)),
 ])
-def test_culling_changes_no_decision_but_certified_misses(name, kw, kernel, monkeypatch):
+def test_culling_changes_no_decision_but_certified_misses(name, kw, kernel):
     scene = dict(CASES).get(name) or load_scene(name)
     params = FrameParams(width=41, height=29, **kw)
-    if kernel == "scalar":
-        monkeypatch.setenv("ARGAND_KERNEL", "scalar")
-    monkeypatch.setenv("ARGAND_CULL", "off")
-    off = render_frame(scene, params, workers=1)
-    monkeypatch.setenv("ARGAND_CULL", "on")
-    on = render_frame(scene, params, workers=1)
+    off = render_frame(scene, replace(params, engine=EngineOptions(kernel=kernel, cull=False)), workers=1)
+    on = render_frame(scene, replace(params, engine=EngineOptions(kernel=kernel, cull=True)), workers=1)
     s_off, s_on = np.asarray(off.aovs["status"]), np.asarray(on.aovs["status"])
     hit_off, hit_on = off.rgba[..., 3] > 0, on.rgba[..., 3] > 0
     same = (s_off == s_on) & (hit_off == hit_on)
@@ -162,7 +161,8 @@ def test_explain_says_why_a_culled_object_has_no_discs():
     assert "not solved" not in "\n".join(format_explanation(e))
 
 
-def test_a_bad_cull_setting_is_refused(monkeypatch):
-    monkeypatch.setenv("ARGAND_CULL", "sometimes")
+def test_a_bad_cull_setting_is_refused():
     with pytest.raises(ValueError, match="ARGAND_CULL=sometimes: use on or off"):
-        render_frame(load_scene("bicube"), FrameParams(width=8, height=8), workers=1)
+        engine_options_from_environment({"ARGAND_CULL": "sometimes"})
+    with pytest.raises(ValueError, match="cull='off': use True or False"):
+        EngineOptions(cull="off")

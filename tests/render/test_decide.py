@@ -4,7 +4,7 @@ decide takes a fast path for the common pixel (every object's roots
 complete, the result certified): the same proven predicates computed more
 cheaply (pixel_decision.h, *_fast), over the live discs only, realness by
 the mirror test only where the band verdict depends on it. Every pixel must
-come out exactly as the full path decides it (ARGAND_DECIDE=full, the
+come out exactly as the full path decides it (EngineOptions(decide="full"), the
 reference): every AOV equal to the bit, on every preset, at bands on and
 off the real axis (sigma > 0, delta = 0, the whole half-plane), with the
 batched and the scalar root kernel, 1 and 4 samples, random surfaces with
@@ -17,6 +17,8 @@ test_fast_decisions).
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 import os
 
@@ -24,6 +26,7 @@ import numpy as np
 import pytest
 
 from argand.render import FrameParams, render_frame
+from argand.render.options import EngineOptions
 from argand.scene import load_scene
 from argand.scene.presets import CLASSIC_PRESETS, PAPER_PRESETS
 from tests.helpers.pixel_truth import check_frame, sample_pixels
@@ -32,17 +35,9 @@ from tests.helpers.random_surfaces import FAMILIES, random_scene
 BANDS = ((0.0, 0.0), (0.0, math.pi / 9), (0.3, math.pi / 4), (1.0, 0.0), (0.0, math.pi), (0.2, math.pi - 0.2))
 
 
-def render_env(scene, params: FrameParams, **env: str):
-    old = {k: os.environ.get(k) for k in env}
-    os.environ.update(env)
-    try:
-        return render_frame(scene, params, workers=1)
-    finally:
-        for k, v in old.items():
-            if v is None:
-                del os.environ[k]
-            else:
-                os.environ[k] = v
+def render_with(scene, params: FrameParams, kernel: str = "auto", decide: str = "fast"):
+    engine = EngineOptions(kernel=kernel, decide=decide)
+    return render_frame(scene, dataclasses.replace(params, engine=engine), workers=1)
 
 
 def assert_identical(a, b, what: str) -> None:
@@ -55,8 +50,8 @@ def assert_identical(a, b, what: str) -> None:
 
 
 def fast_and_full(scene, params: FrameParams, kernel: str = "auto"):
-    fast = render_env(scene, params, ARGAND_KERNEL=kernel, ARGAND_DECIDE="fast")
-    full = render_env(scene, params, ARGAND_KERNEL=kernel, ARGAND_DECIDE="full")
+    fast = render_with(scene, params, kernel, "fast")
+    full = render_with(scene, params, kernel, "full")
     return fast, full
 
 
@@ -89,7 +84,7 @@ def test_the_fast_path_is_taken_and_frames_are_mostly_certified():
     # (Not vacuous: the fast path decides only certified pixels, and most
     # pixels of a preset are certified.)
     scene = load_scene("chmutov-octic")
-    fast = render_env(scene, FrameParams(delta=math.pi / 9, width=24, height=24), ARGAND_DECIDE="fast")
+    fast = render_with(scene, FrameParams(delta=math.pi / 9, width=24, height=24))
     status = np.asarray(fast.aovs["status"])
     assert (status == 0).mean() > 0.9
 
@@ -99,7 +94,7 @@ def test_the_fast_path_is_taken_and_frames_are_mostly_certified():
 def test_fast_path_certified_pixels_against_the_truth(name, delta):
     scene = load_scene(name)
     params = FrameParams(sigma=0.0, delta=delta, width=24, height=24)
-    result = render_env(scene, params, ARGAND_DECIDE="fast")
+    result = render_with(scene, params, decide="fast")
     check = check_frame(scene, params, result, sample_pixels(24, 24, 60, seed=7))
     wrong = [f"({x}, {y}): {p}" for x, y, problems in check.disagreements for p in problems if "wrong: " in p]
     assert not wrong, "\n".join(wrong)
@@ -113,7 +108,7 @@ def test_explain_still_shows_every_disc():
 
     scene = load_scene("bicube")
     params = FrameParams(sigma=0.0, delta=math.pi / 9, width=16, height=16)
-    result = render_env(scene, params, ARGAND_DECIDE="fast")
+    result = render_with(scene, params, decide="fast")
     status = np.asarray(result.aovs["status"])
     proven_out = 0
     for x, y in ((8, 8), (3, 12), (12, 4)):
@@ -130,7 +125,7 @@ def test_explain_still_shows_every_disc():
 # decide_fast's verdicts come four discs per AVX2 vector where it runs
 # (classify_discs_avx2: quick tests as lane masks, the scalar reference for a
 # disc they leave undecided) and one disc at a time otherwise
-# (ARGAND_DECIDE=fast-scalar). Scenes whose discs sit on the quick tests'
+# (EngineOptions(decide="fast-scalar")). Scenes whose discs sit on the quick tests'
 # edges: a clipping sphere cutting through the real surface and through its
 # complex roots' shell (the sphere test straddles), double roots (count 2
 # discs, a cluster) and near-double roots, at bands whose edges pass through
@@ -156,8 +151,8 @@ def test_quick_verdicts_at_their_edges(tmp_path, name, mode):
     for sigma, delta in EDGE_BANDS:
         for kernel in ("auto", "scalar"):
             params = FrameParams(sigma=sigma, delta=delta, width=23, height=19)
-            fast = render_env(scene, params, ARGAND_KERNEL=kernel, ARGAND_DECIDE=mode)
-            full = render_env(scene, params, ARGAND_KERNEL=kernel, ARGAND_DECIDE="full")
+            fast = render_with(scene, params, kernel, mode)
+            full = render_with(scene, params, kernel, "full")
             assert_identical(fast, full, f"{name} {mode} sigma={sigma} delta={delta} kernel={kernel}")
 
 
@@ -168,6 +163,6 @@ def test_scalar_verdicts_are_the_full_path_on_every_preset(name):
     scene = load_scene(name)
     for sigma, delta in ((0.0, math.pi / 9), (0.3, math.pi / 4), (1.0, 0.0)):
         params = FrameParams(sigma=sigma, delta=delta, width=21, height=15)
-        fast = render_env(scene, params, ARGAND_DECIDE="fast-scalar")
-        full = render_env(scene, params, ARGAND_DECIDE="full")
+        fast = render_with(scene, params, decide="fast-scalar")
+        full = render_with(scene, params, decide="full")
         assert_identical(fast, full, f"{name} fast-scalar sigma={sigma} delta={delta}")

@@ -1,9 +1,8 @@
 """The primary rays' batched root kernel against the scalar reference.
 
 render_tile solves runs of 32 samples' ray polynomials together with
-find_roots_rows (ARGAND_KERNEL unset or "auto", or a named instruction set)
-or sample by sample with find_roots and neighbour seeds (ARGAND_KERNEL=
-scalar). Both prove their decisions for the same exact ray polynomials, so
+find_roots_rows (EngineOptions(kernel="auto"), or a named instruction set)
+or sample by sample with find_roots and neighbour seeds (kernel="scalar"). Both prove their decisions for the same exact ray polynomials, so
 whole frames of the presets must agree on every pixel's status, hit or miss
 and eligible count; the chosen roots agree to the width of their discs.
 The batched frames' certified pixels are checked against the exact truth
@@ -11,6 +10,8 @@ The batched frames' certified pixels are checked against the exact truth
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import math
 import os
@@ -22,6 +23,9 @@ import pytest
 
 from argand.core import _core
 from argand.render import FrameParams, render_frame
+from argand.render.convert import to_core_scene
+from argand.render.frames import plan
+from argand.render.options import EngineOptions, engine_options_from_environment
 from argand.scene import load_scene, scene_from_dict
 from argand.scene.presets import CLASSIC_PRESETS, PAPER_PRESETS
 from tests.helpers.pixel_truth import check_frame, sample_pixels
@@ -30,27 +34,20 @@ KERNELS = ["scalar", "sse2"] + [k for k in ("avx2", "avx512") if k == _core.batc
                                 (k == "avx2" and _core.batch_kernel() == "avx512")]
 
 
+def with_kernel(kernel: str, params: FrameParams) -> FrameParams:
+    return dataclasses.replace(params, engine=EngineOptions(kernel=kernel))
+
+
 def render_with(kernel: str, scene, params: FrameParams):
-    old = os.environ.get("ARGAND_KERNEL")
-    os.environ["ARGAND_KERNEL"] = kernel
-    try:
-        assert _core.render_kernel() == kernel
-        return render_frame(scene, params, workers=1)
-    finally:
-        if old is None:
-            del os.environ["ARGAND_KERNEL"]
-        else:
-            os.environ["ARGAND_KERNEL"] = old
+    params = with_kernel(kernel, params)
+    assert _core.render_kernel(plan(to_core_scene(scene), params)) == kernel
+    return render_frame(scene, params, workers=1)
 
 
 def explain_with(kernel: str, scene, params: FrameParams, x: int, y: int, sample: int = 0) -> dict:
     from argand.render.explain import explain_pixel
 
-    os.environ["ARGAND_KERNEL"] = kernel
-    try:
-        return explain_pixel(scene, params, x, y, sample=sample)
-    finally:
-        del os.environ["ARGAND_KERNEL"]
+    return explain_pixel(scene, with_kernel(kernel, params), x, y, sample=sample)
 
 
 def assert_same_decisions(a, b, what: str, scene=None, params=None, kernels=("scalar", "scalar"),
@@ -163,13 +160,28 @@ def test_explain_pixel_replays_the_batched_kernel():
                 assert np.float32(e["root"].real) == frame.aovs["re"][y, x]
 
 
-def test_bad_kernel_name_is_refused():
+def test_bad_kernel_names_are_refused_before_any_work():
+    with pytest.raises(ValueError, match="ARGAND_KERNEL=avx9000: use one of auto, scalar, sse2, avx2, avx512"):
+        engine_options_from_environment({"ARGAND_KERNEL": "avx9000"})
+    with pytest.raises(ValueError, match="kernel='avx9000'"):
+        EngineOptions(kernel="avx9000")
+    # The CLI reads the environment once, at start, and says what is wrong.
     env = dict(os.environ, ARGAND_KERNEL="avx9000")
-    code = ("from argand.render import FrameParams, render_frame; from argand.scene import load_scene; "
-            "render_frame(load_scene('whitney'), FrameParams(width=8, height=8), workers=1)")
-    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    run = subprocess.run([sys.executable, "-m", "argand.cli", "render", "whitney", "--size", "8x8", "--out", "/nonexistent"],
+                         env=env, capture_output=True, text=True)
     assert run.returncode != 0
-    assert "ARGAND_KERNEL=avx9000 names no root kernel" in run.stderr
+    assert "ARGAND_KERNEL=avx9000: use one of" in run.stdout + run.stderr
+
+
+def test_the_engine_options_are_recorded_in_each_exr(tmp_path):
+    from argand.media.frame_files import write_exr
+    import OpenImageIO as oiio
+
+    params = FrameParams(delta=0.3, width=8, height=8, engine=EngineOptions(kernel="scalar", cull=False, decide="full"))
+    write_exr(render_frame(load_scene("bicube"), params, workers=1), tmp_path / "f.exr")
+    spec = oiio.ImageInput.open(str(tmp_path / "f.exr")).spec()
+    assert {k: spec.get_string_attribute(f"argand:engine:{k}") for k in ("kernel", "cull", "decide", "shade")} == {
+        "kernel": "scalar", "cull": "false", "decide": "full", "shade": "fast"}
 
 
 @pytest.mark.parametrize("samples", [1, 4])

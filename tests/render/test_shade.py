@@ -4,10 +4,12 @@ shade() computes the normal of a real root (t.im = 0) in real arithmetic
 where gradient_real proves the bits equal the complex gradient(), keeps the
 eye in object space and the directional lights normalised once per frame,
 and skips std::pow / std::exp / std::atan2 where their value is fixed by
-C11 Annex F. ARGAND_SHADE=reference runs the plain code (gradient(),
+C11 Annex F. EngineOptions(shade="reference") runs the plain code (gradient(),
 every call made): every AOV must be the same bytes."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import glob
 import math
@@ -17,25 +19,16 @@ import numpy as np
 import pytest
 
 from argand.render import FrameParams, render_frame
+from argand.render.options import EngineOptions
 from argand.scene import load_scene, scene_from_dict
 from argand.scene.presets import PRESETS
 
-SCENES = list(PRESETS) + sorted(glob.glob(os.path.join(os.path.dirname(__file__), "..", "docs", "scenes", "*.yaml")))
+SCENES = list(PRESETS) + sorted(glob.glob(os.path.join(os.path.dirname(__file__), "..", "..", "docs", "scenes", "*.yaml")))
 
 
 def _render(scene, params, reference):
-    old = os.environ.get("ARGAND_SHADE")
-    if reference:
-        os.environ["ARGAND_SHADE"] = "reference"
-    else:
-        os.environ.pop("ARGAND_SHADE", None)
-    try:
-        return render_frame(scene, params, workers=1)
-    finally:
-        if old is None:
-            os.environ.pop("ARGAND_SHADE", None)
-        else:
-            os.environ["ARGAND_SHADE"] = old
+    engine = EngineOptions(shade="reference" if reference else "fast")
+    return render_frame(scene, dataclasses.replace(params, engine=engine), workers=1)
 
 
 def _assert_same(scene, params):

@@ -22,6 +22,7 @@
 
 #include "argand/interval.h"
 #include "argand/roots.h"
+#include "argand/roots_batch.h"
 
 namespace argand {
 
@@ -80,6 +81,42 @@ struct SceneSpec {
     CameraSpec camera;
 };
 
+/// How a pixel is decided: Fast (the quick predicates, decide_fast, with
+/// the widest classify_discs this CPU runs), FastScalar (the same
+/// predicates in scalar code), Full (decide_full for every pixel: the
+/// reference the others are tested against).
+enum class DecideMode : int { Fast = 0, FastScalar = 1, Full = 2 };
+/// How a root is shaded: Fast (the tabled gradient and the fast paths) or
+/// Reference (the plain per-pixel code: gradient(), std::pow, std::exp,
+/// std::atan2 always). Both give the same bits.
+enum class ShadeMode : int { Fast = 0, Reference = 1 };
+
+/// The engine's modes, carried with a frame's parameters and checked by
+/// plan_frame; nothing in the library reads them from anywhere else. Every
+/// combination gives the same decisions (status and hit of every pixel);
+/// the alternatives to the defaults are references for tests and
+/// benchmarks.
+struct EngineOptions {
+    /// Root kernel of the primary rays: Auto (the widest batched kernel this
+    /// CPU runs), Generic (sse2), Avx2, Avx512, or Scalar (find_roots sample
+    /// by sample with the neighbour seeds: the reference). plan_frame
+    /// refuses an instruction set this CPU does not run.
+    BatchIsa kernel = BatchIsa::Auto;
+    /// A ray that provably misses an object's clipping sphere skips that
+    /// object's roots (detail::ray_misses_sphere); false: every ray solved
+    /// and decided disc by disc (the reference).
+    bool cull = true;
+    DecideMode decide = DecideMode::Fast;
+    ShadeMode shade = ShadeMode::Fast;
+};
+
+/// Names of the modes (the frame's metadata and the Python options use them).
+const char* decide_mode_name(DecideMode mode);
+const char* shade_mode_name(ShadeMode mode);
+/// Parse those names; false for anything else.
+bool decide_mode_from_name(const std::string& name, DecideMode& out);
+bool shade_mode_from_name(const std::string& name, ShadeMode& out);
+
 struct FrameParams {
     double sigma = 0.0;
     double delta = 0.0;
@@ -95,6 +132,7 @@ struct FrameParams {
     // to this many bits of precision.
     int exact_pixels_per_tile = 64;
     int exact_max_bits = 2048;
+    EngineOptions engine;
 };
 
 /// Most samples per pixel (plan_frame refuses more).
@@ -322,15 +360,14 @@ void render_tile(const FramePlan& plan, const TileRect& rect, TileView& out, con
 /// the very doubles render_tile uses.
 Ray primary_ray(const FramePlan& plan, int x, int y, int sample = 0);
 
-/// The root kernel render_tile and explain_pixel use for primary rays, from
-/// the environment variable ARGAND_KERNEL: unset or "auto", the widest
-/// batched kernel this CPU runs ("avx512", "avx2" or "sse2": each run of 32
-/// samples of a row of samples is solved together by find_roots_rows, per
-/// object of degree <= 8, method other than "paper"); "scalar", find_roots
-/// sample by sample with the neighbour's roots as seeds (the reference).
-/// Both prove the same decisions (docs/rendering.md). Throws
-/// std::invalid_argument for an unknown or unsupported name.
-const char* render_kernel();
+/// The root kernel render_tile and explain_pixel use for the plan's primary
+/// rays (plan.params.engine.kernel, Auto resolved): "avx512", "avx2" or
+/// "sse2", a batched kernel (each run of 32 samples of a row of samples is
+/// solved together by find_roots_rows, per object of degree <= 8, method
+/// other than "paper"); "scalar", find_roots sample by sample with the
+/// neighbour's roots as seeds (the reference). Both prove the same
+/// decisions (docs/rendering.md).
+const char* render_kernel(const FramePlan& plan);
 
 /// The ray polynomial p(t) = F(o + t d) of object i for a world ray (exposed
 /// for tests and the reference renderer): coeffs gets degree + 1 entries and,

@@ -9,14 +9,14 @@ the cost of antialiasing: the same frames at 1, 4 and 16 samples per pixel,
 in ns per pixel and ns per sample; and the root kernel of the primary rays:
 the same frames with the scalar kernel (find_roots sample by sample) and the
 batched one (find_roots_rows, the widest instruction set this CPU runs), in
-CPU time, against the issue's targets."""
+CPU time, against the kernel's targets (KERNEL_FRAMES)."""
 
 from __future__ import annotations
 
 import json
 import math
-import os
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
@@ -24,6 +24,7 @@ from argand.bench import machine_info
 from argand.render import FrameParams, render_frame
 from argand.media.contact_sheet import contact_sheet
 from argand.render.frames import ESCALATION_NAMES, STATUS_NAMES
+from argand.render.options import EngineOptions
 from argand.scene import load_scene
 from argand.scene.presets import CLASSIC_PRESETS, PAPER_PRESETS
 
@@ -254,7 +255,7 @@ def bench_samples(size: int, progress: Callable[[str], None]) -> list[dict]:
     return rows
 
 
-#: The kernel table: (scene, size, delta). The issue's targets: the Bicube at
+#: The kernel table: (scene, size, delta). Its targets: the Bicube at
 #: 1024x1024, delta = pi/9 in <= 0.2 s on one core; surfaces of degree 6 to 8
 #: in <= 1 us per pixel at 512x512 (every preset of degree 6 to 8 among them).
 #: (Whitney in a sphere, with its secondary rays, at a smaller size.)
@@ -274,19 +275,6 @@ KERNEL_FRAMES = (
     ("chmutov-octic", 512, math.pi / 9),
     ("endrass-octic", 512, math.pi / 9),
 )
-
-
-def _with_kernel(kernel: str, fn: Callable[[], object]):
-    """Runs fn with ARGAND_KERNEL=kernel (render_tile reads it per tile)."""
-    old = os.environ.get("ARGAND_KERNEL")
-    os.environ["ARGAND_KERNEL"] = kernel
-    try:
-        return fn()
-    finally:
-        if old is None:
-            del os.environ["ARGAND_KERNEL"]
-        else:
-            os.environ["ARGAND_KERNEL"] = old
 
 
 def bench_kernels(smoke: bool, progress: Callable[[str], None], rounds: int = 3) -> dict:
@@ -313,7 +301,7 @@ def bench_kernels(smoke: bool, progress: Callable[[str], None], rounds: int = 3)
             for kernel in ("scalar", batched):
                 progress(f"kernels: {name} {size}x{size} delta={delta:.4f} {kernel}")
                 cpu = time.process_time()
-                frames[kernel] = _with_kernel(kernel, lambda: render_frame(scene, params, workers=1))
+                frames[kernel] = render_frame(scene, replace(params, engine=EngineOptions(kernel=kernel)), workers=1)
                 best[kernel] = min(best[kernel], time.process_time() - cpu)
         a, b = frames["scalar"], frames[batched]
         same_status = bool(np.array_equal(np.asarray(a.aovs["status"]), np.asarray(b.aovs["status"])))
@@ -413,7 +401,7 @@ def kernel_section(kernels: dict | None) -> list[str]:
     isa = kernels["instruction_set"]
     lines = [
         "",
-        f"Root kernel of the primary rays (`ARGAND_KERNEL`): scalar (`find_roots` sample by sample, neighbour seeds) "
+        f"Root kernel of the primary rays (`EngineOptions.kernel`, `ARGAND_KERNEL`): scalar (`find_roots` sample by sample, neighbour seeds) "
         f"against batched (`find_roots_rows`, runs of 32 samples, instruction set **{isa}**); method auto, one core, "
         f"CPU time, the best of {kernels.get('rounds', 2)} interleaved renders. Same status / same hit: every pixel "
         "of the two frames agrees.",
@@ -433,7 +421,7 @@ def kernel_section(kernels: dict | None) -> list[str]:
     if t.get("bicube_1024_pi_9_batched_s") is not None:
         lines += [
             "",
-            f"Targets (issue 15): Bicube 1024×1024, δ = π/9: {t['bicube_1024_pi_9_batched_s']:.3f} s batched "
+            f"Targets: Bicube 1024×1024, δ = π/9: {t['bicube_1024_pi_9_batched_s']:.3f} s batched "
             f"(target {t['bicube_1024_pi_9_target_s']} s); degree 6 to 8 at 512×512: at most "
             f"{t['degree_6_to_8_512_batched_ns_per_pixel_max']:.0f} ns per pixel batched "
             f"(target {t['degree_6_to_8_target_ns_per_pixel']} ns).",
@@ -443,7 +431,7 @@ def kernel_section(kernels: dict | None) -> list[str]:
         lines += [
             "",
             "Both kernels skip the roots of a primary ray that provably misses the object's clipping sphere "
-            f"(`ARGAND_CULL`; share of such rays at δ = π/9: {shares}):",
+            f"(`EngineOptions.cull`, `ARGAND_CULL`; share of such rays at δ = π/9: {shares}):",
             "",
             "![Culled primary rays](render_cull.png)",
         ]

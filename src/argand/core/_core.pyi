@@ -177,6 +177,8 @@ class FramePlan:
     def height(self) -> int: ...
     @property
     def samples(self) -> int: ...
+    @property
+    def engine(self) -> dict[str, Any]: ...
 
 class PolynomialExplanation(TypedDict):
     object: int
@@ -230,6 +232,10 @@ def plan_frame(
     exact_pixels_per_tile: int = ...,
     exact_max_bits: int = ...,
     samples: int = 1,
+    kernel: str = "auto",
+    cull: bool = True,
+    decide: str = "fast",
+    shade: str = "fast",
 ) -> FramePlan: ...
 
 #: The exact tier's hook: (frame, query) -> answer (argand.render.exact.decide_pixel).
@@ -284,4 +290,4 @@ def explain_pixel(
     exact: ExactSolver | None = None,
     column_start: int = 0,
 ) -> PixelExplanation: ...
-def render_kernel() -> str: ...
+def render_kernel(plan: FramePlan) -> str: ...

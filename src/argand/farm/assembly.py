@@ -125,7 +125,8 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     w, h = job.width, job.height
     px = frame_px if frame_px is not None else np.empty((h, w, len(INTERLEAVED_CHANNELS)), np.float32)
     escalations, calls, stats = _gather(store, job_id, frame_index, rects, local, chunks, frame_px, px)
-    params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method, samples=samples_of(job.scene))
+    params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method, samples=samples_of(job.scene),
+                         engine=settings.engine)
     aovs = {name: px[..., INTERLEAVED_CHANNELS.index(name)] for name in AOV_CHANNELS}
     result = FrameResult(params, px[..., :4], aovs, seconds, escalations, calls, stats=stats)
     result.figures = frame_figures(result)

@@ -16,6 +16,7 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 from argand.farm.job_limits import MAX_FRAMES, MAX_SIDE
 from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.media.frame_files import EXR_COMPRESSION, check_exr_compression
+from argand.render.options import EngineOptions, engine_environment
 
 
 class Settings(BaseSettings):
@@ -49,6 +50,10 @@ class Settings(BaseSettings):
     #: on loopback the front end's images and event stream are plain GETs.
     token_for_reads: bool = False
     default_tile: int = Field(64, ge=MIN_TILE, le=MAX_TILE)
+    #: The engine's modes this process renders with: the defaults, unless
+    #: `argand worker` read others from the environment
+    #: (argand.render.options.engine_options_from_environment).
+    engine: EngineOptions = Field(default_factory=EngineOptions, exclude=True)
     #: Most pixels in one message to a worker: a message carries a run of
     #: tiles of one frame (the tile stays the unit of state, storage and
     #: redo; the message is the unit of dispatch, so small tiles do not pay
@@ -139,4 +144,5 @@ class Settings(BaseSettings):
         env = {f"ARGAND_{k.upper()}": str(v) for k, v in values.items()}
         env.update(ARGAND_DATA_DIR=str(self.data_path), ARGAND_REDIS_URL=self.broker_url,
                    ARGAND_DATABASE_URL=self.sqlalchemy_url)
+        env.update(engine_environment(self.engine))
         return env

@@ -32,6 +32,7 @@ from argand.farm.settings import Settings
 from argand.farm.states import FRAME, JOB, STOPPED, TILE
 from argand.farm.store import is_store_error, store_for
 from argand.render.convert import to_core_scene
+from argand.render.options import EngineOptions
 from argand.render.frames import INTERLEAVED_CHANNELS, FrameParams, TileRect, plan, render_tile_into
 from argand.scene import scene_from_dict
 
@@ -48,15 +49,15 @@ ACTIVITY: dict[str, Any] = {"tile": None, "done": 0, "hard_at": None, "run": Non
 #: Why a run stopped before its end because of its soft time limit.
 SOFT_LIMIT = "soft time limit"
 
-_plan_cache: dict[tuple[str, int], Any] = {}
+_plan_cache: dict[tuple[str, int, EngineOptions], Any] = {}
 _job_cache: dict[str, Any] = {}
 _marked: set[tuple[str, int]] = set()  # (job, frame) this process already marked as rendering
 
 
-def _frame_plan(url: str, job_id: str, frame_index: int):
+def _frame_plan(url: str, job_id: str, frame_index: int, engine: EngineOptions):
     """The frame's C++ plan, tile rectangles and tile count, built once per
     worker process and frame (the job's scene is converted once per job)."""
-    key = (job_id, frame_index)
+    key = (job_id, frame_index, engine)
     if key not in _plan_cache:
         if len(_plan_cache) > 16:
             _plan_cache.clear()
@@ -70,7 +71,7 @@ def _frame_plan(url: str, job_id: str, frame_index: int):
             sigma, delta, tiles_total = c.execute(select(Frame.sigma, Frame.delta, Frame.tiles_total).where(
                 Frame.job_id == job_id, Frame.index == frame_index)).one()
         core_scene, w, h, tile, method, samples = _job_cache[job_id]
-        _plan_cache[key] = (frame_plan(core_scene, sigma, delta, w, h, method, samples), tile_rects(w, h, tile),
+        _plan_cache[key] = (frame_plan(core_scene, sigma, delta, w, h, method, samples, engine), tile_rects(w, h, tile),
                             tiles_total)
     return _plan_cache[key]
 
@@ -81,13 +82,14 @@ def core_scene_of(scene: dict) -> Any:
     return to_core_scene(scene_from_dict(scene))
 
 
-def frame_plan(core_scene: Any, sigma: float, delta: float, width: int, height: int, method: str, samples: int = 1):
+def frame_plan(core_scene: Any, sigma: float, delta: float, width: int, height: int, method: str, samples: int = 1,
+               engine: EngineOptions = EngineOptions()):
     """A frame's C++ plan: what a worker builds before its first tile, and
     what a submission builds for every frame, so that a frame that cannot be
     planned (the band rule, a camera or a coefficient out of range) is
     refused at the door instead of failing in a worker. Raises ValueError."""
     return plan(core_scene, FrameParams(sigma=sigma, delta=delta, width=width, height=height, method=method,
-                                        samples=samples))
+                                        samples=samples, engine=engine))
 
 
 def tile_key(job_id: str, frame_index: int):
@@ -214,7 +216,7 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
 def _run_claimed(settings: Settings, job_id: str, frame_index: int, worker: str, claimed: list[int],
                  started: float) -> str:
     try:
-        fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index)
+        fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index, settings.engine)
     except BaseException as exc:
         # A frame that cannot be planned: its tiles go back (and after the
         # attempts, fail the job with the reason), never stay "running".

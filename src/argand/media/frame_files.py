@@ -119,6 +119,8 @@ def write_exr(result: FrameResult, path: Path, pixels: np.ndarray | None = None,
         spec.attribute(key, repr(float(value)))
     spec.attribute("argand:certified_share", float(result.certified_share))
     spec.attribute("argand:samples", int(result.params.samples))  # per pixel (the certified_share AOV counts them)
+    for key, value in result.params.engine.metadata().items():  # how the engine computed the frame
+        spec.attribute(key, value)
     _write(oiio, path, spec, exr_pixels(result) if pixels is None else pixels)
 
 

@@ -20,6 +20,7 @@ import numpy as np
 
 from argand.core import _core
 from argand.render.exact import decide_pixel
+from argand.render.options import EngineOptions
 
 #: AOV names, in the order they are stored in EXR files after R, G, B, A
 #: (the one channel list: the farm, the EXR writer and the tests read it).
@@ -75,6 +76,9 @@ class FrameParams:
     #: this many bits of precision.
     exact_pixels_per_tile: int = EXACT_PIXELS_PER_TILE
     exact_max_bits: int = EXACT_MAX_BITS
+    #: The engine's modes (argand.render.options); the defaults unless a
+    #: caller passes others (the CLI and the worker read them from the environment).
+    engine: EngineOptions = field(default_factory=EngineOptions)
 
     def __post_init__(self) -> None:
         from argand.scene.model import check_samples
@@ -169,6 +173,10 @@ def plan(core_scene: dict, params: FrameParams) -> Any:
         exact_pixels_per_tile=int(params.exact_pixels_per_tile),
         exact_max_bits=int(params.exact_max_bits),
         samples=int(params.samples),
+        kernel=params.engine.kernel,
+        cull=params.engine.cull,
+        decide=params.engine.decide,
+        shade=params.engine.shade,
     )
 
 
