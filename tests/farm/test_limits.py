@@ -1,4 +1,4 @@
-"""Every request bounded, no 500s, no stuck job (issue 12): the HTTP layer on
+"""Every request bounded, no 500s, no stuck job: the HTTP layer on
 uvicorn in process over a real SQLite file and a real embedded Redis, and
 the worker's task body called directly for what fails in a worker."""
 
@@ -361,17 +361,17 @@ def test_a_planning_failure_says_what_and_where(api):
     r = c.post("/api/jobs", json={**JOB, "sigma": 0.5, "deltas": [0.1, 0.2, 3.0, 0.2]})
     assert r.status_code == 422
     detail = r.json()["detail"]
-    assert "band rule" in detail and "(sigma = 0.5, delta = 3.0)" in detail and "1 of the 4 frames" in detail, detail
+    assert "band rule" in detail and "(σ = 0.5, δ = 3)" in detail and "1 of the 4 frames" in detail, detail
     r = c.post("/api/jobs", json={**JOB, "sigma": 3.5})
-    assert "(sigma = 3.5, delta = 0.0)" in r.json()["detail"], r.text
+    assert "(σ = 3.5, δ = 0)" in r.json()["detail"], r.text
     scene = next(p["scene"] for p in c.get("/api/presets").json() if p["name"] == "plucker")
     bad = _changed(scene, {"camera": {"position": [1e308, 1e308, 1.0]}})
     r = c.post("/api/jobs", json={**JOB, "scene": bad, "sigma": 0.5, "deltas": [0.2, 0.1]})
     assert r.status_code == 422
     detail = r.json()["detail"]
-    assert detail.startswith("the scene cannot be rendered: ") and detail.endswith("[at frame 1 (sigma 0.5, delta 0.10000000000000001)]"), detail
+    assert detail.startswith("the scene cannot be rendered: ") and detail.endswith("[at frame 1 (σ = 0.5, δ = 0.1)]"), detail
     r = c.post("/api/jobs", json={**JOB, "scene": bad, "sigma": 0.5, "deltas": [0.2]})
-    assert r.json()["detail"].endswith("[at sigma 0.5, delta 0.20000000000000001]"), r.text
+    assert r.json()["detail"].endswith("[at σ = 0.5, δ = 0.2]"), r.text
 
 
 def test_reads_need_the_token_when_asked(farm_parts):  # noqa: F811

@@ -1,4 +1,4 @@
-"""(σ, δ) jobs (issue 14): the grid of frames, the atlas over the whole
+"""(σ, δ) jobs: the grid of frames, the atlas over the whole
 space σ ≥ 0, σ + δ ≤ π, the band rule's refusals, the preview order on a
 grid, and the MP4 (decoded by PyAV, FFmpeg's own decoder)."""
 
@@ -29,11 +29,19 @@ def test_pairs_outside_the_band_rule_are_named_with_the_rule():
         frame_grid([0.0, 2.0, 3.0], [0.5, 1.5])
     text = str(info.value)
     assert BAND_RULE in text and "3 of the 6 frames" in text
-    for s, d in ((2.0, 1.5), (3.0, 0.5), (3.0, 1.5)):
-        assert f"(sigma = {s!r}, delta = {d!r})" in text
-    assert "(sigma = 0.0, delta = 0.5)" not in text and "(sigma = 2.0, delta = 0.5)" not in text
-    with pytest.raises(BandRuleError, match=r"^the frame breaks the band rule .*\(sigma = -0.1, delta = 0.0\)"):
+    for s, d in (("2", "1.5"), ("3", "0.5"), ("3", "1.5")):
+        assert f"(σ = {s}, δ = {d})" in text
+    assert "(σ = 0, δ = 0.5)" not in text and "(σ = 2, δ = 0.5)" not in text
+    with pytest.raises(BandRuleError, match=r"^the frame breaks the band rule .*\(σ = -0.1, δ = 0\)"):
         frame_grid([-0.1], [0.0])
+    # Angles as they were written: π fractions, not 17 digits.
+    with pytest.raises(BandRuleError) as info:
+        frame_grid([math.pi / 2], [2 * math.pi / 3])
+    assert "(σ = π/2, δ = 2π/3)" in str(info.value) and "1.57" not in str(info.value)
+    # π/3 and an ulp above 2π/3 read as π/3 + 2π/3, which keeps the rule: the message says why it breaks.
+    with pytest.raises(BandRuleError) as info:
+        frame_grid([math.pi / 3], [math.nextafter(2 * math.pi / 3, 4)])
+    assert "(σ = π/3, δ = 2π/3) [σ + δ rounds above π in double precision" in str(info.value)
     with pytest.raises(BandRuleError, match=r"12 of the 12 frames .* and 7 more"):
         frame_grid([4.0, 5.0, 6.0], [0.0, 0.1, 0.2, 0.3])
 

@@ -20,8 +20,8 @@ from argand.farm.planning import batch_pixels, plan_runs, samples_of, tile_rects
 from argand.farm.tile_work import core_scene_of, frame_plan
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
-from argand.frames.frame_set import (BandRuleError, FrameGrid, atlas_frames, atlas_grid, axis_values, check_band_rule,
-                               frame_grid)
+from argand.frames.frame_set import (BandRuleError, FrameGrid, angle_text, atlas_frames, atlas_grid, axis_values,
+                                     check_band_rule, frame_grid)
 
 
 class JobRefused(ValueError):
@@ -111,8 +111,8 @@ def check_renderable(spec: JobSpec) -> None:
         try:
             frame_plan(core, sigma, delta, spec.width, spec.height, spec.method, samples_of(spec.scene))
         except (ValueError, ArithmeticError, RuntimeError) as exc:
-            where = f"frame {index} (sigma {sigma:.17g}, delta {delta:.17g})" if len(first) > 1 else \
-                f"sigma {sigma:.17g}, delta {delta:.17g}"
+            at = f"σ = {angle_text(sigma)}, δ = {angle_text(delta)}"
+            where = f"frame {index} ({at})" if len(first) > 1 else at
             raise JobRefused(f"the scene cannot be rendered: {exc} [at {where}]") from None
 
 

@@ -83,13 +83,41 @@ def band_rule_violations(pairs: Sequence[tuple[float, float]]) -> list[tuple[flo
     return [(s, d) for s, d in pairs if not _core.band_rule_holds(float(s), float(d))]
 
 
+def _pi_fraction(value: float) -> tuple[int, int] | None:
+    """(num, den) with value = num π / den (den ≤ 48, lowest terms) to 1e-9; None if it is none."""
+    if value == 0:
+        return 0, 1
+    for den in range(1, 49):
+        num = round(value * den / math.pi)
+        if num and abs(value - num * math.pi / den) <= 1e-9 * max(1.0, abs(value)):
+            g = math.gcd(num, den)
+            return num // g, den // g
+    return None
+
+
+def angle_text(value: float) -> str:
+    """An angle as a person writes it: a π fraction when it is one ("π/2",
+    "2π/3"), else six significant digits ("0.1", "2")."""
+    return format_angle(value) if _pi_fraction(value) is not None else f"{value:.6g}"
+
+
+def _pair_text(sigma: float, delta: float) -> str:
+    """A pair that breaks the band rule, its angles as written; when the π
+    fractions it reads as keep the rule, it says that rounding broke it."""
+    text = f"(σ = {angle_text(sigma)}, δ = {angle_text(delta)})"
+    fs, fd = _pi_fraction(sigma), _pi_fraction(delta)
+    if fs and fd and fs[0] >= 0 and fd[0] >= 0 and fs[0] * fd[1] + fd[0] * fs[1] <= fs[1] * fd[1]:
+        text += f" [σ + δ rounds above π in double precision: {sigma!r} + {delta!r}]"
+    return text
+
+
 def check_band_rule(pairs: Sequence[tuple[float, float]]) -> None:
     """Raises BandRuleError quoting BAND_RULE and the first QUOTED_PAIRS
     offending pairs (with how many more there are)."""
     bad = band_rule_violations(pairs)
     if not bad:
         return
-    named = ", ".join(f"(sigma = {s!r}, delta = {d!r})" for s, d in bad[:QUOTED_PAIRS])
+    named = ", ".join(_pair_text(s, d) for s, d in bad[:QUOTED_PAIRS])
     more = f" and {len(bad) - QUOTED_PAIRS} more" if len(bad) > QUOTED_PAIRS else ""
     which = "the frame breaks" if len(pairs) == 1 else \
         f"{len(bad)} of the {len(pairs)} frames {'breaks' if len(bad) == 1 else 'break'}"
@@ -153,13 +181,11 @@ def axis_values(spec: float | Sequence[float] | tuple[float, float, int]) -> lis
 def format_angle(value: float) -> str:
     """An angle for a label: a multiple of π/36 or π/N (N ≤ 48) written as
     such ("0", "π/4", "2π/3"), anything else to three decimals."""
-    if value == 0:
+    fraction = _pi_fraction(value)
+    if fraction is None:
+        return f"{value:.3f}"
+    num, den = fraction
+    if num == 0:
         return "0"
-    for den in range(1, 49):
-        num = round(value * den / math.pi)
-        if num and abs(value - num * math.pi / den) <= 1e-9 * max(1.0, abs(value)):
-            g = math.gcd(num, den)
-            num, den = num // g, den // g
-            top = "π" if num == 1 else "-π" if num == -1 else f"{num}π"
-            return top if den == 1 else f"{top}/{den}"
-    return f"{value:.3f}"
+    top = "π" if num == 1 else "-π" if num == -1 else f"{num}π"
+    return top if den == 1 else f"{top}/{den}"
