@@ -55,7 +55,7 @@ bench-render: setup
 # The load test: simulated users (Locust) against argand serve --workers 2 on
 # a free loopback port (its own data folder): ramp, steady, drain, probes.
 # A few minutes; writes docs/bench/load.{json,md,png}. Its smoke version
-# runs in make test (tests/test_load.py).
+# runs in make test (tests/bench/test_load.py).
 load: setup
 	$(VENV)/bin/argand bench load
 

@@ -10,7 +10,7 @@
 // (correctly rounded in every instruction set), fabs and selects are used;
 // the build pins -ffp-contract=off (no fused multiply-add) and no fast math,
 // so the vector code computes the scalar code's bits lane by lane (the C++
-// test ray_run_test and tests/test_render_kernel.py compare them bit for
+// test ray_run_test and tests/render/test_kernel.py compare them bit for
 // bit). Hence the rounding argument of ray_polynomial.cpp's file comment
 // holds for every lane unchanged.
 #ifndef ARGAND_RAY_NS

@@ -54,7 +54,7 @@ static void test_band_rule() {
     CHECK(band_rule_holds(0.0, kPiDouble));            // sigma + delta = fl(pi) < pi
     CHECK(band_rule_holds(kPiDouble, 0.0));
     CHECK(!band_rule_holds(0.0, std::nextafter(kPiDouble, 4.0)));  // above pi
-    CHECK(!band_rule_holds(-0.5, 0.2));               // the sigma = -0.5
+    CHECK(!band_rule_holds(-0.5, 0.2));               // a negative sigma
     CHECK(!band_rule_holds(-1e-300, 0.0));
     CHECK(!band_rule_holds(0.1, -1e-300));
     CHECK(!band_rule_holds(NAN, 0.0));
@@ -485,7 +485,7 @@ static void test_tiles_and_limits() {
 /// pixel's own ray; its decided answer is what the pixel shows, its
 /// undecided answer keeps the ladder's picture, and pixels beyond the budget
 /// are level 6. (The solver here answers from the query alone: the real one
-/// is argand.render.exact, tested in tests/test_render_exact.py.)
+/// is argand.render.exact, tested in tests/render/test_exact.py.)
 static void test_exact_hook() {
     // The unit sphere clipped by the unit ball: every real root lies on the
     // sphere, which no disc decides (status 3 after level 3).

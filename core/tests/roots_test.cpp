@@ -1,4 +1,5 @@
-// roots_test.cpp: issue 16's C++ regressions of find_roots: the subnormal
+// roots_test.cpp: C++ regressions of find_roots, inputs that once gave a
+// false claim or hung: the subnormal
 // pair (discs enlarged by the back-mapping from scaled coordinates must be
 // re-proven), distances that no longer underflow, and the hang on a
 // polynomial whose Aberth iterates overflow (separate_duplicates on

@@ -1,4 +1,4 @@
-"""Access (issue 12): with a token, every state-changing route needs
+"""Access: with a token, every state-changing route needs
 ``Authorization: Bearer <token>`` (reads stay open); a non-loopback host
 without a token refuses to start; the browser asks for the token once and
 sends it as a header. Real uvicorn, Redis, SQLite, CLI processes and Chromium."""

@@ -1,4 +1,4 @@
-"""Issue 16: the root core against adversarial families, and its named
+"""The root core against adversarial families, and named regression
 examples, each checked against the exact truth (truth.py) with a time limit
 (the solver runs in a child process, so a hang fails the test instead of
 stalling the run). The larger run is a command:
@@ -14,8 +14,9 @@ from tests.helpers.truth import Truth, check_roots, reproducer
 
 METHODS = ("auto", "smith", "paper", "unverified")
 
-# Issue 16's examples, each of which made a false claim or hung before.
-ISSUE_16 = {
+# Regression examples: inputs on which a method once made a false claim or
+# hung (the comment above each says which and how).
+REGRESSIONS = {
     # auto (exact fallback): a ball's centre rounded to 0.1 reached its neighbour.
     "mignotte t^54 - 2(10t - 1)^3": sf.mignotte(54, 10.0, 3),
     "mignotte t^64 - 2(100t - 1)^3": [2.0, -600.0, 60000.0, -2000000.0] + [0.0] * 60 + [1.0],
@@ -39,9 +40,9 @@ ISSUE_16 = {
 }
 
 
-@pytest.mark.parametrize("name", list(ISSUE_16), ids=list(ISSUE_16))
-def test_issue_16_example(name):
-    coeffs = ISSUE_16[name]
+@pytest.mark.parametrize("name", list(REGRESSIONS), ids=list(REGRESSIONS))
+def test_regression_example(name):
+    coeffs = REGRESSIONS[name]
     (answers,) = sf.solve_in_child([coeffs], METHODS, timeout=60.0)
     truth = Truth(coeffs)
     for m in METHODS:
@@ -53,11 +54,11 @@ def test_issue_16_example(name):
         assert not problems, f"{reproducer(coeffs, m)}: {problems}"
 
 
-def test_issue_16_examples_keep_what_they_can_prove():
+def test_regression_examples_keep_what_they_can_prove():
     """Where the honest answer is a cluster disc, auto gives it (and verifies
     everything) rather than giving up: t^54 - 2(10t - 1)^3 has 3 roots within
     1e-17 of 0.1, closer than double spacing can separate."""
-    answers = sf.solve_in_child([ISSUE_16["mignotte t^54 - 2(10t - 1)^3"], ISSUE_16["subnormal pair"]], ("auto",), 60.0)
+    answers = sf.solve_in_child([REGRESSIONS["mignotte t^54 - 2(10t - 1)^3"], REGRESSIONS["subnormal pair"]], ("auto",), 60.0)
     mignotte = sf.as_roots(answers[0]["auto"])
     assert mignotte.all_verified and max(mignotte.count.tolist()) == 3 and int(mignotte.count.sum()) == 54
     pair = sf.as_roots(answers[1]["auto"])

@@ -1,4 +1,4 @@
-"""The batched root kernels behind find_roots_batch (issue 15), lane by lane
+"""The batched root kernels behind find_roots_batch, lane by lane
 against the exact truth (truth.py).
 
 Each batch mixes easy rows (standard normal coefficients: the lanes keep

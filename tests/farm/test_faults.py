@@ -1,4 +1,4 @@
-"""Faults with real processes (issue 12): Redis down at submission, a kill
+"""Faults with real processes: Redis down at submission, a kill
 -9 of the API alone, a run past its hard time limit, a store that refuses
 writes. Each asserts that the job ends (done, or failed with its reason), no
 tile is lost and none is rendered twice, and the frames equal an undisturbed

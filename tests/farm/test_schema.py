@@ -1,4 +1,4 @@
-"""schemathesis against /openapi.json (issue 12): generated requests for
+"""schemathesis against /openapi.json: generated requests for
 every operation, a bounded number each, on a real uvicorn over a real SQLite
 file and embedded Redis (no worker). Every answer must conform to the
 documented schema and none may be a server error."""

@@ -1,6 +1,6 @@
 """Angles as people write them (argand.frames.angles): values, and a clear,
-positioned ValueError for everything else, including the inputs that made
-the API answer 500 (issue 12)."""
+positioned ValueError for everything else, including inputs long or deep
+enough to exhaust a parser (which the API would answer with a 500)."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def test_numbers_pass_through(value):
 @pytest.mark.parametrize(
     "text, message, position",
     [
-        # The API's 500s of issue 12: now refused before any work.
+        # Inputs that would exhaust the parser: refused before any work.
         ("-" * 5000 + "1", f"it has 5001 characters; the most is {MAX_ANGLE_LENGTH}", MAX_ANGLE_LENGTH),
         ("0x" + "f" * 300, "it has 302 characters", MAX_ANGLE_LENGTH),
         ("0x1f", "unknown name 'x1f': an angle allows numbers, pi", 1),

@@ -3,12 +3,12 @@ against the exact truth (truth.py), with a time limit per chunk of
 polynomials (the solver runs in a child process: a hang fails the run, it
 does not stall it).
 
-The families (issue 16): Mignotte polynomials t^n - 2(a t - 1)^k; exact
+The families: Mignotte polynomials t^n - 2(a t - 1)^k; exact
 multiple roots with a perturbation near the smallest subnormal; subnormal
 roots and close subnormal pairs; coefficients spanning the whole double
 range; leading coefficients near overflow.
 
-Used by tests/test_roots_families.py (a CI-sized sample) and as a command
+Used by tests/core/test_roots_adversarial.py (a CI-sized sample) and as a command
 for a larger run:
 
     .venv/bin/python tests/helpers/stability_families.py --per-family 5000 --expensive-share 0.1 --workers 2
@@ -110,8 +110,8 @@ def _subnormal_roots(rng: np.random.Generator) -> list[float]:
 
 def _subnormal_pairs(rng: np.random.Generator) -> list[float]:
     """c2 (t - r)^2 + tiny: two subnormal roots a few ulps apart (a double
-    root, a close real pair or a close complex pair), as in issue 16's
-    [1e-323, -5.960464477539065e-08, 8.98846567431158e+307]."""
+    root, a close real pair or a close complex pair), like the regression
+    example [1e-323, -5.960464477539065e-08, 8.98846567431158e+307]."""
     r = math.ldexp(1.0 + float(rng.random()), int(rng.integers(-1070, -1022)))
     c2 = math.ldexp(1.0 + float(rng.random()), int(rng.integers(990, 1023)))
     c1 = -2.0 * r * c2
@@ -124,7 +124,8 @@ def _subnormal_pairs(rng: np.random.Generator) -> list[float]:
 
 def _full_range(rng: np.random.Generator) -> list[float]:
     """Coefficients spanning the whole double range (1e-323 .. 1e308), some
-    exactly zero, degree 2 to 64 (issue 16's degree-28 hang)."""
+    exactly zero, degree 2 to 64 (overflowing Aberth iterates once hung
+    on one of degree 28)."""
     n = int(rng.integers(2, 65))
     exps = rng.uniform(-323.0, 308.0, n + 1)
     c = rng.choice([-1.0, 1.0], n + 1) * 10.0**exps

@@ -123,7 +123,8 @@ def test_negative_real_roots_have_argument_exactly_pi():
 
 def test_the_band_is_taken_modulo_two_pi():
     o = (0.0, 0.0, -3.0)  # real roots 2 and 4: argument 0
-    # [-0.5, -0.3] and its conjugate [0.3, 0.5] do not hold 0 (issue 16's band bug).
+    # [-0.5, -0.3] and its conjugate [0.3, 0.5] do not hold 0: a negative sigma
+    # is not folded onto the real axis.
     assert pixel_truth(scene(sphere()), -0.5, 0.2, o, UP).decision == "miss"
     # [2 pi - 0.1, 2 pi + 0.1] holds 0 + 2 pi.
     hit_at(pixel_truth(scene(sphere()), 2 * math.pi - 0.1, 0.2, o, UP), 2)

@@ -1,8 +1,8 @@
 """What a certified pixel proves, checked from outside: the band rule and its
 edges, the exact ray polynomial of a pixel's own doubles against the
 renderer's coefficients and radii, certified pixels of degree 6 and 8
-surfaces against the exact truth (python-flint), the two Bicube pixels of
-issue 16, the escalation channel, --explain, and the object limit."""
+surfaces against the exact truth (python-flint), two grazing Bicube
+pixels, the escalation channel, --explain, and the object limit."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from argand.scene import SceneError, load_scene, scene_from_dict
 
 PI = math.pi  # the double just below pi
 
-# Classic surfaces of degree 6 and 8 (the shapes issue 16 measured at 68-93%).
+# Classic surfaces of degree 6 and 8 (many grazing rays and near-multiple roots).
 CHMUTOV_OCTIC = (
     "128*x^8 - 256*x^6 + 160*x^4 - 32*x^2 + 128*y^8 - 256*y^6 + 160*y^4 - 32*y^2"
     " + 128*z^8 - 256*z^6 + 160*z^4 - 32*z^2 + 3"
@@ -71,9 +71,8 @@ def test_cli_refuses_a_negative_sigma_with_the_rule():
 
 
 def test_a_band_off_the_real_axis_certifies_no_real_root():
-    """Issue 16: sigma = -0.5, delta = 0.2 showed 1,611 certified real hits; the
-    same band written as sigma = 0.3 shows only complex roots of |arg| in
-    [0.3, 0.5], in conjugate pairs."""
+    """A band off the real axis holds no real root: sigma = 0.3, delta = 0.2
+    shows only complex roots of |arg| in [0.3, 0.5], in conjugate pairs."""
     sigma, delta = 0.3, 0.2
     r = render_frame(load_scene("bicube"), FrameParams(sigma=sigma, delta=delta, width=33, height=33), workers=1)
     cert = (r.aovs["status"] == 0) & (r.rgba[..., 3] > 0)
@@ -155,12 +154,11 @@ def test_certified_pixels_of_degree_6_and_8_agree_with_the_exact_truth(text, cli
             if hit:
                 got = complex(float(result.aovs["re"][y, x]), float(result.aovs["im"][y, x]))
                 assert min(abs(got - best), abs(got - best.conjugate())) <= 1e-5 * (1 + abs(best)), (x, y)
-    # Issue 16 measured 68% (octic) and 87-95% (sextic) before.
     assert certified >= 0.999 * size * size
 
 
 # ---------------------------------------------------------------------------
-# Issue 16's two Bicube pixels: near-tangent rays must never be certified
+# Two grazing Bicube pixels: near-tangent rays must never be certified
 # with the opposite answer.
 # ---------------------------------------------------------------------------
 

@@ -1,8 +1,8 @@
-"""Issue 16's share target: at least 99.9% of pixels certified at every
+"""The certified share: at least 99.9% of pixels certified at every
 delta in [0, pi/4] on surfaces of degree 2 to 8 (random dense ones, random
 products of quadrics and planes with their singular curves), and 100% on
 the presets (the paper's and the classic degree 5-8 ones). Whether the
-certified pixels are right is test_render_truth's business (the exact
+certified pixels are right is tests/render/test_truth.py's business (the exact
 checker); this checks that the proofs reach the pixels."""
 
 from __future__ import annotations

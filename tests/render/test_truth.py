@@ -5,7 +5,7 @@ Here those claims are checked against the exact rational ray polynomial of
 the pixel's own double ray (``argand.render.primary_ray``) for random
 surfaces of degree 2 to 8, the presets, rays grazing a silhouette to within
 an ulp (found by bisecting the camera's look_at), rays aimed at singular
-lines, and the pixels pinned in issue 16. No certified pixel may disagree;
+lines, and two pinned grazing Bicube pixels. No certified pixel may disagree;
 an honest "not certified" is always allowed. The certified share per degree
 goes to build/render_truth.md.
 """
@@ -349,7 +349,8 @@ def test_rays_at_the_double_line_of_two_planes():
 
 
 # ---------------------------------------------------------------------------
-# Issue 16's Bicube pixels
+# Two grazing Bicube pixels at the centre of a 257x257 frame: two real
+# roots 3e-6 apart, and a complex pair 5.6e-8 off the real axis
 # ---------------------------------------------------------------------------
 
 
@@ -360,7 +361,7 @@ def test_rays_at_the_double_line_of_two_planes():
         pytest.param(6.551739800272756, "miss", id="complex-pair-im-5.6e-8"),
     ],
 )
-def test_issue_16_bicube_pixels(look_z, exact_answer):
+def test_grazing_bicube_pixels_match_the_exact_answer(look_z, exact_answer):
     scene = bicube_at([0.0, 0.0, look_z])
     params = FrameParams(width=257, height=257)
     truth = pixel_truth(scene, 0.0, 0.0, *primary_ray(scene, 257, 257, 128, 128))

@@ -317,7 +317,7 @@ def test_presets_are_all_the_packaged_files():
 def test_scenes_folder_equals_the_packaged_presets_byte_for_byte():
     # The packaged files are the source; scenes/ holds copies for readers of
     # the repository. Fix a difference with: cp src/argand/scene/presets/*.yaml scenes/
-    source = REPO / "python" / "argand" / "scene" / "presets"
+    source = REPO / "src" / "argand" / "scene" / "presets"
     assert sorted(p.name for p in (REPO / "scenes").glob("*.yaml")) == sorted(f"{n}.yaml" for n in PRESETS)
     for name in PRESETS:
         assert (REPO / "scenes" / f"{name}.yaml").read_bytes() == (source / f"{name}.yaml").read_bytes(), name
@@ -434,7 +434,7 @@ def test_unreadable_file(tmp_path):
     ids=["deep", "huge-integer"],
 )
 def test_text_that_breaks_the_json_and_yaml_readers_is_a_scene_error(kind, text, message):
-    # Found reviewing the scene path for issue 12: RecursionError and a plain
-    # ValueError escaped scene_from_text.
+    # Deep nesting and huge integers make the JSON and YAML readers raise
+    # RecursionError or a plain ValueError: both must become a SceneError.
     with pytest.raises(SceneError, match=message):
         scene_from_text(text, kind)

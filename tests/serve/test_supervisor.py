@@ -1,4 +1,4 @@
-"""`argand serve` supervises (issue 12): a worker or Redis killed with -9 is
+"""`argand serve` supervises: a worker or Redis killed with -9 is
 started again and the farm finishes work; /healthz says what is wrong (503);
 a second farm on the same data folder is refused; the children die with the
 supervisor. Real processes throughout."""

@@ -142,7 +142,7 @@ def bench_farm(out_dir: Path = Path("docs/bench"), smoke: bool = False, progress
                         render = max(r["render_s"], 1e-9)
                         r.update(workers=workers, tile=tile if tile != size else "frame", frames=frames, size=size,
                                  fps=frames / r["wall_s"],
-                                 # the figure: every worker-second that is not rendering
+                                 # the overhead: every worker-second that is not rendering
                                  overhead_share=max(0.0, (busy - r["render_s"]) / render),
                                  encode_share=r["encode_s"] / render,
                                  dispatch_share=max(0.0, (busy - r["render_s"] - r["encode_s"]) / render))

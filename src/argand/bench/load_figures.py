@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-#: The issue's targets on this machine (p99 in ms, throughput share).
+#: The load test's targets on this machine (p99 in ms, throughput share).
 TARGETS = {"status_list_p99_ms": 100.0, "frame_download_p99_ms": 200.0, "throughput_share": 0.9}
 STATUS_LIST = ("GET /api/jobs", "GET /api/jobs/{id}")
 FRAME_DOWNLOADS = ("GET frame.png", "GET thumbnail.png", "GET animation.gif")

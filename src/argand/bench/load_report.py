@@ -126,8 +126,9 @@ def causes(report: dict) -> list[str]:
     conditions = (report.get("probes") or {}).get("conditions", {})
 
     def pct(*names: str) -> str:
-        """The share of the first of ``names`` the profile saw (a function
-        renamed by the argand.farm move keeps both names here)."""
+        """The largest share the profile saw among ``names`` (one function
+        under each name a profile may know it by, so a JSON written by an
+        earlier version still reads)."""
         return f"{100 * max(prof.get(n, 0.0) for n in names):.0f}%"
 
     def lat(condition: str, row: str) -> str:
@@ -141,19 +142,17 @@ def causes(report: dict) -> list[str]:
             f"**The job list is expensive, and holds the GIL while it is built.** One page of 20 jobs costs "
             f"{cpu.get('list', 0):.1f} ms of the API's CPU, a job's status {cpu.get('status', 0):.1f} ms (idle farm, "
             f"one client); with 8 clients the idle farm serves at most "
-            f"{(_row(report, 'idle farm', 'list, 8 client(s)') or {}).get('rps', 0):.0f} lists/s. Before issue 13 "
-            "`list_jobs` built the full view (`job_out`) of every listed job: a lazy load of each job's frames (N+1 "
-            "queries), every frame's `figures` JSON decoded and copied, each job's scene JSON"
+            f"{(_row(report, 'idle farm', 'list, 8 client(s)') or {}).get('rps', 0):.0f} lists/s. "
+            "src/argand/api/routes/jobs.py `list_jobs` reads a page in four queries whatever it holds (the jobs "
+            "with their scene deferred, their progress in one aggregate, src/argand/farm/progress.py "
+            "`jobs_progress`, and their frames' plain columns) into src/argand/api/schemas.py `job_summary`, a view "
+            "without the scene and the frames' figures; the job's own view (`job_out`) keeps them"
             + (f". In the steady phase `list_jobs` is in {pct('list_jobs')} of the API's active samples, the views "
                f"{pct('job_out', 'job_view')}, SQLAlchemy's lazy loads {pct('_emit_lazyload')}" if prof else "")
             + (f"; the API is one process, so while a list is built every other request waits for the GIL: frame "
                f"downloads (plain files) reach p99 {_ms(max(d['p99_ms'] for d in downloads))} ms in the steady phase"
                + (f" against {_ms(ramp_low['frame_download_p99_ms'])} ms with {ramp_low['users']} user(s) early in the "
-                  "ramp, when the list was short" if ramp_low else "") if downloads else "") + ". "
-            "Fixed (issue 13): api/routers/jobs.py `list_jobs` reads a page in four queries whatever it holds "
-            "(the jobs with their scene deferred, their progress in one aggregate, argand/farm/progress.py "
-            "`jobs_progress`, and their frames' plain columns) into api/schemas.py `job_summary`, a view without the "
-            "scene and the frames' figures; the job's own view (`job_out`) keeps them.")
+                  "ramp, when the list was short" if ramp_low else "") if downloads else "") + ".")
     rendering, niced = _row(report, "workers rendering", "list, 1 client(s)"), \
         _row(report, "workers rendering at nice 10", "list, 1 client(s)")
     if rendering and niced:
@@ -167,25 +166,24 @@ def causes(report: dict) -> list[str]:
                " (no clear gain in this run: the machine's other load moved more than the priority did)")
             + f"; status with 8 clients: {lat('idle farm', 'status, 8 client(s)')}, "
             f"{lat('workers rendering', 'status, 8 client(s)')}, {lat('workers rendering at nice 10', 'status, 8 client(s)')}. "
-            "Fixed (issue 13): worker/serve.py `start_workers` starts the workers at nice 10 (`os.nice` in a "
-            "`preexec_fn`), so the probe's 'workers rendering' is already at nice 10 and the last condition renices "
-            "nothing new; they still get every cycle the API leaves.")
+            "src/argand/serve/supervisor.py `start_worker` starts each worker at nice 10 (`WORKER_NICE`), so the "
+            "probe's 'workers rendering' is already at nice 10 and the last condition renices nothing new; the "
+            "workers still get every cycle the API leaves.")
     sse = next((k for k in conditions if "SSE" in k), None)
     if sse:
         without = {k: v for k, v in conditions["workers rendering"]["rows"].items()}
         with_ = conditions[sse]["rows"]
         worst = max(with_, key=lambda k: with_[k]["max_ms"] / max(without[k]["max_ms"], 1e-9))
         out.append(
-            "**The SSE poller** (a latent cause). Before issue 13 `events.stream` "
-            "(api/routers/jobs.py, through `_progress`) opened a session and built the job's whole view every 0.5 s "
-            "per open stream, synchronously on the event loop. "
+            "**The SSE poller** (a latent cause): every open event stream needs the job's progress every 0.5 s. "
             f"With {sse.split(', ')[1]} on a job of 400 frames, the request that suffered most was `{worst}`: "
             f"max {_ms(with_[worst]['max_ms'])} ms against {_ms(without[worst]['max_ms'])} ms without streams "
             f"(p50/p99 {lat(sse, worst)} against {lat('workers rendering', worst)})"
             + (f"; at the steady phase's {report['steady']['users']} users `stream` is only {pct('stream')} of the "
                "API's active samples, so it is not what missed the targets there" if prof else "") + ". "
-            "Fixed (issue 13): api/routers/jobs.py `_Poller`: one poller per job shared by its streams, its tick "
-            "in the thread pool (`run_in_threadpool`), a compact progress query (counters and frame states).")
+            "src/argand/api/routes/jobs.py `_Poller` keeps one poller per job, shared by its streams, its tick in "
+            "the thread pool (`run_in_threadpool`) rather than on the event loop, and a compact progress query "
+            "(counters and frame states) rather than the job's whole view.")
     submit = st.get("POST /api/jobs")
     resume = st.get("POST /api/jobs/{id}/resume")
     if submit:
@@ -196,8 +194,9 @@ def causes(report: dict) -> list[str]:
             + ": the request inserts every tile and its messages into the outbox in one transaction (`create_job`)"
             + (f"; `create_job` is in {pct('create_job')} of the API's active samples, `drain` {pct('drain')}"
                if prof else "") + ". "
-            "Since issue 12 the request answers once the rows are committed: a sender thread drains the outbox "
-            "(argand/farm/outbox.py `drain` -> argand/farm/queue.py `send_messages`, one producer connection), "
+            "The request answers once the rows are committed: a sender thread drains the outbox "
+            "(src/argand/farm/outbox.py `drain` -> src/argand/farm/queue.py `send_messages`, one producer "
+            "connection), "
             "and the workers' reaper sends whatever an API left behind.")
     scrape = report.get("metrics_ms") or {}
     if prof and prof.get("metrics", 0.0) >= 0.05 and scrape.get("p50_ms"):
@@ -205,7 +204,7 @@ def causes(report: dict) -> list[str]:
             f"**/metrics is expensive.** One scrape took {_ms(scrape['p50_ms'])} ms at the median (p99 "
             f"{_ms(scrape['p99_ms'])} ms), and the harness's scrapes were {pct('metrics')} of the API's active samples "
             "in the steady phase: a read of the histograms counts and bins every tile and frame (the histograms of render, "
-            "assembly and queue-wait times) in SQL. Since issue 13 argand/farm/metrics.py `FarmCollector` reads the "
+            "assembly and queue-wait times) in SQL, so src/argand/farm/metrics.py `FarmCollector` reads the "
             "histograms again only when the tile and frame counts changed, at most every 5 s.")
     if prof:
         sql = prof.get("do_execute", 0.0) + prof.get("do_commit", 0.0)

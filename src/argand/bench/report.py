@@ -173,7 +173,7 @@ def _section_stability(report: dict, out_dir: Path, page: Path) -> list[str]:
 
     pic = report.get("picture", {})
     lines = ["## Stability: where root finders fail", "",
-             "The named stability suite (the cases tests/test_roots_stability.py checks for false claims), every "
+             "The named stability suite (the cases tests/core/test_roots_stability.py checks for false claims), every "
              "method on every case, each answer classed against the exact roots (python-flint on the exact rational "
              "coefficients; argand's claims checked by tests/helpers/truth.py).", "",
              stability_markdown(report),

@@ -445,7 +445,7 @@ def _kernel_line(k: dict, label: str) -> str:
 
 
 def markdown(report: dict) -> str:
-    """The results as Markdown tables (for the README)."""
+    """The results as Markdown tables (docs/bench/roots.md and the report page)."""
     lines = []
     if "batch_kernel" in report:
         lines += [

@@ -16,7 +16,7 @@ exact roots (python-flint on the exact rational value of the coefficients):
 * **wrong**: a claim that is false, or an inaccurate answer given as if it
   were right (numpy and mpmath have no way to flag one).
 
-The cases (CASES) are the ones tests/test_roots_stability.py checks for false
+The cases (CASES) are the ones tests/core/test_roots_stability.py checks for false
 claims; a family groups the cases of one kind of difficulty.
 """
 

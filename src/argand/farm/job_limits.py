@@ -1,6 +1,6 @@
 """The farm's hard limits: bounds no setting can raise, so that every request
 is bounded before any work is done for it (the settings' limits, lower,
-are in argand.farm.settings; the README lists both)."""
+are in argand.farm.settings; docs/farm.md lists both)."""
 
 from __future__ import annotations
 

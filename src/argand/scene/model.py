@@ -71,7 +71,7 @@ class _Strict(BaseModel):
 
 
 # The defaults are C++'s (render.h's default member initialisers, exported
-# by _core): one definition, which tests/test_scene_model.py checks.
+# by _core): one definition, which tests/scene/test_model.py checks.
 _MATERIAL = _core.Material()
 _CAMERA = _core.CameraSpec()
 _LIGHT = _core.Light()

@@ -3,7 +3,7 @@ classic surfaces of degree 5 to 8 (each file cites its equation's source).
 
 The YAML files in ``argand/scene/presets/`` are the single source and ship
 inside the package; ``scenes/`` at the repository root holds byte-identical
-copies for people browsing the repository (tests/test_scene_model.py keeps
+copies for people browsing the repository (tests/scene/test_model.py keeps
 them equal).
 """
 
