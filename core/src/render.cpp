@@ -106,7 +106,7 @@ void gradient(const SurfaceSpec& s, const Complex<double>* z, Complex<double>* g
 /// std::atan2(y, x), without the call when y is a zero and x is not
 /// (a real root): C11 F.10.1.4 fixes atan2(+-0, x > 0) = +-0 and
 /// atan2(+-0, x < 0) = +-pi (the double nearest pi), so the value is the
-/// same to the bit (tests/test_render.py checks it against the library).
+/// same to the bit (tests/render/test_frames.py checks it against the library).
 inline double argument_of(double y, double x) {
     if (y == 0.0) {
         if (x > 0) return y;
