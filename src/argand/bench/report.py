@@ -134,8 +134,10 @@ def markdown(reports: dict, out_dir: Path, page: Path, smoke: bool, reuse: tuple
              "Every benchmark runs the alternatives in the same run and reports ratios: the machine is shared and "
              "noisy, absolute times less so than ratios." + (" **Smoke run: tiny sizes, not figures to quote.**" if smoke else ""),
              "",
-             f"**Machine:** {cpu_model()}, {m['cpu_count']} cores, {platform.platform()}; "
-             f"argand {git_commit() or '(no git)'}; page written {m['date']}.", "",
+             f"**{'Page assembled on' if reuse else 'Machine'}:** {cpu_model()}, {m['cpu_count']} cores, "
+             f"{platform.platform()}; argand {git_commit() or '(no git)'}; page written {m['date']}."
+             + (" The sections taken from an earlier run were measured on that run's machine, at the date each "
+                "gives." if reuse else ""), "",
              "| library | version |", "|---|---|"]
     lines += [f"| {k} | {v} |" for k, v in versions().items()]
     lines.append("")
