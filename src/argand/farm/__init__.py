@@ -10,7 +10,7 @@ states       the job/frame/tile state machines: every change of state goes throu
 layout       every file of a job in the store; store: the frame store (atomic writes, tile chunks)
 planning     tiles -> runs of tiles -> messages (pure); queue: the messages' contract and sending
 submission   a new job (limits, rows, first messages); dispatch: sending a job's queued tiles
-rendering    a worker's task body: claim, render, commit a run of tiles
+tile_work    a worker's task body: claim, render, commit a run of tiles
 assembly     tiles -> a frame's files; frames -> the animation
 control      cancel, pause, resume, retry, priority, delete
 reaper       the work nobody will finish, finished
