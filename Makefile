@@ -122,7 +122,7 @@ bench-smoke: setup
 bench-all: setup
 	$(VENV)/bin/argand bench all
 
-# The atlas pictures in README.md and docs/jobs.md: a grid near the real
+# The atlas pictures in docs/jobs.md: a grid near the real
 # axis, and the whole space sigma >= 0, sigma + delta <= pi (a minute).
 docs-atlas: setup
 	$(VENV)/bin/argand render whitney --sigmas 0:pi/9:5 --deltas pi/36:pi/6:6 --size 128x128 --out build/atlas-grid
