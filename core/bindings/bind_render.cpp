@@ -59,10 +59,54 @@ bool is_numpy_bool(const py::handle& v) {
     return (name == "bool" || name == "bool_") && py::str(t.attr("__module__")).cast<std::string>() == "numpy";
 }
 
-/// A finite number (int or float, not bool or str) in [lo, hi]; lo_open
-/// makes the lower bound strict.
-double to_number(const py::handle& v, const std::string& field, double lo = -INFINITY, double hi = INFINITY,
-                 bool open = false) {
+/// Where a number field may lie: lo and hi, each included unless open.
+struct Bounds {
+    double lo = -INFINITY, hi = INFINITY;
+    bool lo_open = false, hi_open = false;
+};
+
+/// The bounds of every bounded number field of the typed scene, by
+/// "Struct.field" (for a field of several numbers, the bounds of each). The
+/// setters below check them, and FIELD_LIMITS exports them: the scene model
+/// (argand.scene.model) takes its bounds from there, so each limit is written
+/// once, here.
+constexpr struct {
+    const char* field;
+    Bounds bounds;
+} kFieldLimits[] = {
+    {"Material.color", {0.0, 1.0}},
+    {"Material.diffuse", {0.0, 1.0}},
+    {"Material.specular", {0.0, 1.0}},
+    {"Material.shininess", {0.0, 10000.0, true}},
+    {"Material.reflectivity", {0.0, 1.0}},
+    {"Material.transparency", {0.0, 1.0}},
+    {"Material.ior", {1.0, 4.0}},
+    {"SurfaceSpec.clip_radius", {0.0}},
+    {"Light.color", {0.0, 1.0}},
+    {"Light.intensity", {0.0}},
+    {"CameraSpec.fov_degrees", {1.0, 179.0, true, true}},
+    {"SceneSpec.background", {0.0, 1.0}},
+};
+
+/// The bounds of field "Struct.field" (unbounded if kFieldLimits has none).
+Bounds bounds_of(const std::string& field) {
+    for (const auto& f : kFieldLimits)
+        if (field == f.field) return f.bounds;
+    return Bounds{};
+}
+
+/// The bounds as a reader writes them: "in [0.0, 1.0]", "in (0.0, 10000.0]",
+/// ">= 0.0"; "" when unbounded.
+std::string range_text(const Bounds& b) {
+    if (std::isinf(b.lo) && std::isinf(b.hi)) return "";
+    if (std::isinf(b.hi)) return (b.lo_open ? "> " : ">= ") + number_text(b.lo);
+    if (std::isinf(b.lo)) return (b.hi_open ? "< " : "<= ") + number_text(b.hi);
+    return "in " + std::string(b.lo_open ? "(" : "[") + number_text(b.lo) + ", " + number_text(b.hi) +
+           (b.hi_open ? ")" : "]");
+}
+
+/// A finite number (int or float, not bool or str) within the bounds.
+double to_number(const py::handle& v, const std::string& field, const Bounds& b = {}) {
     if (py::isinstance<py::bool_>(v) || py::isinstance<py::str>(v) || py::isinstance<py::bytes>(v) ||
         !PyNumber_Check(v.ptr()) || is_numpy_bool(v))
         wrong_type(field, "a number", v);
@@ -73,13 +117,9 @@ double to_number(const py::handle& v, const std::string& field, double lo = -INF
         wrong_type(field, "a number", v);
     }
     if (!std::isfinite(d)) throw py::value_error(field + " must be finite, got " + number_text(d));
-    const bool out = open ? !(d > lo && d < hi) : !(d >= lo && d <= hi);
-    if (out) {
-        std::string range;
-        if (std::isinf(hi)) range = (open ? "> " : ">= ") + number_text(lo);
-        else range = "in " + std::string(open ? "(" : "[") + number_text(lo) + ", " + number_text(hi) + (open ? ")" : "]");
-        throw py::value_error(field + " must be " + range + ", got " + number_text(d));
-    }
+    const bool above = b.lo_open ? d > b.lo : d >= b.lo;
+    const bool below = b.hi_open ? d < b.hi : d <= b.hi;
+    if (!(above && below)) throw py::value_error(field + " must be " + range_text(b) + ", got " + number_text(d));
     return d;
 }
 
@@ -112,11 +152,11 @@ py::sequence to_sequence(const py::handle& v, const std::string& field, std::siz
 }
 
 template <std::size_t N>
-void set_numbers(double (&dst)[N], const py::handle& v, const std::string& field, double lo = -INFINITY) {
+void set_numbers(double (&dst)[N], const py::handle& v, const std::string& field, const Bounds& b) {
     const std::string what = std::to_string(N) + " numbers";
     auto seq = to_sequence(v, field, N, what);
     double tmp[N];
-    for (std::size_t i = 0; i < N; ++i) tmp[i] = to_number(seq[i], field + "[" + std::to_string(i) + "]", lo);
+    for (std::size_t i = 0; i < N; ++i) tmp[i] = to_number(seq[i], field + "[" + std::to_string(i) + "]", b);
     std::copy(tmp, tmp + N, dst);
 }
 
@@ -137,6 +177,14 @@ T& instance_of(const py::handle& v, const std::string& field, const char* type_n
 // The typed scene classes
 // ---------------------------------------------------------------------------
 
+/// A field's doc with its bounds: "Diffuse weight, in [0.0, 1.0].", "[r, g, b],
+/// each >= 0.0.".
+std::string with_range(const char* doc, const Bounds& b, bool each) {
+    const std::string range = range_text(b);
+    if (range.empty()) return std::string(doc) + ".";
+    return std::string(doc) + (each ? ", each " : ", ") + range + ".";
+}
+
 /// Binds one struct: its checked fields (recorded in FIELDS, in order), a
 /// keyword constructor (unknown keywords refused), ==, repr and copies.
 template <class T>
@@ -155,21 +203,21 @@ public:
         return *this;
     }
 
-    /// A number field in [lo, hi] (open: in (lo, hi)).
-    Struct& number(const char* name, double T::*member, const char* doc, double lo = -INFINITY, double hi = INFINITY,
-                   bool open = false) {
+    /// A number field, within its kFieldLimits bounds (named in its doc).
+    Struct& number(const char* name, double T::*member, const char* doc) {
+        const Bounds b = bounds_of(name_ + "." + name);
         return field(name, [member](const T& s) { return s.*member; },
-                     [member, lo, hi, open](T& s, const py::object& v, const std::string& where) {
-                         s.*member = to_number(v, where, lo, hi, open);
-                     },
-                     doc);
+                     [member, b](T& s, const py::object& v, const std::string& where) { s.*member = to_number(v, where, b); },
+                     with_range(doc, b, false).c_str());
     }
 
+    /// A field of N numbers, each within the field's kFieldLimits bounds.
     template <std::size_t N>
-    Struct& numbers(const char* name, double (T::*member)[N], const char* doc, double lo = -INFINITY) {
+    Struct& numbers(const char* name, double (T::*member)[N], const char* doc) {
+        const Bounds b = bounds_of(name_ + "." + name);
         return field(name, [member](const T& s) { return numbers_of(s.*member); },
-                     [member, lo](T& s, const py::object& v, const std::string& where) { set_numbers(s.*member, v, where, lo); },
-                     doc);
+                     [member, b](T& s, const py::object& v, const std::string& where) { set_numbers(s.*member, v, where, b); },
+                     with_range(doc, b, true).c_str());
     }
 
     Struct& flag(const char* name, bool T::*member, const char* doc) {
@@ -252,13 +300,13 @@ std::vector<T> list_of(const py::handle& v, const std::string& field, const char
 
 void bind_scene(py::module_& m) {
     Struct<Material>(m, "Material", "Phong shading, mirror reflection and refraction (render.h's Material).")
-        .numbers("color", &Material::color, "Base colour [r, g, b], linear, each >= 0.", 0.0)
-        .number("diffuse", &Material::diffuse, "Diffuse weight in [0, 1].", 0.0, 1.0)
-        .number("specular", &Material::specular, "Specular weight in [0, 1].", 0.0, 1.0)
-        .number("shininess", &Material::shininess, "Phong exponent, > 0.", 0.0, INFINITY, true)
-        .number("reflectivity", &Material::reflectivity, "Mirror weight in [0, 1] (real objects).", 0.0, 1.0)
-        .number("transparency", &Material::transparency, "Refraction weight in [0, 1] (real objects).", 0.0, 1.0)
-        .number("ior", &Material::ior, "Index of refraction, >= 1.", 1.0)
+        .numbers("color", &Material::color, "Base colour [r, g, b], linear")
+        .number("diffuse", &Material::diffuse, "Diffuse weight")
+        .number("specular", &Material::specular, "Specular weight")
+        .number("shininess", &Material::shininess, "Phong exponent")
+        .number("reflectivity", &Material::reflectivity, "Mirror weight (real objects)")
+        .number("transparency", &Material::transparency, "Refraction weight (real objects)")
+        .number("ior", &Material::ior, "Index of refraction")
         .done();
     Struct<SurfaceSpec>(m, "SurfaceSpec", "One surface F(x, y, z) = 0 in object space (render.h's SurfaceSpec).")
         .field("terms",
@@ -288,26 +336,26 @@ void bind_scene(py::module_& m) {
                "Total degree, 1..MAX_SURFACE_DEGREE (plan_frame checks every term against it).")
         .flag("complex_space", &SurfaceSpec::complex_space,
               "True: roots in the band of complex space; False: only proven real roots (a real object).")
-        .number("clip_radius", &SurfaceSpec::clip_radius, "Clipping sphere about the object's origin; 0: none.", 0.0)
+        .number("clip_radius", &SurfaceSpec::clip_radius, "Clipping sphere about the object's origin (0: none)")
         .field("material", [](SurfaceSpec& s) -> Material& { return s.material; },
                [](SurfaceSpec& s, const py::object& v, const std::string& where) {
                    s.material = instance_of<Material>(v, where, "Material");
                },
                "The Material (changed in place: surface.material.diffuse = 0.5).", py::return_value_policy::reference_internal)
-        .numbers("linear", &SurfaceSpec::linear, "Object = linear (world - translate): 9 numbers, row-major.")
-        .numbers("translate", &SurfaceSpec::translate, "The object's origin in the world.")
+        .numbers("linear", &SurfaceSpec::linear, "Object = linear (world - translate): 9 numbers, row-major")
+        .numbers("translate", &SurfaceSpec::translate, "The object's origin in the world")
         .done();
     Struct<Light>(m, "Light", "A light at infinity or a point light (render.h's Light).")
-        .numbers("vector", &Light::vector, "Direction towards the light (directional) or its position.")
+        .numbers("vector", &Light::vector, "Direction towards the light (directional) or its position")
         .flag("directional", &Light::directional, "True: vector is a direction; False: a position.")
-        .numbers("color", &Light::color, "[r, g, b], each >= 0.", 0.0)
-        .number("intensity", &Light::intensity, "Intensity, >= 0.", 0.0)
+        .numbers("color", &Light::color, "[r, g, b]")
+        .number("intensity", &Light::intensity, "Intensity")
         .done();
     Struct<CameraSpec>(m, "CameraSpec", "A pinhole camera (render.h's CameraSpec).")
-        .numbers("position", &CameraSpec::position, "The eye.")
-        .numbers("look_at", &CameraSpec::look_at, "The point at the frame's centre.")
-        .numbers("up", &CameraSpec::up, "Up (not parallel to look_at - position).")
-        .number("fov_degrees", &CameraSpec::fov_degrees, "Vertical field of view in degrees, in (0, 180).", 0.0, 180.0, true)
+        .numbers("position", &CameraSpec::position, "The eye")
+        .numbers("look_at", &CameraSpec::look_at, "The point at the frame's centre")
+        .numbers("up", &CameraSpec::up, "Up (not parallel to look_at - position)")
+        .number("fov_degrees", &CameraSpec::fov_degrees, "Vertical field of view in degrees")
         .done();
     bind_list<SurfaceSpec>(m, "SurfaceSpecList");
     bind_list<Light>(m, "LightList");
@@ -323,13 +371,17 @@ void bind_scene(py::module_& m) {
                },
                "The lights, a list held by the scene (default: render.h's default_lights()).",
                py::return_value_policy::reference_internal)
-        .numbers("background", &SceneSpec::background, "[r, g, b] of a miss, each >= 0.", 0.0)
+        .numbers("background", &SceneSpec::background, "[r, g, b] of a miss")
         .field("camera", [](SceneSpec& s) -> CameraSpec& { return s.camera; },
                [](SceneSpec& s, const py::object& v, const std::string& where) {
                    s.camera = instance_of<CameraSpec>(v, where, "CameraSpec");
                },
                "The CameraSpec (changed in place: scene.camera.fov_degrees = 30).", py::return_value_policy::reference_internal)
         .done();
+    py::dict limits;
+    for (const auto& f : kFieldLimits)
+        limits[f.field] = py::make_tuple(f.bounds.lo, f.bounds.hi, f.bounds.lo_open, f.bounds.hi_open);
+    m.attr("FIELD_LIMITS") = limits;
 }
 
 /// The farm's interleaved layout (the EXR's channel order); Python's
@@ -342,12 +394,14 @@ constexpr int kInterleavedChannels = sizeof(kInterleavedNames) / sizeof(kInterle
 /// The exact tier's hook around a Python callable `fn(frame, query) ->
 /// dict` (argand.render.exact.decide_pixel): called from render_tile with
 /// the GIL released, it takes the GIL for the call. `frame` (the objects,
-/// band and caps, as plain Python data) is built once per hook, on its
+/// band and caps, as plain Python data) is built once per hook and plan, on its
 /// first call; the callable may cache in it. A Python exception propagates
 /// out of render_tile.
 struct PythonExactSolver {
     py::object fn;
-    py::object frame;  // built lazily (under the GIL)
+    // Built lazily (under the GIL), one per plan: render_tile_bands calls
+    // one hook for several bands, each with its own sigma and delta.
+    std::vector<std::pair<const FramePlan*, py::object>> frames;
 
     static py::dict frame_dict(const FramePlan& plan) {
         py::dict f;
@@ -373,7 +427,13 @@ struct PythonExactSolver {
 
     ExactAnswer operator()(const FramePlan& plan, const ExactQuery& q) {
         py::gil_scoped_acquire gil;
-        if (!frame) frame = frame_dict(plan);
+        py::object frame;
+        for (const auto& [p, f] : frames)
+            if (p == &plan) frame = f;
+        if (!frame) {
+            frame = frame_dict(plan);
+            frames.emplace_back(&plan, frame);
+        }
         py::dict query;
         query["x"] = q.x;
         query["y"] = q.y;
@@ -581,6 +641,99 @@ void init_render(py::module_& m) {
         py::arg("count").noconvert(), py::arg("status").noconvert(), py::arg("escalation").noconvert(),
         py::arg("certified_share").noconvert(), py::arg("exact") = py::none());
     m.def(
+        "render_tile_bands",
+        [](const std::vector<const FramePlan*>& plans, int x0, int y0, int x1, int y1, const py::list& outs, int ox,
+           int oy, const py::object& exact) {
+            // Several bands of one tile, its primary roots solved once
+            // (render_tile_bands): band b's pixels go into outs[b], a tuple
+            // of the nine planes render_tile_frame takes, at [oy.., ox..].
+            if (plans.empty()) throw py::value_error("plans must hold at least one FramePlan");
+            if (static_cast<std::size_t>(py::len(outs)) != plans.size())
+                throw py::value_error("outs must hold one tuple of planes per plan");
+            const int W = plans[0]->params.width, H = plans[0]->params.height;
+            if (!(0 <= x0 && x0 < x1 && x1 <= W && 0 <= y0 && y0 < y1 && y1 <= H))
+                throw py::value_error("tile [" + std::to_string(x0) + ", " + std::to_string(x1) + ") x [" +
+                                      std::to_string(y0) + ", " + std::to_string(y1) + ") is not inside the " +
+                                      std::to_string(W) + "x" + std::to_string(H) + " frame");
+            if (ox < 0) ox = x0;
+            if (oy < 0) oy = y0;
+            std::vector<TileView> views(plans.size());
+            std::vector<py::array> keep;
+            for (std::size_t b = 0; b < plans.size(); ++b) {
+                const py::tuple planes = outs[b].cast<py::tuple>();
+                if (planes.size() != 9) throw py::value_error("outs[" + std::to_string(b) + "] must hold 9 planes");
+                auto plane = [&](int k, const char* name, int channels, auto tag) {
+                    using T = decltype(tag);
+                    auto a = py::array_t<T, py::array::c_style>::ensure(planes[k]);
+                    const bool typed = a && py::isinstance<py::array_t<T>>(planes[k]) &&
+                                       (planes[k].cast<py::array>().flags() & py::array::c_style);
+                    const bool shaped = typed && (channels == 1 ? a.ndim() == 2 : a.ndim() == 3 && a.shape(2) == channels) &&
+                                        oy + (y1 - y0) <= a.shape(0) && ox + (x1 - x0) <= a.shape(1);
+                    if (!shaped)
+                        throw py::value_error(std::string("outs[") + std::to_string(b) + "]." + name +
+                                              ": a C-contiguous array of the right type that holds the tile at (" +
+                                              std::to_string(ox) + ", " + std::to_string(oy) + ")");
+                    keep.push_back(a);
+                    return a;
+                };
+                auto rgba = plane(0, "rgba", 4, float{});
+                const std::ptrdiff_t stride = rgba.shape(1);
+                const std::size_t at = static_cast<std::size_t>(oy) * stride + ox;
+                TileView& v = views[b];
+                v.stride = stride;
+                v.rgba = rgba.mutable_data() + 4 * at;
+                auto check_stride = [&](const py::array& a, const char* name) {
+                    if (a.shape(1) != stride)
+                        throw py::value_error(std::string("outs[") + std::to_string(b) + "]." + name +
+                                              " must have the rgba plane's width");
+                };
+                auto z = plane(1, "Z", 1, float{});
+                auto arg = plane(2, "arg", 1, float{});
+                auto re = plane(3, "re", 1, float{});
+                auto im = plane(4, "im", 1, float{});
+                auto count = plane(5, "count", 1, std::int32_t{});
+                auto status = plane(6, "status", 1, std::uint8_t{});
+                auto escalation = plane(7, "escalation", 1, std::uint8_t{});
+                auto share = plane(8, "certified_share", 1, float{});
+                for (auto* a : {(py::array*)&z, (py::array*)&arg, (py::array*)&re, (py::array*)&im, (py::array*)&count,
+                                (py::array*)&status, (py::array*)&escalation, (py::array*)&share})
+                    check_stride(*a, "plane");
+                v.modulus = z.mutable_data() + at;
+                v.argument = arg.mutable_data() + at;
+                v.re = re.mutable_data() + at;
+                v.im = im.mutable_data() + at;
+                v.count = count.mutable_data() + at;
+                v.status = status.mutable_data() + at;
+                v.escalation = escalation.mutable_data() + at;
+                v.certified_share = share.mutable_data() + at;
+            }
+            std::vector<TileView*> ptrs;
+            for (TileView& v : views) ptrs.push_back(&v);
+            ExactHook hook(exact);
+            try {
+                py::gil_scoped_release release;
+                render_tile_bands(plans, TileRect{x0, y0, x1, y1}, ptrs, hook.get());
+            } catch (const std::invalid_argument& e) {
+                throw py::value_error(e.what());
+            }
+            py::list figures;
+            for (const TileView& v : views) {
+                const auto& st = v.by_status;
+                const auto& lv = v.by_level;
+                figures.append(py::make_tuple(v.escalations, v.root_calls, py::make_tuple(st[0], st[1], st[2], st[3]),
+                                              v.hits, py::make_tuple(lv[0], lv[1], lv[2], lv[3], lv[4], lv[5], lv[6], lv[7])));
+            }
+            return figures;
+        },
+        "Renders the tile [x0, x1) x [y0, y1) of every band of `plans` (FramePlans of one scene and camera that "
+        "differ in sigma and delta only), the primary roots solved once: band b into outs[b], a tuple of planes "
+        "(rgba (h, w, 4) float32; Z, arg, re, im (h, w) float32; count (h, w) int32; status, escalation (h, w) "
+        "uint8; certified_share (h, w) float32; C-contiguous), the tile at (ox, oy) (default (x0, y0): frame-sized "
+        "planes). Each band's pixels are the bits render_tile gives for its plan alone. Returns, per band, "
+        "(escalations, root_calls, pixels per status code 0..3, pixels that hit, pixels per ladder level 0..7).",
+        py::arg("plans"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("outs"), py::arg("ox") = -1,
+        py::arg("oy") = -1, py::arg("exact") = py::none());
+    m.def(
         "render_tile_into",
         [](const FramePlan& plan, int x0, int y0, int x1, int y1, py::array_t<float, py::array::c_style> out, int ox,
            int oy, const py::object& exact) {
@@ -744,15 +897,15 @@ void init_render(py::module_& m) {
     m.attr("MAX_SURFACE_DEGREE") = kMaxSurfaceDegree;
     m.attr("MAX_FRAME_SIDE") = kMaxFrameSide;
     m.attr("MAX_SAMPLES") = kMaxSamples;
-    m.attr("MAX_EXACT_BITS") = kMaxExactBits;
+    m.attr("EXACT_BITS_LIMIT") = kMaxExactBits;
     m.attr("EXACT_PIXELS_PER_TILE") = FrameParams{}.exact_pixels_per_tile;
-    m.attr("EXACT_MAX_BITS") = FrameParams{}.exact_max_bits;
+    m.attr("EXACT_DEFAULT_BITS") = FrameParams{}.exact_max_bits;
     m.attr("BAND_RULE") = kBandRule;
     py::dict status_names, level_names;
     for (int c = 0; c < static_cast<int>(std::size(kStatusNames)); ++c) status_names[py::int_(c)] = kStatusNames[c];
     for (int c = 0; c < static_cast<int>(std::size(kLadderLevelNames)); ++c) level_names[py::int_(c)] = kLadderLevelNames[c];
     m.attr("STATUS_NAMES") = status_names;
-    m.attr("ESCALATION_NAMES") = level_names;
+    m.attr("LADDER_LEVEL_NAMES") = level_names;
     m.def("sample_side", &sample_side,
           "side for samples = side * side (1..8), else 0: the allowed sample counts are the squares up to MAX_SAMPLES.",
           py::arg("samples"));

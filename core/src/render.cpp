@@ -18,6 +18,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -1901,10 +1902,42 @@ void render_tile(const FramePlan& plan, const TileRect& rect_in, TileView& out, 
 }
 
 namespace {
-void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& out, const ExactSolver* exact) {
-    const FrameParams& fp = plan.params;
-    const TileRect r = clamp_rect(plan, rect_in);
-    const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
+/// What one band of a tile keeps while the tile is traced: the band's plan,
+/// its tracer (ladder, scratch, counters), its neighbour seeds, its row of
+/// pixel accumulators and where its pixels go.
+struct BandTrace {
+    BandTrace(const FramePlan& plan, const ExactSolver* exact, TileView& out, int w)
+        : plan(plan), tracer(plan, exact, plan.params.engine.cull), seeds(plan.scene.objects.size()),
+          row(static_cast<std::size_t>(w)), out(out) {}
+    const FramePlan& plan;
+    Tracer tracer;
+    std::vector<Seeds> seeds;
+    std::vector<PixelAccumulator> row;
+    TileView& out;
+};
+
+/// The colour the last band gave a sample's certified hit, and the root it
+/// shaded (shade reads the hit's object, disc centre and modulus).
+struct ShadeMemo {
+    bool valid = false;
+    int object = -1;
+    double re = 0, im = 0, modulus = 0;
+    float rgb[3] = {0, 0, 0};
+    bool same(const HitInfo& h) const {
+        return h.object == object && std::memcmp(&h.disc.re, &re, sizeof re) == 0 &&
+               std::memcmp(&h.disc.im, &im, sizeof im) == 0 && std::memcmp(&h.modulus, &modulus, sizeof modulus) == 0;
+    }
+    void keep(const HitInfo& h, const float* colour) {
+        valid = true;
+        object = h.object;
+        re = h.disc.re;
+        im = h.disc.im;
+        modulus = h.modulus;
+        for (int a = 0; a < 3; ++a) rgb[a] = colour[a];
+    }
+};
+
+void reset_figures(TileView& out, int w, int h) {
     out.width = w;
     out.height = h;
     out.escalations = 0;
@@ -1912,21 +1945,44 @@ void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& 
     out.hits = 0;
     std::fill(std::begin(out.by_status), std::end(out.by_status), 0);
     std::fill(std::begin(out.by_level), std::end(out.by_level), 0);
-    const std::size_t stride = static_cast<std::size_t>(out.stride);
+}
+
+/// Traces the tile r of every band of `plans` (same rays: same_rays) into
+/// `outs`. The primary rays' batched roots do not depend on the band
+/// (PrimaryBatch::solve reads the scene, the camera, the method and the
+/// seeds of its own earlier solves, never sigma or delta): each run of
+/// samples is solved once, then every band decides, climbs its own ladder
+/// and shades from those discs with its own tracer and seeds, in the order
+/// a tile of that band alone is traced. So each band's pixels are the bits
+/// render_tile gives for its plan alone, by construction.
+void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRect& r,
+                       const std::vector<TileView*>& outs, const ExactSolver* exact) {
+    const FramePlan& plan = *plans[0];
+    const FrameParams& fp = plan.params;
+    const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
     const int side = sample_side(fp.samples);
     if (side == 0) throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples));
-    const bool cull = plan.params.engine.cull;
-    Tracer tracer(plan, exact, cull);
-    PrimaryBatch batch(plan, resolved_kernel(plan.params.engine), cull);
+    std::vector<std::unique_ptr<BandTrace>> bands;
+    bands.reserve(plans.size());
+    for (std::size_t b = 0; b < plans.size(); ++b) {
+        reset_figures(*outs[b], w, h);
+        bands.push_back(std::make_unique<BandTrace>(*plans[b], exact, *outs[b], w));
+    }
+    PrimaryBatch batch(plan, resolved_kernel(plan.params.engine), plan.params.engine.cull);
     batch.begin_tile(side * w);
     // Every object solved in the batch: a certified sample may take
     // Tracer::intersect_batched (intersect's result, the ladder unneeded).
     bool all_batched = batch.any();
     for (std::size_t obj = 0; obj < plan.scene.objects.size(); ++obj)
         all_batched = all_batched && batch.batched(static_cast<int>(obj));
-    std::vector<Seeds> seeds(plan.scene.objects.size());
-    std::vector<PixelAccumulator> row(static_cast<std::size_t>(w));
     alignas(64) double dx[PrimaryBatch::kCells], dy[PrimaryBatch::kCells], dz[PrimaryBatch::kCells];
+    // Per object: whether shading its root at depth 0 traces further rays
+    // (shade's `bounces`), whose decisions would depend on the band.
+    std::vector<char> bounces;
+    for (const SurfaceSpec& s : plan.scene.objects)
+        bounces.push_back(!s.complex_space && 0 < fp.max_depth &&
+                          (s.material.reflectivity > 0 || s.material.transparency > 0));
+    ShadeMemo memo[PrimaryBatch::kCells];
     detail::SampleRowInput row_in;
     for (int a = 0; a < 3; ++a) {
         row_in.forward[a] = plan.forward[a];
@@ -1944,9 +2000,11 @@ void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& 
     // kernel, each run of PrimaryBatch::kCells samples of a row of samples
     // has its primary roots solved together first.
     for (int y = r.y0; y < r.y1; ++y) {
-        if (side > 1) std::fill(row.begin(), row.end(), PixelAccumulator{});
+        if (side > 1)
+            for (auto& band : bands) std::fill(band->row.begin(), band->row.end(), PixelAccumulator{});
         for (int j = 0; j < side; ++j) {
-            for (Seeds& s : seeds) s.valid = false;
+            for (auto& band : bands)
+                for (Seeds& s : band->seeds) s.valid = false;
             const int c0 = side * r.x0, c1 = side * r.x1, sy = side * y + j;
             for (int b0 = c0; b0 < c1; b0 += PrimaryBatch::kCells) {
                 const int cells = std::min(PrimaryBatch::kCells, c1 - b0);
@@ -1955,37 +2013,126 @@ void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& 
                     detail::sample_direction_run(row_in, b0, cells, dx, dy, dz, batch.isa());
                     batch.solve(dx, dy, dz, cells, b0 - c0);
                 }
-                for (int c = 0; c < cells; ++c) {
-                    const BatchedCell pre{&batch, c};
-                    const int sx = b0 + c;
-                    // (The run's directions are sample_direction's, to the bit.)
-                    const double dir[3] = {dx[c], dy[c], dz[c]};
-                    SampleResult sample;
-                    bool filled = false;
-                    if (all_batched && tracer.intersect_batched(pre, sample.hit, filled)) {
-                        // trace_sample's shading of the certified hit (the
-                        // ray's origin is the eye's doubles).
-                        double rgb[3];
-                        if (sample.hit.hit) tracer.shade(plan.eye, dir, sample.hit, 0, rgb);
-                        else for (int a = 0; a < 3; ++a) rgb[a] = plan.scene.background[a];
-                        for (int a = 0; a < 3; ++a) sample.rgb[a] = static_cast<float>(rgb[a]);
-                    } else {
-                        sample = trace_sample(plan, tracer, sx, sy, side, seeds.data(), nullptr,
-                                              batch.any() ? &pre : nullptr, batch.any() ? dir : nullptr, filled);
+                for (int c = 0; c < cells; ++c) memo[c].valid = false;
+                for (auto& band : bands) {
+                    Tracer& tracer = band->tracer;
+                    const std::size_t stride = static_cast<std::size_t>(band->out.stride);
+                    for (int c = 0; c < cells; ++c) {
+                        const BatchedCell pre{&batch, c};
+                        const int sx = b0 + c;
+                        // (The run's directions are sample_direction's, to the bit.)
+                        const double dir[3] = {dx[c], dy[c], dz[c]};
+                        SampleResult sample;
+                        bool filled = false;
+                        if (all_batched && tracer.intersect_batched(pre, sample.hit, filled)) {
+                            // trace_sample's shading of the certified hit (the
+                            // ray's origin is the eye's doubles). Shading a
+                            // root that bounces no ray reads only the root,
+                            // the ray and what the bands share: a band that
+                            // chose the root an earlier band of this sample
+                            // chose takes that band's colour, the same bits.
+                            ShadeMemo& m = memo[c];
+                            if (sample.hit.hit && m.valid && m.same(sample.hit)) {
+                                for (int a = 0; a < 3; ++a) sample.rgb[a] = m.rgb[a];
+                            } else {
+                                double rgb[3];
+                                if (sample.hit.hit) tracer.shade(plan.eye, dir, sample.hit, 0, rgb);
+                                else for (int a = 0; a < 3; ++a) rgb[a] = plan.scene.background[a];
+                                for (int a = 0; a < 3; ++a) sample.rgb[a] = static_cast<float>(rgb[a]);
+                                if (sample.hit.hit && !bounces[sample.hit.object]) m.keep(sample.hit, sample.rgb);
+                            }
+                        } else {
+                            sample = trace_sample(band->plan, tracer, sx, sy, side, band->seeds.data(), nullptr,
+                                                  batch.any() ? &pre : nullptr, batch.any() ? dir : nullptr, filled);
+                        }
+                        // One sample per pixel: straight to the AOVs (the same
+                        // bits as add() then write(), without the copies).
+                        if (side == 1)
+                            PixelAccumulator::write_single(band->out, static_cast<std::size_t>(y - r.y0) * stride + (sx - r.x0),
+                                                           sample);
+                        else band->row[sx / side - r.x0].add(sample);
                     }
-                    // One sample per pixel: straight to the AOVs (the same
-                    // bits as add() then write(), without the copies).
-                    if (side == 1) PixelAccumulator::write_single(out, static_cast<std::size_t>(y - r.y0) * stride + (sx - r.x0), sample);
-                    else row[sx / side - r.x0].add(sample);
                 }
             }
         }
         if (side > 1)
-            for (int x = 0; x < w; ++x) row[x].write(out, static_cast<std::size_t>(y - r.y0) * stride + x);
+            for (auto& band : bands) {
+                const std::size_t stride = static_cast<std::size_t>(band->out.stride);
+                for (int x = 0; x < w; ++x) band->row[x].write(band->out, static_cast<std::size_t>(y - r.y0) * stride + x);
+            }
     }
-    out.root_calls = tracer.root_calls;
+    for (auto& band : bands) band->out.root_calls = band->tracer.root_calls;
+}
+
+void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& out, const ExactSolver* exact) {
+    render_tile_views({&plan}, clamp_rect(plan, rect_in), {&out}, exact);
 }
 }  // namespace
+
+bool same_rays(const FramePlan& a, const FramePlan& b) {
+    const FrameParams &p = a.params, &q = b.params;
+    if (p.width != q.width || p.height != q.height || p.method != q.method || p.max_depth != q.max_depth ||
+        p.hue_by_argument != q.hue_by_argument || p.seed_from_neighbour != q.seed_from_neighbour ||
+        p.samples != q.samples || p.exact_pixels_per_tile != q.exact_pixels_per_tile ||
+        p.exact_max_bits != q.exact_max_bits || p.engine.kernel != q.engine.kernel || p.engine.cull != q.engine.cull ||
+        p.engine.decide != q.engine.decide || p.engine.shade != q.engine.shade)
+        return false;
+    if (a.tan_half_fov != b.tan_half_fov || a.scene_distance != b.scene_distance) return false;
+    for (int k = 0; k < 3; ++k)
+        if (a.eye[k] != b.eye[k] || a.forward[k] != b.forward[k] || a.right[k] != b.right[k] || a.up[k] != b.up[k])
+            return false;
+    const SceneSpec &s = a.scene, &t = b.scene;
+    if (s.objects.size() != t.objects.size() || s.lights.size() != t.lights.size()) return false;
+    for (int k = 0; k < 3; ++k)
+        if (s.background[k] != t.background[k]) return false;
+    for (std::size_t i = 0; i < s.objects.size(); ++i) {
+        const SurfaceSpec &u = s.objects[i], &v = t.objects[i];
+        if (u.degree != v.degree || u.terms.size() != v.terms.size() || u.complex_space != v.complex_space ||
+            u.clip_radius != v.clip_radius || std::memcmp(&a.objects[i].origin, &b.objects[i].origin,
+                                                          sizeof(a.objects[i].origin)) != 0)
+            return false;
+        for (std::size_t k = 0; k < u.terms.size(); ++k)
+            if (u.terms[k].coeff != v.terms[k].coeff || u.terms[k].ex != v.terms[k].ex ||
+                u.terms[k].ey != v.terms[k].ey || u.terms[k].ez != v.terms[k].ez)
+                return false;
+    }
+    return true;
+}
+
+void render_tile_bands(const std::vector<const FramePlan*>& plans, const TileRect& rect_in,
+                       const std::vector<TileView*>& outs, const ExactSolver* exact) {
+    if (plans.empty() || plans.size() != outs.size())
+        throw std::invalid_argument("render_tile_bands needs one output per plan, and at least one plan");
+    for (std::size_t b = 1; b < plans.size(); ++b)
+        if (!same_rays(*plans[0], *plans[b]))
+            throw std::invalid_argument("render_tile_bands: plan " + std::to_string(b) +
+                                        " does not share plan 0's scene, camera and parameters (only sigma and delta "
+                                        "may differ)");
+    const TileRect r = clamp_rect(*plans[0], rect_in);
+    const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
+    // Bands whose rows lie a frame's row apart are traced into staging
+    // tiles of their own and copied over once done (see render_tile).
+    static thread_local std::vector<std::unique_ptr<TileStaging>> staging;
+    std::vector<TileView*> views(outs.size());
+    std::vector<int> staged(outs.size(), -1);
+    int used = 0;
+    for (std::size_t b = 0; b < outs.size(); ++b) {
+        if (outs[b]->stride <= w || h <= 1) {
+            views[b] = outs[b];
+            continue;
+        }
+        if (static_cast<int>(staging.size()) <= used) staging.push_back(std::make_unique<TileStaging>());
+        staged[b] = used;
+        views[b] = &staging[used++]->view(w, h);
+    }
+    render_tile_views(plans, r, views, exact);
+    for (std::size_t b = 0; b < outs.size(); ++b) {
+        if (staged[b] < 0) continue;
+        staging[staged[b]]->flush(*outs[b]);
+        outs[b]->width = w;
+        outs[b]->height = h;
+    }
+}
 
 PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample,
                                const ExactSolver* exact, int column_start) {

@@ -205,7 +205,7 @@ enum LadderLevel : std::uint8_t {
     kLevelExactOverCap = 6,  // not proven after level 3, and the tile's exact-tier
                              // budget (exact_pixels_per_tile) was spent
 };
-/// The names of the ladder levels, by level (exported as ESCALATION_NAMES).
+/// The names of the ladder levels, by level (exported as LADDER_LEVEL_NAMES).
 constexpr const char* kLadderLevelNames[] = {"first",          "root double-double",          "unseeded retry",
                                              "double-double ray", "exact", "exact: multiple root proven",
                                              "exact: over the work cap"};
@@ -355,6 +355,20 @@ void render_tile(const FramePlan& plan, const TileRect& rect, TileAOVs& out, con
 /// hold the tile's rows at out.stride pixels apart (stride >= the clamped
 /// width).
 void render_tile(const FramePlan& plan, const TileRect& rect, TileView& out, const ExactSolver* exact = nullptr);
+
+/// True iff two plans trace the same rays and solve the same polynomials:
+/// the same scene (objects, their terms and places, lights, background),
+/// camera and parameters, sigma and delta aside.
+bool same_rays(const FramePlan& a, const FramePlan& b);
+
+/// Renders tile `rect` of several bands at once: plans[b] (all same_rays
+/// with plans[0], else std::invalid_argument) into outs[b]. The primary
+/// rays' roots are solved once for all bands; each band is then decided,
+/// escalated and shaded on its own, so outs[b] holds exactly the bits
+/// render_tile(*plans[b], rect, *outs[b], exact) writes (the single-band
+/// render_tile is this function with one band).
+void render_tile_bands(const std::vector<const FramePlan*>& plans, const TileRect& rect,
+                       const std::vector<TileView*>& outs, const ExactSolver* exact = nullptr);
 
 /// The primary ray of sample `sample` (0..samples - 1) of pixel (x, y):
 /// the very doubles render_tile uses.

@@ -8,13 +8,14 @@ farm's workers plan a frame once (``plan``) and render their tiles with
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Callable, Iterable
+from typing import Any, Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 
@@ -27,6 +28,9 @@ from argand.render.options import EngineOptions
 #: ``escalation`` is the ladder level a pixel needed (ESCALATION_NAMES);
 #: ``certified_share`` the share of the pixel's samples that are certified.
 AOV_CHANNELS = ("Z", "arg", "re", "im", "count", "status", "escalation", "certified_share")
+#: Each AOV's array type as the renderer writes it (the EXR stores all as float32).
+AOV_DTYPES = {"Z": np.float32, "arg": np.float32, "re": np.float32, "im": np.float32, "count": np.int32,
+              "status": np.uint8, "escalation": np.uint8, "certified_share": np.float32}
 
 #: Pixel status codes (the ``status`` AOV), defined in C++ (render.h's
 #: PixelStatus and kStatusNames); docs/rendering.md says what each one proves.
@@ -238,49 +242,82 @@ def render_frame(
 ) -> FrameResult:
     """Renders a whole frame locally on ``workers`` threads (default: all
     cores); the C++ tile renderer releases the GIL."""
+    return render_bands(scene, [params], tile=tile, workers=workers, on_tile=on_tile)[0]
+
+
+class _FramePlanes:
+    """A frame's arrays, written tile by tile by _core.render_tile_bands
+    (every AOV of every pixel, so they start unset), and its figures as the
+    tiles counted them while writing their pixels (no pass over the AOVs)."""
+
+    def __init__(self, params: FrameParams) -> None:
+        w, h = params.width, params.height
+        self.params = params
+        self.rgba = np.empty((h, w, 4), np.float32)
+        self.aovs = {name: np.empty((h, w), AOV_DTYPES[name]) for name in AOV_CHANNELS}
+        self.planes = (self.rgba,) + tuple(self.aovs[name] for name in AOV_CHANNELS)
+        self.escalations = self.calls = 0
+        self.stats = np.zeros(len(STATUS_NAMES) + 1, np.int64)
+        self.levels = np.zeros(8, np.int64)
+
+    def add(self, figures: tuple) -> None:
+        esc, n_calls, by_status, hits, by_level = figures
+        self.escalations += esc
+        self.calls += n_calls
+        self.stats[: len(STATUS_NAMES)] += by_status
+        self.stats[len(STATUS_NAMES)] += hits
+        self.levels[:] += by_level
+
+    def tile(self, r: TileRect, esc: int, n_calls: int) -> TileAOVs:
+        # (Views of the frame's arrays: the tile's pixels, as rendered.)
+        return TileAOVs(r, self.rgba[r.y0 : r.y1, r.x0 : r.x1],
+                        {name: self.aovs[name][r.y0 : r.y1, r.x0 : r.x1] for name in AOV_CHANNELS}, esc, n_calls)
+
+    def result(self, seconds: float) -> FrameResult:
+        out = FrameResult(self.params, self.rgba, self.aovs, seconds, self.escalations, self.calls, stats=self.stats,
+                          levels=self.levels)
+        out.figures = frame_figures(out)
+        return out
+
+
+def render_bands(
+    scene: Any,
+    params: Sequence[FrameParams],
+    tile: int = 64,
+    workers: int | None = None,
+    on_tile: Callable[[TileAOVs], None] | None = None,
+) -> list[FrameResult]:
+    """Renders frames that differ only in their band (σ, δ) together: each
+    tile's primary roots are solved once for all of them (the roots do not
+    depend on the band), then every band is decided, escalated and shaded
+    on its own. Each frame is, to the bit, what render_frame gives for its
+    parameters alone. Raises ValueError if the frames differ in anything but
+    σ and δ. A frame's seconds are the bands' shared time, divided evenly."""
     from argand.render.convert import to_core_scene
 
+    if not params:
+        return []
+    first = params[0]
+    for p in params[1:]:
+        if dataclasses.replace(p, sigma=first.sigma, delta=first.delta) != first:
+            raise ValueError("render_bands: the frames must differ in sigma and delta only")
     start = time.perf_counter()
-    frame_plan = plan(to_core_scene(scene), params)
-    w, h = params.width, params.height
-    # The tiles cover the frame and each writes every AOV of its pixels
-    # straight into these arrays (_core.render_tile_frame): no tile arrays,
-    # no copies, so the arrays start unset.
-    rgba = np.empty((h, w, 4), np.float32)
-    aovs = {
-        "Z": np.empty((h, w), np.float32),
-        "arg": np.empty((h, w), np.float32),
-        "re": np.empty((h, w), np.float32),
-        "im": np.empty((h, w), np.float32),
-        "count": np.empty((h, w), np.int32),
-        "status": np.empty((h, w), np.uint8),
-        "escalation": np.empty((h, w), np.uint8),
-        "certified_share": np.empty((h, w), np.float32),
-    }
-    planes = (rgba,) + tuple(aovs[name] for name in AOV_CHANNELS)
-    escalations = calls = 0
-    # Status counts, hits and ladder levels, as the tiles counted them while
-    # writing their pixels (no pass over the frame's AOVs afterwards).
-    stats = np.zeros(len(STATUS_NAMES) + 1, np.int64)
-    levels = np.zeros(8, np.int64)
-    rects = tiles(w, h, tile)
+    core_scene = to_core_scene(scene)
+    plans = [plan(core_scene, p) for p in params]
+    frames = [_FramePlanes(p) for p in params]
+    rects = tiles(first.width, first.height, tile)
     n_workers = max(1, workers or os.cpu_count() or 1)
 
     def render(r: TileRect) -> tuple:
-        return (r,) + _core.render_tile_frame(frame_plan, r.x0, r.y0, r.x1, r.y1, *planes, exact=decide_pixel)
+        return r, _core.render_tile_bands(plans, r.x0, r.y0, r.x1, r.y1, [f.planes for f in frames],
+                                          exact=decide_pixel)
 
     def place(done: tuple) -> None:
-        nonlocal escalations, calls
-        r, esc, n_calls, by_status, hits, by_level = done
-        escalations += esc
-        calls += n_calls
-        stats[: len(STATUS_NAMES)] += by_status
-        stats[len(STATUS_NAMES)] += hits
-        levels[:] += by_level
-        if on_tile:
-            # (Views of the frame's arrays: the tile's pixels, as rendered.)
-            on_tile(TileAOVs(r, rgba[r.y0 : r.y1, r.x0 : r.x1],
-                             {name: aovs[name][r.y0 : r.y1, r.x0 : r.x1] for name in AOV_CHANNELS}, esc, n_calls))
+        r, figures = done
+        for frame, fig in zip(frames, figures):
+            frame.add(fig)
+            if on_tile:
+                on_tile(frame.tile(r, fig[0], fig[1]))
 
     if n_workers == 1:
         for r in rects:
@@ -289,10 +326,8 @@ def render_frame(
         with ThreadPoolExecutor(n_workers) as pool:
             for done in pool.map(render, rects):
                 place(done)
-    seconds = time.perf_counter() - start
-    result = FrameResult(params, rgba, aovs, seconds, escalations, calls, stats=stats, levels=levels)
-    result.figures = frame_figures(result)
-    return result
+    seconds = (time.perf_counter() - start) / len(params)
+    return [f.result(seconds) for f in frames]
 
 
 def frame_figures(result: FrameResult) -> dict[str, Any]:
@@ -343,7 +378,17 @@ def delta_sweep(start: float, stop: float, count: int) -> list[float]:
 
 
 def render_frames(
-    scene: Any, params_list: Iterable[FrameParams], tile: int = 64, workers: int | None = None
-) -> Iterable[FrameResult]:
+    scene: Any, params_list: Iterable[FrameParams], tile: int = 64, workers: int | None = None,
+    bands_at_once: int = 32,
+) -> Iterator[FrameResult]:
+    """The frames of ``params_list`` in order, rendered ``bands_at_once`` at
+    a time where they differ only in σ and δ (render_bands)."""
+    batch: list[FrameParams] = []
     for p in params_list:
-        yield render_frame(scene, p, tile=tile, workers=workers)
+        if batch and (len(batch) == bands_at_once or
+                      dataclasses.replace(p, sigma=batch[0].sigma, delta=batch[0].delta) != batch[0]):
+            yield from render_bands(scene, batch, tile=tile, workers=workers)
+            batch = []
+        batch.append(p)
+    if batch:
+        yield from render_bands(scene, batch, tile=tile, workers=workers)

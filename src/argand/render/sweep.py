@@ -8,7 +8,7 @@ from contextlib import contextmanager, nullcontext
 from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
-from argand.render.frames import FrameParams, TileAOVs, render_frame
+from argand.render.frames import FrameParams, FrameResult, TileAOVs, render_bands
 from argand.frames.frame_set import FrameGrid
 from argand.media.frame_files import EXR_COMPRESSION
 
@@ -43,11 +43,13 @@ def render_sweep(
     grid: FrameGrid | None = None,
     mp4: bool = True,
 ) -> list[dict]:
-    """Renders ``params`` in order on ``workers`` threads (encoding too) and
+    """Renders ``params`` on ``workers`` threads (encoding too), frames that
+    share their rays together (their roots solved once), and
     writes frame_NNNN.exr/.png/.json under ``out``, animation.gif and
     animation.mp4 (unless not ``mp4``) when there is more than one frame, and
     atlas.png when ``grid`` (the frames' places, one per param) has more than
-    one σ and δ. Returns each frame's figures."""
+    one σ and δ. on_frame(index, params) is called as each frame is written.
+    Returns each frame's figures."""
     from argand.media import gif
     from argand.media.atlas import atlas_png, cell_size, scale_to_cell
     from argand.media.frame_files import to_srgb8, write_frame
@@ -63,10 +65,10 @@ def render_sweep(
     if animated:
         out.mkdir(parents=True, exist_ok=True)
     with oiio_threads(workers), (Mp4Encoder(mp4_tmp, fps) if animated and mp4 else nullcontext()) as video:
-        for index, p in enumerate(params):
+        for index, result in enumerate(_frames(scene, params, tile, workers, on_tile)):
+            p = result.params
             if on_frame:
                 on_frame(index, p)
-            result = render_frame(scene, p, tile=tile, workers=workers, on_tile=on_tile)
             srgb = to_srgb8(result.rgba)
             write_frame(result, out, index, srgb8=srgb, compression=compression)
             if animated:
@@ -83,6 +85,20 @@ def render_sweep(
     if atlas:
         _write_atomic(out / "atlas.png", atlas_png(grid, cells, params[0].width, params[0].height))
     return figures
+
+
+#: Frames rendered together (their primary roots solved once): more saves
+#: solves, and holds more frames in memory at once.
+BANDS_AT_ONCE = 32
+
+
+def _frames(scene: Any, params: Sequence[FrameParams], tile: int, workers: int | None,
+            on_tile: Callable[[TileAOVs], None] | None) -> Iterator[FrameResult]:
+    """The sweep's frames in order, BANDS_AT_ONCE at a time through
+    render_bands (each, to the bit, the frame render_frame gives alone)."""
+    for first in range(0, len(params), BANDS_AT_ONCE):
+        group = list(params[first:first + BANDS_AT_ONCE])
+        yield from render_bands(scene, group, tile=tile, workers=workers, on_tile=on_tile)
 
 
 def _write_atomic(path: Path, data: bytes) -> None:
