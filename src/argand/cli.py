@@ -135,7 +135,7 @@ def render(
         "ray polynomial when the double-double tier leaves them unproven (0: off; default: the renderer's, "
         "argand.render.frames.EXACT_PIXELS_PER_TILE)."),
     exact_bits: Optional[int] = typer.Option(
-        None, "--exact-bits", help="The exact tier's highest precision in bits (default: EXACT_MAX_BITS)."),
+        None, "--exact-bits", help="The exact tier's highest precision in bits (default: EXACT_DEFAULT_BITS)."),
 ) -> None:
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, animation.gif and .mp4,
     and atlas.png for a grid of (sigma, delta)."""

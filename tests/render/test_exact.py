@@ -28,7 +28,7 @@ from tests.render.test_truth import GRAZING, bisect_to_tangency, centre_truth, h
 from argand.render import FrameParams, TileRect, primary_ray, render_frame, render_tile
 from argand.render.convert import to_core_scene
 from argand.render.explain import explain_pixel
-from argand.render.frames import ESCALATION_NAMES, EXACT_OVER_CAP_LEVEL
+from argand.render.frames import LADDER_LEVEL_NAMES, EXACT_OVER_CAP_LEVEL
 from argand.scene import load_scene, scene_from_dict
 
 OFF = {"exact_pixels_per_tile": 0}
@@ -40,9 +40,9 @@ def wrong(problems: list[str]) -> list[str]:
 
 
 def test_ladder_levels_are_named():
-    assert ESCALATION_NAMES[EXACT] == "exact"
-    assert ESCALATION_NAMES[MULTIPLE] == "exact: multiple root proven"
-    assert ESCALATION_NAMES[OVER_CAP] == "exact: over the work cap"
+    assert LADDER_LEVEL_NAMES[EXACT] == "exact"
+    assert LADDER_LEVEL_NAMES[MULTIPLE] == "exact: multiple root proven"
+    assert LADDER_LEVEL_NAMES[OVER_CAP] == "exact: over the work cap"
 
 
 # ---------------------------------------------------------------------------

@@ -20,7 +20,7 @@ from argand.core import _core
 from argand.render import FrameParams, render_frame
 from argand.render.convert import to_core_scene
 from argand.render.explain import explain_pixel
-from argand.render.frames import BAND_RULE, ESCALATION_NAMES, MAX_OBJECTS, plan
+from argand.render.frames import BAND_RULE, LADDER_LEVEL_NAMES, MAX_OBJECTS, plan
 from argand.scene import SceneError, load_scene, scene_from_dict
 
 PI = math.pi  # the double just below pi
@@ -212,7 +212,7 @@ def test_escalation_channel_and_figures():
     r = render_frame(surface("(x^2 + 2.25*y^2 + z^2 - 1)^3 - x^2*z^3 - 0.1125*y^2*z^3", 2.0),
                      FrameParams(width=24, height=24), workers=1)
     esc = r.aovs["escalation"]
-    assert esc.dtype == np.uint8 and set(np.unique(esc)) <= set(ESCALATION_NAMES)
+    assert esc.dtype == np.uint8 and set(np.unique(esc)) <= set(LADDER_LEVEL_NAMES)
     assert r.figures["escalations"] == int(np.count_nonzero(esc))
     assert r.figures["escalated_share"] == pytest.approx(np.count_nonzero(esc) / esc.size)
 

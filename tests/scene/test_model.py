@@ -120,7 +120,7 @@ BAD = [
     (with_object(material={"color": "#zzzzzz"}), "a colour is '#rrggbb' or [r, g, b]"),
     (with_object(material={"color": "red"}), "not 'red'"),
     (with_object(material={"color": "ff8000"}), "not 'ff8000'"),
-    (with_object(material={"color": [1, 2, 0]}), "colour components must be in 0..1, got [1, 2, 0]"),
+    (with_object(material={"color": [1, 2, 0]}), "colour components must be in [0.0, 1.0], got [1, 2, 0]"),
     (with_object(material={"color": [0.5, 0.5]}), "not [0.5, 0.5]"),
     (with_object(material={"color": ["1", 0, 0]}), "objects.0.material.color"),
     ({**MINIMAL, "background": "#12345"}, "background: a colour is"),

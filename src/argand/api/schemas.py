@@ -8,7 +8,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 
 from argand.core import METHODS
 from argand.farm.models import Job
-from argand.farm.job_limits import MAX_FRAMES, MAX_SIDE
+from argand.farm.job_limits import MAX_FRAME_SIDE, MAX_FRAMES
 from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.farm.progress import eta_seconds, job_progress
 from argand.farm.queue import PRIORITIES
@@ -73,8 +73,8 @@ class JobRequest(BaseModel):
     atlas: int | None = Field(None, ge=1, le=MAX_ATLAS_STEPS, description=(
         "N: the whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of N rows and columns, step π/N "
         "(N(N+1)/2 frames); instead of sigma, sigmas and deltas"))
-    width: int = Field(256, ge=1, le=MAX_SIDE)
-    height: int = Field(256, ge=1, le=MAX_SIDE)
+    width: int = Field(256, ge=1, le=MAX_FRAME_SIDE)
+    height: int = Field(256, ge=1, le=MAX_FRAME_SIDE)
     tile: int | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
     priority: int = Priority
     method: Literal[METHODS] = "auto"

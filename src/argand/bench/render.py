@@ -23,7 +23,7 @@ from typing import Callable
 from argand.bench import machine_info
 from argand.render import FrameParams, render_frame
 from argand.media.contact_sheet import contact_sheet
-from argand.render.frames import ESCALATION_NAMES, STATUS_NAMES
+from argand.render.frames import LADDER_LEVEL_NAMES, STATUS_NAMES
 from argand.render.options import EngineOptions
 from argand.scene import load_scene
 from argand.scene.presets import CLASSIC_PRESETS, PAPER_PRESETS
@@ -103,7 +103,7 @@ def exact_figures(figures: dict) -> dict:
 #: The escalation picture: (scene, delta) at an odd size (the centre row's and
 #: column's rays then pass within rounding of the presets' singular lines).
 ESCALATION_CASES = (("steiner", math.pi / 18), ("plucker", 0.0), ("chmutov-octic", 0.0), ("endrass-octic", math.pi / 18))
-#: One colour per ladder level (ESCALATION_NAMES); level 0 shows the image.
+#: One colour per ladder level (LADDER_LEVEL_NAMES); level 0 shows the image.
 LEVEL_COLOURS = {1: "#1f77b4", 2: "#17becf", 3: "#ff7f0e", 4: "#2ca02c", 5: "#d62728", 6: "#000000"}
 
 
@@ -131,7 +131,7 @@ def escalation_picture(size: int, path: Path, cases=ESCALATION_CASES) -> list[di
         level = np.asarray(r.aovs["escalation"])
         grey = srgb.mean(axis=2, keepdims=True) * 0.55 + 0.4
         picture = np.repeat(grey, 3, axis=2)
-        counts = {ESCALATION_NAMES[k]: int(np.count_nonzero(level == k)) for k in ESCALATION_NAMES}
+        counts = {LADDER_LEVEL_NAMES[k]: int(np.count_nonzero(level == k)) for k in LADDER_LEVEL_NAMES}
         for k, colour in LEVEL_COLOURS.items():
             picture[level == k] = to_rgb(colour)
         degree = max(o.polynomial.degree for o in scene.objects)
@@ -140,9 +140,9 @@ def escalation_picture(size: int, path: Path, cases=ESCALATION_CASES) -> list[di
         axes[1, col].imshow(picture, interpolation="nearest")
         axes[1, col].set_title(f"certified {100 * r.certified_share:.3f}%, escalated {r.figures['escalations']}, "
                                f"exact {r.figures['exact_pixels']}", fontsize=8)
-        handles = [Patch(color=LEVEL_COLOURS[k], label=f"{k} {ESCALATION_NAMES[k]}: {counts[ESCALATION_NAMES[k]]}")
-                   for k in LEVEL_COLOURS if counts[ESCALATION_NAMES[k]]]
-        handles.insert(0, Patch(color="0.7", label=f"0 first: {counts[ESCALATION_NAMES[0]]}"))
+        handles = [Patch(color=LEVEL_COLOURS[k], label=f"{k} {LADDER_LEVEL_NAMES[k]}: {counts[LADDER_LEVEL_NAMES[k]]}")
+                   for k in LEVEL_COLOURS if counts[LADDER_LEVEL_NAMES[k]]]
+        handles.insert(0, Patch(color="0.7", label=f"0 first: {counts[LADDER_LEVEL_NAMES[0]]}"))
         axes[1, col].legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.02), frameon=False)
         for ax in axes[:, col]:
             ax.set_xticks([])
@@ -544,7 +544,7 @@ def escalation_section(report: dict, picture: str = "render_escalation.png") -> 
     rows = report.get("escalation_picture")
     if not rows:
         return []
-    names = list(ESCALATION_NAMES.values())
+    names = list(LADDER_LEVEL_NAMES.values())
     lines = [
         "",
         "Where the ladder escalated (the `escalation` AOV; grey: decided from the first discs, colours: the level a "

@@ -35,13 +35,16 @@ MAX_OBJECTS: int
 MAX_SURFACE_DEGREE: int
 MAX_FRAME_SIDE: int
 MAX_SAMPLES: int
-MAX_EXACT_BITS: int
+EXACT_BITS_LIMIT: int
 EXACT_PIXELS_PER_TILE: int
-EXACT_MAX_BITS: int
+EXACT_DEFAULT_BITS: int
 BAND_RULE: str
 INTERLEAVED_CHANNELS: tuple[str, ...]
 STATUS_NAMES: dict[int, str]
-ESCALATION_NAMES: dict[int, str]
+LADDER_LEVEL_NAMES: dict[int, str]
+#: Bounds of the typed scene's number fields, by "Struct.field": (lo, hi,
+#: lo_open, hi_open); the setters check them and argand.scene.model reads them.
+FIELD_LIMITS: dict[str, tuple[float, float, bool, bool]]
 
 Vec3 = tuple[float, float, float]
 _Numbers = Sequence[float] | npt.NDArray[np.float64]

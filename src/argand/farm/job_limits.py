@@ -4,13 +4,13 @@ are in argand.farm.settings; docs/farm.md lists both)."""
 
 from __future__ import annotations
 
+# A frame's side in pixels and the objects in one scene: the renderer's
+# limits (defined in C++), named here as there.
 from argand.render.frames import MAX_FRAME_SIDE, MAX_OBJECTS
 
-#: A frame's side in pixels (the renderer's, defined in C++).
-MAX_SIDE = MAX_FRAME_SIDE
 #: Frames in one job (a list of deltas or a sweep's count).
 MAX_FRAMES = 10_000
 #: A page number of GET /api/jobs (its offset stays far inside a 64-bit integer).
 MAX_PAGE = 1_000_000
-#: Most objects in one scene (the renderer's, defined in C++).
-MAX_SCENE_OBJECTS = MAX_OBJECTS
+
+__all__ = ["MAX_FRAMES", "MAX_FRAME_SIDE", "MAX_OBJECTS", "MAX_PAGE"]

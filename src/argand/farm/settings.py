@@ -13,7 +13,7 @@ import ipaddress
 from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-from argand.farm.job_limits import MAX_FRAMES, MAX_SIDE
+from argand.farm.job_limits import MAX_FRAME_SIDE, MAX_FRAMES
 from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.media.frame_files import EXR_COMPRESSION, check_exr_compression
 from argand.render.options import EngineOptions, engine_environment
@@ -31,8 +31,8 @@ class Settings(BaseSettings):
     port: int = 8000
 
     # Limits: an oversized job is refused with the limit in the message.
-    max_width: int = Field(4096, ge=1, le=MAX_SIDE)
-    max_height: int = Field(4096, ge=1, le=MAX_SIDE)
+    max_width: int = Field(4096, ge=1, le=MAX_FRAME_SIDE)
+    max_height: int = Field(4096, ge=1, le=MAX_FRAME_SIDE)
     max_frames: int = Field(720, ge=1, le=MAX_FRAMES)
     max_job_pixels: int = Field(512 * 512 * 720, ge=1)
     #: Tiles in one job (each is a database row): 512x512 at the default tile, 720 frames, is 46,080.

@@ -13,7 +13,7 @@ from argand.frames.angles import parse_angle, parse_sweep
 from argand.render.frames import (
     AOV_CHANNELS,
     BAND_RULE,
-    ESCALATION_NAMES,
+    LADDER_LEVEL_NAMES,
     MAX_OBJECTS,
     MAX_SAMPLES,
     STATUS_NAMES,
@@ -31,7 +31,7 @@ from argand.render.rays import primary_ray
 __all__ = [
     "AOV_CHANNELS",
     "BAND_RULE",
-    "ESCALATION_NAMES",
+    "LADDER_LEVEL_NAMES",
     "MAX_OBJECTS",
     "MAX_SAMPLES",
     "STATUS_NAMES",

@@ -17,7 +17,7 @@ from typing import Any
 
 from argand.core import _core
 from argand.render.exact import decide_pixel
-from argand.render.frames import ESCALATION_NAMES, STATUS_NAMES, FrameParams, plan
+from argand.render.frames import LADDER_LEVEL_NAMES, STATUS_NAMES, FrameParams, plan
 
 
 def explain_pixel(scene: Any, params: FrameParams, x: int, y: int, tile: int = 64, sample: int = 0) -> dict:
@@ -84,6 +84,6 @@ def format_explanation(e: dict) -> list[str]:
                          f"{abs(z.imag)!r}i (nearest doubles), eligible roots {x['eligible']}")
     lines.append(
         f"status {e['status']} ({STATUS_NAMES[e['status']]}): {e['reason']}; "
-        f"{'hit' if e['hit'] else 'miss'}; ladder level {e['escalation']} ({ESCALATION_NAMES[e['escalation']]})"
+        f"{'hit' if e['hit'] else 'miss'}; ladder level {e['escalation']} ({LADDER_LEVEL_NAMES[e['escalation']]})"
     )
     return lines

@@ -25,7 +25,7 @@ from argand.render.options import EngineOptions
 
 #: AOV names, in the order they are stored in EXR files after R, G, B, A
 #: (the one channel list: the farm, the EXR writer and the tests read it).
-#: ``escalation`` is the ladder level a pixel needed (ESCALATION_NAMES);
+#: ``escalation`` is the ladder level a pixel needed (LADDER_LEVEL_NAMES);
 #: ``certified_share`` the share of the pixel's samples that are certified.
 AOV_CHANNELS = ("Z", "arg", "re", "im", "count", "status", "escalation", "certified_share")
 #: Each AOV's array type as the renderer writes it (the EXR stores all as float32).
@@ -38,7 +38,7 @@ STATUS_NAMES: dict[int, str] = dict(_core.STATUS_NAMES)
 
 #: Ladder levels (the ``escalation`` AOV): how far a pixel had to go before
 #: its decision was proven (or the ladder ran out). Defined in C++.
-ESCALATION_NAMES: dict[int, str] = dict(_core.ESCALATION_NAMES)
+LADDER_LEVEL_NAMES: dict[int, str] = dict(_core.LADDER_LEVEL_NAMES)
 #: The exact tier's levels (argand.render.exact decides the pixel on the exact
 #: rational ray polynomial), and the level of a pixel the tier's per-tile
 #: budget left undecided.
@@ -46,12 +46,13 @@ EXACT_LEVELS = (4, 5)
 EXACT_MULTIPLE_LEVEL = 5
 EXACT_OVER_CAP_LEVEL = 6
 
-#: The exact tier's bounds (defaults of FrameParams, defined in C++): pixels
-#: per tile it may take, its highest working precision in bits, and the
-#: largest precision a frame may ask for.
+#: The exact tier's bounds (defined in C++): the pixels per tile it may take
+#: and its highest working precision in bits, by default (FrameParams'
+#: exact_pixels_per_tile and exact_max_bits), and the largest precision a
+#: frame may ask for.
 EXACT_PIXELS_PER_TILE: int = _core.EXACT_PIXELS_PER_TILE
-EXACT_MAX_BITS: int = _core.EXACT_MAX_BITS
-MAX_EXACT_BITS: int = _core.MAX_EXACT_BITS
+EXACT_DEFAULT_BITS: int = _core.EXACT_DEFAULT_BITS
+EXACT_BITS_LIMIT: int = _core.EXACT_BITS_LIMIT
 
 #: Most objects in one scene, the largest frame side, and the band rule (all
 #: defined in C++, where plan_frame enforces them).
@@ -79,7 +80,7 @@ class FrameParams:
     #: The exact tier: at most this many pixels per tile (0: off), up to
     #: this many bits of precision.
     exact_pixels_per_tile: int = EXACT_PIXELS_PER_TILE
-    exact_max_bits: int = EXACT_MAX_BITS
+    exact_max_bits: int = EXACT_DEFAULT_BITS
     #: The engine's modes (argand.render.options); the defaults unless a
     #: caller passes others (the CLI and the worker read them from the environment).
     engine: EngineOptions = field(default_factory=EngineOptions)
@@ -98,8 +99,8 @@ class FrameParams:
         if not (isinstance(self.exact_pixels_per_tile, int) and self.exact_pixels_per_tile >= 0):
             raise ValueError(f"exact_pixels_per_tile must be an integer >= 0 (0: no exact tier), "
                              f"got {self.exact_pixels_per_tile!r}")
-        if not (isinstance(self.exact_max_bits, int) and 64 <= self.exact_max_bits <= MAX_EXACT_BITS):
-            raise ValueError(f"exact_max_bits must be an integer in 64..{MAX_EXACT_BITS}, got {self.exact_max_bits!r}")
+        if not (isinstance(self.exact_max_bits, int) and 64 <= self.exact_max_bits <= EXACT_BITS_LIMIT):
+            raise ValueError(f"exact_max_bits must be an integer in 64..{EXACT_BITS_LIMIT}, got {self.exact_max_bits!r}")
 
 
 @dataclass(frozen=True)
@@ -337,7 +338,7 @@ def frame_figures(result: FrameResult) -> dict[str, Any]:
         levels = result.levels
     else:
         levels = np.bincount(np.asarray(result.aovs["escalation"]).astype(np.intp, copy=False).ravel(),
-                             minlength=len(ESCALATION_NAMES))
+                             minlength=len(LADDER_LEVEL_NAMES))
     exact = int(sum(levels[k] for k in EXACT_LEVELS))
     return {
         "sigma": p.sigma,
@@ -354,10 +355,10 @@ def frame_figures(result: FrameResult) -> dict[str, Any]:
         "hit_share": result.hit_share,
         "escalations": result.escalations,
         "escalated_share": result.escalations / n,
-        # Pixels per ladder level (ESCALATION_NAMES), and the exact tier's
+        # Pixels per ladder level (LADDER_LEVEL_NAMES), and the exact tier's
         # share: pixels it decided or tried (levels 4, 5), multiple roots it
         # proved, pixels its per-tile budget left out.
-        "escalation_levels": {ESCALATION_NAMES[k]: int(levels[k]) for k in range(len(ESCALATION_NAMES))},
+        "escalation_levels": {LADDER_LEVEL_NAMES[k]: int(levels[k]) for k in range(len(LADDER_LEVEL_NAMES))},
         "exact_pixels": exact,
         "exact_share": exact / n,
         "exact_multiple_roots": int(levels[EXACT_MULTIPLE_LEVEL]),

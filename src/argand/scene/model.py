@@ -34,25 +34,61 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def _color(value: Any) -> RGB:
-    """'#rrggbb' or [r, g, b] with each component in 0..1."""
-    allowed = "a colour is '#rrggbb' or [r, g, b] with each component in 0..1"
-    if isinstance(value, str):
-        hex_digits = value[1:]
-        if not value.startswith("#") or len(hex_digits) != 6 or any(ch not in "0123456789abcdefABCDEF" for ch in hex_digits):
+def range_text(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
+    """Bounds as C++'s field checks write them: "in [0.0, 1.0]", ">= 0.0"."""
+    if math.isinf(hi):
+        return f"{'>' if lo_open else '>='} {float(lo)!r}"
+    return f"in {'(' if lo_open else '['}{float(lo)!r}, {float(hi)!r}{')' if hi_open else ']'}"
+
+
+def bounds(field: str) -> dict[str, float]:
+    """The bounds of the typed scene's number field ``Struct.field`` (C++'s
+    FIELD_LIMITS, which its setters check) as pydantic's ge/gt/le/lt: every
+    limit of a scene field that reaches C++ is written once, there."""
+    lo, hi, lo_open, hi_open = _core.FIELD_LIMITS[field]
+    out = {}
+    if math.isfinite(lo):
+        out["gt" if lo_open else "ge"] = lo
+    if math.isfinite(hi):
+        out["lt" if hi_open else "le"] = hi
+    return out
+
+
+def _within(value: float, lo: float, hi: float, lo_open: bool, hi_open: bool) -> bool:
+    return (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi)
+
+
+def _color_of(field: str) -> Any:
+    """The validator of a colour of the typed scene's field ``field``:
+    '#rrggbb' or [r, g, b], each component within FIELD_LIMITS[field]."""
+    limits = _core.FIELD_LIMITS[field]
+    each = range_text(*limits)
+    allowed = f"a colour is '#rrggbb' or [r, g, b] with each component {each}"
+
+    def color(value: Any) -> RGB:
+        if isinstance(value, str):
+            hex_digits = value[1:]
+            if not value.startswith("#") or len(hex_digits) != 6 or any(ch not in "0123456789abcdefABCDEF" for ch in hex_digits):
+                raise ValueError(f"{allowed}, not {value!r}")
+            rgb = tuple(int(hex_digits[i : i + 2], 16) / 255.0 for i in (0, 2, 4))
+        elif isinstance(value, (list, tuple)):
+            if len(value) != 3 or not all(_is_number(v) for v in value):
+                raise ValueError(f"{allowed}, not {list(value)!r}")
+            rgb = tuple(float(v) for v in value)
+        else:
             raise ValueError(f"{allowed}, not {value!r}")
-        return tuple(int(hex_digits[i : i + 2], 16) / 255.0 for i in (0, 2, 4))  # type: ignore[return-value]
-    if isinstance(value, (list, tuple)):
-        if len(value) != 3 or not all(_is_number(v) for v in value):
-            raise ValueError(f"{allowed}, not {list(value)!r}")
-        if not all(0.0 <= v <= 1.0 for v in value):
-            raise ValueError(f"colour components must be in 0..1, got {list(value)!r}")
-        return tuple(float(v) for v in value)  # type: ignore[return-value]
-    raise ValueError(f"{allowed}, not {value!r}")
+        if not all(math.isfinite(v) and _within(v, *limits) for v in rgb):
+            raise ValueError(f"colour components must be {each}, got {value if isinstance(value, str) else list(value)!r}")
+        return rgb  # type: ignore[return-value]
+
+    return color
 
 
-#: A colour: "#rrggbb" or [r, g, b] in 0..1, stored as three floats.
-Color = Annotated[RGB, BeforeValidator(_color)]
+#: Colours: "#rrggbb" or [r, g, b], stored as three floats, each component
+#: within the bounds of the typed scene's field (FIELD_LIMITS).
+MaterialColor = Annotated[RGB, BeforeValidator(_color_of("Material.color"))]
+LightColor = Annotated[RGB, BeforeValidator(_color_of("Light.color"))]
+BackgroundColor = Annotated[RGB, BeforeValidator(_color_of("SceneSpec.background"))]
 
 
 def _vector(value: Any) -> Any:
@@ -81,13 +117,13 @@ _SCENE = _core.SceneSpec()
 class Material(_Strict):
     """Phong shading plus mirror reflection and refraction (real objects)."""
 
-    color: Color = _MATERIAL.color
-    diffuse: float = Field(_MATERIAL.diffuse, ge=0, le=1)
-    specular: float = Field(_MATERIAL.specular, ge=0, le=1)
-    shininess: float = Field(_MATERIAL.shininess, gt=0, le=10000)
-    reflectivity: float = Field(_MATERIAL.reflectivity, ge=0, le=1)
-    transparency: float = Field(_MATERIAL.transparency, ge=0, le=1)
-    ior: float = Field(_MATERIAL.ior, ge=1, le=4)
+    color: MaterialColor = _MATERIAL.color
+    diffuse: float = Field(_MATERIAL.diffuse, **bounds("Material.diffuse"))
+    specular: float = Field(_MATERIAL.specular, **bounds("Material.specular"))
+    shininess: float = Field(_MATERIAL.shininess, **bounds("Material.shininess"))
+    reflectivity: float = Field(_MATERIAL.reflectivity, **bounds("Material.reflectivity"))
+    transparency: float = Field(_MATERIAL.transparency, **bounds("Material.transparency"))
+    ior: float = Field(_MATERIAL.ior, **bounds("Material.ior"))
 
     @model_validator(mode="after")
     def _energy(self) -> Material:
@@ -112,7 +148,9 @@ class SceneObject(_Strict):
 
     surface: str
     space: Literal["complex", "real"] = "complex"
-    clip_radius: float | None = Field(None, gt=0)
+    #: C++'s SurfaceSpec.clip_radius takes 0 for no clip sphere; a scene says
+    #: that with null, so here the radius is above that lower bound.
+    clip_radius: float | None = Field(None, gt=_core.FIELD_LIMITS["SurfaceSpec.clip_radius"][0])
     material: Material = Material()
     transform: Transform | None = None
 
@@ -151,7 +189,7 @@ class Camera(_Strict):
     position: Vector
     look_at: Vector = _CAMERA.look_at
     up: Vector = _CAMERA.up
-    fov: float = Field(_CAMERA.fov_degrees, gt=1, lt=179)
+    fov: float = Field(_CAMERA.fov_degrees, **bounds("CameraSpec.fov_degrees"))
 
     @model_validator(mode="after")
     def _not_degenerate(self) -> Camera:
@@ -169,8 +207,8 @@ class Light(_Strict):
 
     direction: Vector | None = None
     position: Vector | None = None
-    color: Color = _LIGHT.color
-    intensity: float = Field(_LIGHT.intensity, ge=0)
+    color: LightColor = _LIGHT.color
+    intensity: float = Field(_LIGHT.intensity, **bounds("Light.intensity"))
 
     @model_validator(mode="after")
     def _one_of(self) -> Light:
@@ -208,7 +246,7 @@ class Scene(_Strict):
     camera: Camera | None = None
     #: None (or empty): the renderer's default lights (render.h's default_lights()).
     lights: list[Light] | None = None
-    background: Color = _SCENE.background
+    background: BackgroundColor = _SCENE.background
     #: Samples per pixel, a square from 1 to MAX_SAMPLES (C++'s limit):
     #: the pixel's colour is their mean, its status the worst of theirs.
     samples: int = Field(1, ge=1, le=MAX_SAMPLES, strict=True)
