@@ -14,7 +14,7 @@ from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Histogram,
 
 from argand.api.auth import check_access, needs_token
 from argand.api.request_limits import BodyLimit
-from argand.api.routes import frames, jobs, service
+from argand.api.routes import bands, frames, jobs, service
 from argand.farm.control import NoSuchJob
 from argand.farm.metrics import FarmCollector
 from argand.farm.outbox import Drainer
@@ -118,7 +118,7 @@ def create_app(settings: Settings) -> FastAPI:
     app = FastAPI(title="Argand", description="Render jobs of algebraic surfaces in complex space.",
                   dependencies=[Depends(check_access)], lifespan=lifespan)
     app.state.settings = settings
-    for module in (jobs, frames, service):
+    for module in (jobs, frames, bands, service):
         app.include_router(module.router)
 
     @app.exception_handler(ValueError)

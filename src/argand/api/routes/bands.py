@@ -1,0 +1,55 @@
+"""Any band (σ, δ) of a finished job, on demand (argand.farm.bands): the
+picture and the EXR with every AOV, the certified figures in headers."""
+
+from __future__ import annotations
+
+import json
+
+from fastapi import APIRouter, HTTPException, Query
+from fastapi.responses import Response
+
+from argand.api.deps import JobIdDep, SettingsDep
+from argand.api.routes.frames import binary
+from argand.farm.bands import Band, JobNotDone, NoJob, band, exr_bytes
+
+router = APIRouter(prefix="/api/jobs/{job_id}", tags=["bands"])
+
+SIGMA = Query(..., description="Start of the band, an angle as written (0.35, pi/9, 2*pi/3); σ ≥ 0 and σ + δ ≤ π.",
+              max_length=64)
+DELTA = Query(..., description="Width of the band, an angle as written; δ ≥ 0.", max_length=64)
+
+
+def _band(settings, job_id: str, sigma: str, delta: str, keep_result: bool = False) -> Band:
+    try:
+        return band(settings, job_id, sigma, delta, keep_result)
+    except NoJob:
+        raise HTTPException(404, detail=f"no job {job_id!r}") from None
+    except JobNotDone as exc:
+        raise HTTPException(409, detail=str(exc)) from None
+    except ValueError as exc:
+        raise HTTPException(422, detail=str(exc)) from None
+
+
+def _headers(b: Band) -> dict[str, str]:
+    return {"X-Argand-Sigma": repr(b.sigma), "X-Argand-Delta": repr(b.delta),
+            "X-Argand-Certified-Share": repr(float(b.figures["certified_share"])),
+            "X-Argand-Status-Shares": json.dumps(b.figures["status_shares"], separators=(",", ":")),
+            "X-Argand-Render-Seconds": f"{b.figures['seconds']:.4f}", "X-Argand-Cache": "hit" if b.cached else "miss",
+            "Cache-Control": "private, max-age=3600"}
+
+
+@router.get("/band.png", **binary("image/png", "The band's picture (certified decisions), figures in X-Argand-* headers"))
+def band_png(job_id: JobIdDep, settings: SettingsDep, sigma: str = SIGMA, delta: str = DELTA):
+    """Any band of a done job, within the band rule: what `argand render
+    --sigma S --delta D` shows for the job's scene and size. 409 while the
+    job is not done; 422 for a pair outside the band rule."""
+    b = _band(settings, job_id, sigma, delta)
+    return Response(b.png, media_type="image/png", headers=_headers(b))
+
+
+@router.get("/band.exr", **binary("image/x-exr", "The band's EXR (every AOV, the status channel included)"))
+def band_exr(job_id: JobIdDep, settings: SettingsDep, sigma: str = SIGMA, delta: str = DELTA):
+    """The band's EXR, as `argand render` writes a frame: R, G, B, A and
+    every AOV (Z, arg, re, im, count, status, escalation, certified_share)."""
+    b = _band(settings, job_id, sigma, delta, keep_result=True)
+    return Response(exr_bytes(b.result, settings.exr_compression), media_type="image/x-exr", headers=_headers(b))

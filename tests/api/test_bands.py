@@ -1,0 +1,109 @@
+"""GET /api/jobs/{id}/band.png and band.exr: any band (σ, δ) of a done job,
+bands the job never rendered included, equal pixel for pixel to the frame
+`argand render --sigma S --delta D` makes of the job's scene and size; the
+figures in headers; clear refusals. A real SQLite farm store, an embedded
+Redis, uvicorn on a loopback port; the job's tiles rendered by the
+worker's own task body (tile_work.run_tiles)."""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import random
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from argand.farm import tile_work
+from argand.frames.angles import parse_angle
+from argand.media.frame_files import EXR_CHANNELS, read_exr, to_srgb8
+from argand.render import FrameParams, render_frame
+from argand.scene import load_scene
+from tests.api.test_api import _served
+from tests.farm.test_work import farm_parts  # noqa: F401  (the fixture)
+
+W, H, TILE = 40, 32, 16
+
+
+def _finish(settings, c, scene: str, deltas: list) -> str:
+    r = c.post("/api/jobs", json={"scene": scene, "deltas": deltas, "width": W, "height": H, "tile": TILE})
+    assert r.status_code == 201, r.text
+    job = r.json()
+    tiles = (W + TILE - 1) // TILE * ((H + TILE - 1) // TILE)
+    for index in range(len(deltas)):
+        assert tile_work.run_tiles(settings, job["id"], index, list(range(tiles)), "w-test") == "rendered"
+    assert c.get(f"/api/jobs/{job['id']}").json()["status"] == "done"
+    return job["id"]
+
+
+def _png_pixels(data: bytes) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(data)))
+
+
+def test_any_band_of_a_done_job_equals_the_local_render(farm_parts, tmp_path):  # noqa: F811
+    settings, _redis = farm_parts
+    with _served(farm_parts) as (c, _redis_server, _app):
+        job_id = _finish(settings, c, "whitney", [0, "pi/18"])
+        rng = random.Random(5)
+        pairs = [("0", "0"), ("pi/9", "pi/4"), ("0", "pi"), ("pi/2", "pi/2"), ("1.25", "0.3"), ("pi", "0")]
+        pairs += [(repr(s), repr(rng.uniform(0, math.pi - s))) for s in (rng.uniform(0, math.pi) for _ in range(4))]
+        scene = load_scene("whitney")
+        for sigma, delta in pairs:
+            local = render_frame(scene, FrameParams(sigma=parse_angle(sigma), delta=parse_angle(delta), width=W,
+                                                    height=H))
+            r = c.get(f"/api/jobs/{job_id}/band.png", params={"sigma": sigma, "delta": delta})
+            assert r.status_code == 200, r.text
+            assert r.headers["content-type"] == "image/png"
+            assert np.array_equal(_png_pixels(r.content), to_srgb8(local.rgba)), (sigma, delta)
+            assert float(r.headers["X-Argand-Certified-Share"]) == local.certified_share
+            assert json.loads(r.headers["X-Argand-Status-Shares"]) == local.status_shares()
+            assert float(r.headers["X-Argand-Sigma"]) == parse_angle(sigma)
+            again = c.get(f"/api/jobs/{job_id}/band.png", params={"sigma": sigma, "delta": delta})
+            assert again.content == r.content and again.headers["X-Argand-Cache"] == "hit"
+        # The EXR: every channel, the status AOV included, as the local render's.
+        r = c.get(f"/api/jobs/{job_id}/band.exr", params={"sigma": "pi/7", "delta": "pi/5"})
+        assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"
+        path = tmp_path / "band.exr"
+        path.write_bytes(r.content)
+        local = render_frame(scene, FrameParams(sigma=math.pi / 7, delta=math.pi / 5, width=W, height=H))
+        names, got = read_exr(path)
+        assert sorted(names) == sorted(EXR_CHANNELS)
+        for i, name in enumerate(names):
+            want = local.rgba[..., "RGBA".index(name)] if name in "RGBA" else local.aovs[name].astype(np.float32)
+            assert np.array_equal(got[..., i], want), name
+        assert np.any(local.aovs["status"] == 0)
+
+
+def test_the_band_png_is_the_png_argand_render_writes(farm_parts, tmp_path):  # noqa: F811
+    settings, _redis = farm_parts
+    with _served(farm_parts) as (c, _redis_server, _app):
+        job_id = _finish(settings, c, "steiner", [0])
+        r = c.get(f"/api/jobs/{job_id}/band.png", params={"sigma": "0.2", "delta": "pi/6"})
+        assert r.status_code == 200
+    out = tmp_path / "cli"
+    run = subprocess.run([sys.executable, "-m", "argand.cli", "render", "steiner", "--sigma", "0.2", "--delta", "pi/6",
+                          "--size", f"{W}x{H}", "--out", str(out)], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    (png,) = out.glob("*.png")
+    assert np.array_equal(_png_pixels(r.content), _png_pixels(png.read_bytes()))
+
+
+def test_bad_bands_and_jobs_are_refused_clearly(farm_parts):  # noqa: F811
+    settings, _redis = farm_parts
+    with _served(farm_parts) as (c, _redis_server, _app):
+        job_id = _finish(settings, c, "bicube", [0])
+        for sigma, delta, words in (("pi/2", "pi", "band rule"), ("-0.1", "0", "band rule"), ("pi/0", "0", "σ"),
+                                    ("0", "1e999", "δ"), ("0", "x+1", "δ"), ("nan", "0", "σ")):
+            r = c.get(f"/api/jobs/{job_id}/band.png", params={"sigma": sigma, "delta": delta})
+            assert r.status_code == 422, (sigma, delta, r.text)
+            assert words in r.json()["detail"], (sigma, delta, r.json())
+        r = c.get(f"/api/jobs/{job_id}/band.png", params={"sigma": "0"})
+        assert r.status_code == 422  # δ missing
+        assert c.get("/api/jobs/nosuchjob/band.png", params={"sigma": "0", "delta": "0"}).status_code == 404
+        queued = c.post("/api/jobs", json={"scene": "bicube", "deltas": [0], "width": 16, "height": 16}).json()["id"]
+        r = c.get(f"/api/jobs/{queued}/band.exr", params={"sigma": "0", "delta": "0"})
+        assert r.status_code == 409 and "queued" in r.json()["detail"]
