@@ -1,8 +1,10 @@
 """The package's shape, checked: every module imports alone, no module
 imports another that imports it back (no cycle), imports point down the
-layers `cli/api/worker -> argand.farm -> argand.render/argand.scene ->
-argand.core`, argand.farm imports at the top only, and no function of the
-farm, the API or the workers is longer than 60 lines."""
+layers `cli/serve -> api/worker/bench -> argand.farm ->
+render/frames/media/scene -> argand.core` (LAYERS), only argand.serve and
+argand.cli import both the API and the workers, argand.farm imports at the
+top only, no function of the farm, the API or the workers is longer than 60
+lines, and only the edges read the environment (ENVIRONMENT_READERS)."""
 
 from __future__ import annotations
 
