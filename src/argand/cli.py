@@ -481,6 +481,29 @@ def bench_stability_cmd(
     console.print(f"wrote {out / 'stability.json'}, {out / 'stability.md'} and {out / 'stability.png'}")
 
 
+@bench_app.command("bands")
+def bench_bands_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out", metavar="DIR"),
+    smoke: bool = typer.Option(False, "--smoke", help="6 bands of 64x64, for CI."),
+) -> None:
+    """A job's frames sharing their roots: a sweep's bands rendered together against one by one, argand render's
+    sweep and atlas against one frame, the band route's latency."""
+    from argand.bench.bands import bench_bands
+
+    with console.status("benchmarking bands") as status:
+        report = bench_bands(out_dir=out, smoke=smoke, progress=lambda m: status.update(m))
+    for r in report["render"]:
+        console.print(f"{r['scene']} {r['size']}x{r['size']}, {r['frames']} bands: together {r['together_cpu_s']:.3f} s, "
+                      f"one by one {r['alone_cpu_s']:.3f} s ({r['speedup']:.2f}x), same bits: {r['bit_identical']}")
+    cli = report["cli"]
+    console.print(f"argand render: sweep of {cli['frames']} {cli['sweep_over_one']:.1f}x one frame, "
+                  f"atlas of {cli['atlas_frames']} {cli['atlas_over_one']:.1f}x one frame (whole process)")
+    for r in report["band_route"]:
+        console.print(f"band route {r['scene']} {r['size']}x{r['size']}: p50 {1000 * r['p50_s']:.0f} ms, "
+                      f"p95 {1000 * r['p95_s']:.0f} ms")
+    console.print(f"wrote {out / 'bands.json'}, {out / 'bands.md'} and {out / 'bands.png'}")
+
+
 @bench_app.command("all")
 def bench_all_cmd(
     out: Path = typer.Option(None, "--out", help="Folder for every section's files (default docs/bench, "

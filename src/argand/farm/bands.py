@@ -14,6 +14,7 @@ figures), so going back to a band is free.
 
 from __future__ import annotations
 
+import math
 import tempfile
 import threading
 import time
@@ -125,3 +126,68 @@ def exr_bytes(result: FrameResult, compression: str) -> bytes:
         path = Path(tmp) / "band.exr"
         write_exr(result, path, compression=compression)
         return path.read_bytes()
+
+
+#: Pixels per side of the grid whose roots root_arguments reads, and its bins over [0, π].
+ARGUMENT_GRID = 48
+ARGUMENT_BINS = 90
+
+
+def inside_clip(obj, origin, direction, centres):
+    """Which roots' points lie inside the object's clipping sphere (all
+    when it has none): the point at distance |t| along the ray, in object
+    space (object = linear (world - translate)), at the disc's centre."""
+    import numpy as np
+
+    radius = float(obj.clip_radius)
+    if radius <= 0.0:
+        return np.ones(len(centres), bool)
+    linear = np.asarray(obj.linear, float).reshape(3, 3)
+    o = linear @ (np.asarray(origin, float) - np.asarray(obj.translate, float))
+    d = linear @ np.asarray(direction, float)
+    points = o[None, :] + np.abs(centres)[:, None] * d[None, :]
+    return np.einsum("ij,ij->i", points, points) <= radius * radius
+
+
+def root_arguments(settings: Settings, job_id: str, grid: int = ARGUMENT_GRID, bins: int = ARGUMENT_BINS) -> dict:
+    """Where in (σ, δ) a job's picture can change: the arguments |arg t| of
+    the roots of the primary rays of a grid x grid subset of its pixels
+    (evenly spread, pixel centres), each object's ray polynomial solved
+    with proven discs (argand.core.find_roots, coefficient radii included);
+    a verified disc counts its roots, at the argument of its centre, when
+    its centre's point lies inside the object's clipping sphere (the roots
+    a frame can show). A band's picture changes only where σ or σ + δ
+    crosses such a root's argument, so the histogram shows which bands are
+    worth looking at. Raises NoJob."""
+    import numpy as np
+
+    from argand.core import _core, find_roots
+    from argand.render.convert import to_core_scene
+    from argand.render.frames import plan
+
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        job = c.execute(select(Job.scene, Job.width, Job.height).where(Job.id == job_id)).first()
+    if job is None:
+        raise NoJob(job_id)
+    core_scene = to_core_scene(scene_from_dict(job.scene))
+    frame_plan = plan(core_scene, FrameParams(width=job.width, height=job.height))
+    xs = sorted({min(job.width - 1, int((i + 0.5) * job.width / grid)) for i in range(grid)})
+    ys = sorted({min(job.height - 1, int((j + 0.5) * job.height / grid)) for j in range(grid)})
+    args: list[float] = []
+    weights: list[int] = []
+    unverified = 0
+    for y in ys:
+        for x in xs:
+            origin, direction = _core.primary_ray(frame_plan, x, y, 0)
+            for obj in range(len(core_scene.objects)):
+                coeffs, radius = _core.ray_polynomial(frame_plan, obj, origin, direction, True)
+                if not (np.all(np.isfinite(coeffs)) and coeffs[-1] != 0.0):
+                    continue
+                roots = find_roots(coeffs, radius=radius)
+                ok = roots.verified & inside_clip(core_scene.objects[obj], origin, direction, roots.center)
+                unverified += int(np.sum(roots.count[~roots.verified]))
+                args += np.abs(np.angle(roots.center[ok])).tolist()
+                weights += roots.count[ok].tolist()
+    counts, edges = np.histogram(args, bins=bins, range=(0.0, math.pi), weights=weights)
+    return {"edges": edges.tolist(), "counts": counts.astype(int).tolist(), "pixels": len(xs) * len(ys),
+            "roots": int(sum(weights)), "unverified_roots": unverified}

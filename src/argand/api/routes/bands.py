@@ -10,7 +10,7 @@ from fastapi.responses import Response
 
 from argand.api.deps import JobIdDep, SettingsDep
 from argand.api.routes.frames import binary
-from argand.farm.bands import Band, JobNotDone, NoJob, band, exr_bytes
+from argand.farm.bands import Band, JobNotDone, NoJob, band, exr_bytes, root_arguments
 
 router = APIRouter(prefix="/api/jobs/{job_id}", tags=["bands"])
 
@@ -53,3 +53,15 @@ def band_exr(job_id: JobIdDep, settings: SettingsDep, sigma: str = SIGMA, delta:
     every AOV (Z, arg, re, im, count, status, escalation, certified_share)."""
     b = _band(settings, job_id, sigma, delta, keep_result=True)
     return Response(exr_bytes(b.result, settings.exr_compression), media_type="image/x-exr", headers=_headers(b))
+
+
+@router.get("/arguments")
+def arguments(job_id: JobIdDep, settings: SettingsDep) -> dict:
+    """Where the job's picture can change along σ and δ: a histogram over
+    [0, π] of the arguments |arg t| of the roots of the primary rays of an
+    evenly spread subset of its pixels (proven discs; see
+    argand.farm.bands.root_arguments)."""
+    try:
+        return root_arguments(settings, job_id)
+    except NoJob:
+        raise HTTPException(404, detail=f"no job {job_id!r}") from None

@@ -1,0 +1,191 @@
+"""Bands: what a job's frames gain from sharing their rays and roots.
+
+Three measurements, each against its alternative in the same run:
+
+* render: a δ sweep's frames rendered together (render_bands: each tile's
+  primary roots solved once) against the same frames one by one
+  (render_frame), CPU time on one thread, and whether every channel of
+  every frame is the same bits;
+* CLI: `argand render` of the sweep (every file written) against one frame,
+  whole process, wall and CPU time, one thread (--workers 1);
+* band on demand: the band route's work (render the band, encode its PNG:
+  argand.farm.bands) over random (σ, δ) pairs, p50 and p95.
+
+Writes bands.json, bands.md and bands.png under the output folder.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import random
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Callable
+
+from argand.bench import machine_info
+
+SCENES = ("bicube", "whitney", "barth-sextic", "chmutov-octic")
+
+
+def _sweep(size: int, frames: int):
+    from argand.render import FrameParams
+
+    return [FrameParams(delta=i * (math.pi / 9) / max(1, frames - 1), width=size, height=size) for i in range(frames)]
+
+
+def bench_render_together(scene_name: str, size: int, frames: int, rounds: int) -> dict:
+    import numpy as np
+
+    from argand.render import render_frame
+    from argand.render.frames import AOV_CHANNELS, render_bands
+    from argand.scene import load_scene
+
+    scene = load_scene(scene_name)
+    params = _sweep(size, frames)
+    best_together = best_alone = best_one = math.inf
+    for _ in range(rounds):
+        cpu = time.process_time()
+        together = render_bands(scene, params, workers=1)
+        best_together = min(best_together, time.process_time() - cpu)
+        cpu = time.process_time()
+        alone = [render_frame(scene, p, workers=1) for p in params]
+        best_alone = min(best_alone, time.process_time() - cpu)
+        cpu = time.process_time()
+        render_frame(scene, params[len(params) // 2], workers=1)
+        best_one = min(best_one, time.process_time() - cpu)
+    same = all(a.rgba.tobytes() == b.rgba.tobytes() and
+               all(np.asarray(a.aovs[k]).tobytes() == np.asarray(b.aovs[k]).tobytes() for k in AOV_CHANNELS)
+               for a, b in zip(together, alone))
+    return {"scene": scene_name, "size": size, "frames": frames, "together_cpu_s": best_together,
+            "alone_cpu_s": best_alone, "one_frame_cpu_s": best_one, "speedup": best_alone / best_together,
+            "together_over_one_frame": best_together / best_one, "bit_identical": same}
+
+
+def _run_cli(args: list[str]) -> tuple[float, float]:
+    """(wall, CPU of the child) of one `argand ...` process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "argand.cli", *args], check=True, capture_output=True)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def bench_cli(size: int, frames: int, atlas: int, atlas_size: int, repeat: int) -> dict:
+    def median(args: list[str]) -> dict:
+        runs = []
+        for _ in range(repeat):
+            with tempfile.TemporaryDirectory(prefix="argand-bench-bands-") as tmp:
+                runs.append(_run_cli([*args, "--workers", "1", "--out", str(Path(tmp) / "out")]))
+        walls, cpus = sorted(r[0] for r in runs), sorted(r[1] for r in runs)
+        return {"wall_s": walls[len(walls) // 2], "cpu_s": cpus[len(cpus) // 2]}
+
+    one = median(["render", "bicube", "--delta", "pi/18", "--size", f"{size}x{size}"])
+    sweep = median(["render", "bicube", "--deltas", f"0:pi/9:{frames}", "--size", f"{size}x{size}"])
+    one_small = median(["render", "bicube", "--delta", "pi/18", "--size", f"{atlas_size}x{atlas_size}"])
+    atlas_run = median(["render", "bicube", "--atlas", str(atlas), "--size", f"{atlas_size}x{atlas_size}"])
+    return {"size": size, "frames": frames, "one_frame": one, "sweep": sweep,
+            "sweep_over_one": sweep["wall_s"] / one["wall_s"],
+            "atlas": atlas, "atlas_frames": atlas * (atlas + 1) // 2, "atlas_size": atlas_size,
+            "one_frame_atlas_size": one_small, "atlas_run": atlas_run,
+            "atlas_over_one": atlas_run["wall_s"] / one_small["wall_s"]}
+
+
+def bench_band_route(scene_name: str, size: int, pairs: int) -> dict:
+    """The band route's work per request (argand.farm.bands: render_frame on
+    every core, then the PNG), over random pairs of the band rule."""
+    from argand.farm.bands import _png_bytes
+    from argand.render import FrameParams, render_frame
+    from argand.scene import load_scene
+
+    scene = load_scene(scene_name)
+    rng = random.Random(7)
+    times = []
+    for _ in range(pairs):
+        sigma = rng.uniform(0, math.pi)
+        delta = rng.uniform(0, math.pi - sigma)
+        start = time.perf_counter()
+        _png_bytes(render_frame(scene, FrameParams(sigma=sigma, delta=delta, width=size, height=size)))
+        times.append(time.perf_counter() - start)
+    times.sort()
+    pick = lambda q: times[min(len(times) - 1, int(q * len(times)))]  # noqa: E731
+    return {"scene": scene_name, "size": size, "pairs": pairs, "p50_s": pick(0.5), "p95_s": pick(0.95),
+            "max_s": times[-1]}
+
+
+def bench_bands(out_dir: Path = Path("docs/bench"), smoke: bool = False,
+                progress: Callable[[str], None] = lambda m: None) -> dict:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    size, frames, rounds = (64, 6, 1) if smoke else (512, 24, 3)
+    report: dict = {"machine": machine_info(), "smoke": smoke, "render": []}
+    for name in SCENES[:2] if smoke else SCENES:
+        progress(f"bands: {name} {size}x{size}, {frames} bands together and one by one")
+        report["render"].append(bench_render_together(name, size, frames, rounds))
+    progress("bands: argand render, a sweep and an atlas against one frame (whole process)")
+    report["cli"] = bench_cli(size, frames, 3 if smoke else 12, 48 if smoke else 256, 1 if smoke else 3)
+    progress("bands: the band route's work over random pairs")
+    report["band_route"] = [bench_band_route(name, size, 4 if smoke else 40) for name in ("bicube", "whitney")]
+    (out_dir / "bands.json").write_text(json.dumps(report, indent=2) + "\n")
+    (out_dir / "bands.md").write_text("\n".join(markdown(report)) + "\n")
+    chart(report, out_dir / "bands.png")
+    return report
+
+
+def markdown(report: dict, image: str = "bands.png") -> list[str]:
+    m = report["machine"]
+    cli = report["cli"]
+    lines = ["## Bands: a job's frames share their rays and roots", "",
+             "`argand bench bands`. " +
+             f"{m['processor']}, {m['cpu_count']} cores, load average {m['load_average_1_5_15_min'][0]:.1f} at the start, "
+             f"{m['date']}." + (" **Smoke run: tiny sizes.**" if report["smoke"] else ""), "",
+             "Frames rendered together (`render_bands`: each tile's primary roots solved once, then each band "
+             "decided, escalated and shaded on its own) against the same frames one by one, CPU time on one "
+             "thread (best of the rounds); every channel of every frame compared:", "",
+             "| scene | size | bands | together | one by one | speed-up | together / one frame | same bits |",
+             "|---|---:|---:|---:|---:|---:|---:|:---:|"]
+    for r in report["render"]:
+        lines.append(f"| {r['scene']} | {r['size']}² | {r['frames']} | {r['together_cpu_s']:.3f} s | "
+                     f"{r['alone_cpu_s']:.3f} s | {r['speedup']:.2f}× | {r['together_over_one_frame']:.1f}× | "
+                     f"{'yes' if r['bit_identical'] else '**no**'} |")
+    lines += ["", "`argand render` on one thread (`--workers 1`), whole process, every file written (median wall time):", "",
+              "| run | wall | CPU | over one frame |", "|---|---:|---:|---:|",
+              f"| one frame, {cli['size']}² | {cli['one_frame']['wall_s']:.2f} s | {cli['one_frame']['cpu_s']:.2f} s | 1 |",
+              f"| δ sweep of {cli['frames']}, {cli['size']}² | {cli['sweep']['wall_s']:.2f} s | {cli['sweep']['cpu_s']:.2f} s "
+              f"| {cli['sweep_over_one']:.1f}× |",
+              f"| one frame, {cli['atlas_size']}² | {cli['one_frame_atlas_size']['wall_s']:.2f} s | "
+              f"{cli['one_frame_atlas_size']['cpu_s']:.2f} s | 1 |",
+              f"| atlas of {cli['atlas']} ({cli['atlas_frames']} frames), {cli['atlas_size']}² | {cli['atlas_run']['wall_s']:.2f} s "
+              f"| {cli['atlas_run']['cpu_s']:.2f} s | {cli['atlas_over_one']:.1f}× |", "",
+              "The band route's work per request (render the band on every core, encode its PNG), random pairs:", "",
+              "| scene | size | pairs | p50 | p95 | max |", "|---|---:|---:|---:|---:|---:|"]
+    for r in report["band_route"]:
+        lines.append(f"| {r['scene']} | {r['size']}² | {r['pairs']} | {1000 * r['p50_s']:.0f} ms | "
+                     f"{1000 * r['p95_s']:.0f} ms | {1000 * r['max_s']:.0f} ms |")
+    lines += ["", f"![bands: together against one by one]({image})"]
+    return lines
+
+
+def chart(report: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 3.2))
+    names = [r["scene"] for r in report["render"]]
+    x = range(len(names))
+    ax.bar([i - 0.2 for i in x], [r["alone_cpu_s"] for r in report["render"]], 0.4, label="one by one")
+    ax.bar([i + 0.2 for i in x], [r["together_cpu_s"] for r in report["render"]], 0.4, label="together (roots solved once)")
+    ax.set_xticks(list(x), names)
+    r0 = report["render"][0]
+    ax.set_ylabel(f"CPU s, {r0['frames']} bands at {r0['size']}²")
+    ax.set_title("A δ sweep's frames: rendered together against one by one (same bits)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
