@@ -145,10 +145,10 @@ def test_render_sweeps_sigma_and_grids_with_an_atlas_and_an_mp4(tmp_path):
     with Image.open(out / "atlas.png") as im:
         assert im.size[0] > 3 * 16 and "atlas.png" in r.stdout
     # Refusals: both forms of an axis, an atlas with an axis, a pair outside the rule.
-    for args, message in ((["--sigma", "0", "--sigmas", "0:1:2"], "--sigma or --sigmas"),
-                          (["--atlas", "3", "--delta", "0.1"], "--atlas lays out its own"),
+    for args, message in ((["--sigma", "0", "--sigmas", "0:1:2"], "give sigma (one value) or sigmas, not both"),
+                          (["--atlas", "3", "--delta", "0.1"], "atlas lays out its own sigmas and deltas: give it without delta"),
                           (["--sigmas", "0:pi:2", "--delta", "pi/2"], "1 of the 2 frames breaks the band rule"),
-                          (["--sigmas", "0:1"], "--sigmas: expected START:STOP:COUNT")):
+                          (["--sigmas", "0:1"], "sigmas: expected START:STOP:COUNT")):
         r = run("render", "whitney", *args, "--size", "8x8", "--out", str(tmp_path / "bad"))
         assert r.returncode == 2 and message in " ".join(r.stderr.split()), (args, r.stderr)
 

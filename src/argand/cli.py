@@ -139,35 +139,21 @@ def render(
 ) -> None:
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, animation.gif and .mp4,
     and atlas.png for a grid of (sigma, delta)."""
-    from argand.render import FrameParams, parse_angle, parse_sweep
-    from argand.frames.frame_set import atlas_grid, axis_values, frame_grid
+    from argand.frames.frame_set import FrameSet
     from argand.media.frame_files import check_exr_compression
+    from argand.render import FrameParams
     from argand.render.sweep import render_sweep
     from argand.scene import load_scene
 
-    if delta is not None and deltas is not None:
-        fail("give --delta or --deltas, not both")
-    if sigma is not None and sigmas is not None:
-        fail("give --sigma or --sigmas, not both")
-    if atlas is not None and any(v is not None for v in (sigma, sigmas, delta, deltas)):
-        fail("--atlas lays out its own sigmas and deltas: give it without --sigma(s) and --delta(s)")
+    try:
+        # The API builds a job's frames the same way: the same pairs and the same refusals.
+        grid = FrameSet.from_axes(sigma=sigma, sigmas=sigmas, delta=delta, deltas=deltas, atlas=atlas)
+    except ValueError as exc:
+        fail(str(exc))
     try:
         check_exr_compression(exr_compression)
     except ValueError as exc:
         fail(f"--exr-compression: {exc}")
-    try:
-        if atlas is not None:
-            grid = atlas_grid(atlas)
-        else:
-            def axis(one: Optional[str], sweep: Optional[str], name: str) -> list[float]:
-                try:
-                    return axis_values(parse_sweep(sweep) if sweep is not None else parse_angle("0" if one is None else one))
-                except ValueError as exc:
-                    raise ValueError(f"--{name}: {exc}") from None
-            grid = frame_grid(axis(sigma, sigmas, "sigmas" if sigmas else "sigma"),
-                              axis(delta, deltas, "deltas" if deltas else "delta"))
-    except ValueError as exc:
-        fail(str(exc))
     width, height = _parse_size(size)
     try:
         loaded = load_scene(scene)

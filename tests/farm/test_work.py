@@ -341,13 +341,13 @@ def test_a_jobs_sweep_is_argand_renders_sweep_to_the_last_bit():
     """The same sweep over HTTP and on the command line gives the same
     deltas, so a farm's frame and `argand render`'s are the same frame
     (an earlier formula differed in the last bit for 13 of 36 frames)."""
-    from argand.api.schemas import AngleRange
-    from argand.farm.submission import sweep_axis
+    from argand.api.schemas import JobRequest
+    from argand.farm.submission import job_frames
     from argand.render import delta_sweep, parse_sweep
 
     for count in (1, 2, 5, 12, 24, 36, 48, 100):
-        spec = AngleRange(start="pi/36", stop="pi/9", count=count).model_dump()
-        assert sweep_axis(spec) == delta_sweep(*parse_sweep(f"pi/36:pi/9:{count}")), count
+        req = JobRequest(scene="steiner", deltas={"start": "pi/36", "stop": "pi/9", "count": count})
+        assert list(job_frames(**req.axes()).deltas) == delta_sweep(*parse_sweep(f"pi/36:pi/9:{count}")), count
 
 
 def test_one_worker_at_a_time_holds_the_reapers_lease(farm_parts, monkeypatch):

@@ -16,7 +16,7 @@ from argand.farm.states import shown_frame_status
 from argand.frames.angles import parse_angle
 from argand.render.frames import MAX_SAMPLES
 from argand.scene.model import check_samples
-from argand.frames.frame_set import FrameGrid, FramePoint
+from argand.frames.frame_set import FramePoint, FrameSet
 
 Priority = Field(5, ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
 
@@ -60,19 +60,21 @@ MAX_ATLAS_STEPS = 140
 
 class JobRequest(BaseModel):
     """A job's frames are (σ, δ) pairs: ``sigmas`` x ``deltas`` (each a
-    number, a list or a range; ``sigma`` is one σ, the default 0), or with
-    ``atlas`` the triangular grid over the whole space σ ≥ 0, σ + δ ≤ π.
-    Every pair must keep the band rule."""
+    number, a list or a range; ``sigma`` and ``delta`` are one value, the
+    default 0), or with ``atlas`` the triangular grid over the whole space
+    σ ≥ 0, σ + δ ≤ π; FrameSet.from_axes builds them, as for `argand
+    render`. Every pair must keep the band rule."""
     model_config = ConfigDict(extra="forbid")
     scene: str | dict = Field(description="A preset name or a scene object")
     sigma: float | str | None = Field(None, description="One σ (the default, 0); or give sigmas")
     sigmas: float | str | list[float | str] | AngleRange | None = Field(
         None, description="σ values: a number, a list or {start, stop, count}; with several deltas, a grid")
+    delta: float | str | None = Field(None, description="One δ (the default, 0); or give deltas")
     deltas: float | str | list[float | str] | AngleRange | None = Field(
-        None, description="δ values: a number, a list or {start, stop, count} (default 0)")
+        None, description="δ values: a number, a list or {start, stop, count}")
     atlas: int | None = Field(None, ge=1, le=MAX_ATLAS_STEPS, description=(
         "N: the whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of N rows and columns, step π/N "
-        "(N(N+1)/2 frames); instead of sigma, sigmas and deltas"))
+        "(N(N+1)/2 frames); instead of sigma(s) and delta(s)"))
     width: int = Field(256, ge=1, le=MAX_FRAME_SIDE)
     height: int = Field(256, ge=1, le=MAX_FRAME_SIDE)
     tile: int | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
@@ -87,9 +89,9 @@ class JobRequest(BaseModel):
     def _samples(cls, v: int | None) -> int | None:
         return None if v is None else check_samples(v)
 
-    @field_validator("sigma", mode="before")
+    @field_validator("sigma", "delta", mode="before")
     @classmethod
-    def _sigma(cls, v: Any) -> float:
+    def _one_value(cls, v: Any) -> float:
         return _angle(v)
 
     @field_validator("sigmas", mode="before")
@@ -104,19 +106,16 @@ class JobRequest(BaseModel):
 
     @model_validator(mode="after")
     def _one_way(self) -> "JobRequest":
-        given = [k for k in ("sigma", "sigmas", "deltas") if getattr(self, k) is not None]
-        if self.atlas is not None and given:
-            raise ValueError(f"atlas lays out its own sigmas and deltas: give it without {' and '.join(given)}")
-        if self.sigma is not None and self.sigmas is not None:
-            raise ValueError("give sigma (one value) or sigmas, not both")
+        FrameSet.check_one_way(**self.axes())
         return self
 
-    def axes(self) -> tuple[Any, Any]:
-        """(sigmas, deltas), each a list or {start, stop, count}."""
-        def plain(axis, default):
-            return default if axis is None else axis.model_dump() if isinstance(axis, AngleRange) else axis
-        sigmas = [self.sigma] if self.sigma is not None else plain(self.sigmas, [0.0])
-        return sigmas, plain(self.deltas, [0.0])
+    def axes(self) -> dict[str, Any]:
+        """sigma, sigmas, delta, deltas and atlas as FrameSet.from_axes takes
+        them (a range as {start, stop, count})."""
+        def plain(axis):
+            return axis.model_dump() if isinstance(axis, AngleRange) else axis
+        return dict(sigma=self.sigma, sigmas=plain(self.sigmas), delta=self.delta, deltas=plain(self.deltas),
+                    atlas=self.atlas)
 
 
 class PriorityPatch(BaseModel):
@@ -192,7 +191,7 @@ def _urls(base: str, index: int, done: bool) -> dict:
 def _job_fields(job: Job, done: int, total: int, places: list[FramePoint]) -> dict:
     base = f"/api/jobs/{job.id}"
     animated = job.status == "done" and len(places) > 1
-    grid = FrameGrid.from_points(places)
+    grid = FrameSet.from_points(places)
     sigmas, deltas = list(grid.sigmas), list(grid.deltas)
     return dict(
         id=job.id, status=job.status, scene_name=job.scene_name, sigmas=sigmas, deltas=deltas, width=job.width,

@@ -29,7 +29,7 @@ from argand.farm.store import FrameStore, store_for
 from argand.media import gif
 from argand.media.atlas import atlas_png as draw_atlas, cell_size, scale_to_cell
 from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, STATUS_NAMES, FrameParams, FrameResult, frame_figures
-from argand.frames.frame_set import FrameGrid, FramePoint
+from argand.frames.frame_set import FrameSet, FramePoint
 from argand.media.frame_files import to_srgb8, write_exr, write_png
 from argand.media.video import Mp4Encoder
 
@@ -205,7 +205,7 @@ def atlas_png(settings: Settings, job_id: str) -> bool:
         job = c.execute(select(Job.scene_name, Job.width, Job.height).where(Job.id == job_id)).one()
         rows = c.execute(select(Frame.sigma_index, Frame.delta_index, Frame.sigma, Frame.delta)
                          .where(Frame.job_id == job_id).order_by(Frame.index)).all()
-    grid = FrameGrid.from_points([FramePoint(*r) for r in rows])
+    grid = FrameSet.from_points([FramePoint(*r) for r in rows])
     if not grid.is_grid:
         return False
     if path.exists():

@@ -20,8 +20,7 @@ from argand.farm.planning import batch_pixels, plan_runs, samples_of, tile_rects
 from argand.farm.tile_work import core_scene_of, frame_plan
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
-from argand.frames.frame_set import (BandRuleError, FrameGrid, angle_text, atlas_frames, atlas_grid, axis_values,
-                                     check_band_rule, frame_grid)
+from argand.frames.frame_set import BandRuleError, FrameSet, angle_text, check_band_rule
 
 
 class JobRefused(ValueError):
@@ -36,7 +35,7 @@ class FarmBusy(JobRefused):
 class JobSpec:
     scene_name: str
     scene: dict
-    frames: FrameGrid
+    frames: FrameSet
     width: int
     height: int
     tile: int
@@ -44,30 +43,13 @@ class JobSpec:
     method: str = "auto"
 
 
-def _count(axis: Any) -> int:
-    return int(axis["count"]) if isinstance(axis, dict) else len(axis)
-
-
-def sweep_axis(axis: Any) -> list[float]:
-    """One axis of a job (σ or δ): a list, or {start, stop, count} swept as
-    `argand render --sigmas/--deltas` sweeps it (the same values to the last bit)."""
-    if isinstance(axis, dict):
-        return axis_values((float(axis["start"]), float(axis["stop"]), int(axis["count"])))
-    return [float(v) for v in axis]
-
-
-def job_frames(sigmas: Any = (0.0,), deltas: Any = (0.0,), atlas: int | None = None,
-               max_frames: int | None = None) -> FrameGrid:
-    """A job's (σ, δ) frames: the grid sigmas x deltas (each a list or
-    {start, stop, count}), or with ``atlas`` the triangular grid of that many
-    steps over σ ≥ 0, σ + δ ≤ π (argand.frames.frame_set). With ``max_frames`` a
-    job above it is refused before anything is expanded; a pair that breaks
-    the band rule is refused naming it."""
-    n = atlas_frames(atlas) if atlas is not None else _count(sigmas) * _count(deltas)
-    if max_frames is not None and n > max_frames:
-        raise JobRefused(f"{n} frames exceed the limit of {max_frames}")
+def job_frames(max_frames: int | None = None, **axes: Any) -> FrameSet:
+    """A job's (σ, δ) frames from its axes (sigma, sigmas, delta, deltas,
+    atlas), built by FrameSet.from_axes as `argand render` builds them; a job
+    above ``max_frames`` (counted before anything is expanded), an axis given
+    two ways or a pair that breaks the band rule is refused, saying why."""
     try:
-        return atlas_grid(atlas) if atlas is not None else frame_grid(sweep_axis(sigmas), sweep_axis(deltas))
+        return FrameSet.from_axes(**axes, max_frames=max_frames)
     except ValueError as exc:
         raise JobRefused(str(exc)) from None
 

@@ -3,20 +3,22 @@
 over the whole space the paper says is enough (section 3: "it is only
 necessary to sample the complex space determined by σ ≥ 0 and σ + δ ≤ π").
 
-One definition for `argand render` and the farm: the same request gives the
-same pairs, in the same order, to the last bit. Frames are ordered by row
-(σ) then column (δ), so a single-σ sweep keeps the order it always had.
+One definition for `argand render` and the farm: both build their frames
+with :meth:`FrameSet.from_axes`, so the same request gives the same pairs, in
+the same order, and the same refusals. Frames are ordered by row (σ) then
+column (δ), so a single-σ sweep keeps the order it always had.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
 from argand.core import _core
+from argand.frames.angles import parse_angle, parse_sweep
 from argand.render.frames import BAND_RULE, delta_sweep
 
 #: How many offending pairs a refusal quotes (the count says how many more).
@@ -38,12 +40,20 @@ class FramePoint:
     delta: float
 
 
+#: One axis of a run as it is given: None (not given), one value (a number
+#: or angle text such as "pi/9"), a list of values, or a sweep of COUNT
+#: values from START to STOP inclusive: a mapping {start, stop, count} or the
+#: text "START:STOP:COUNT".
+Axis = Any
+
+
 @dataclass(frozen=True)
-class FrameGrid:
+class FrameSet:
     """The σ axis (rows), the δ axis (columns) and the frames, in frame
     order. A full grid holds every (row, column); the atlas only the
     triangle σ + δ ≤ π (where a diagonal δ may sit an ulp or two below its
-    column's value, see atlas_grid)."""
+    column's value, see atlas_grid). Built from a run's axes by
+    :meth:`from_axes`."""
 
     sigmas: tuple[float, ...]
     deltas: tuple[float, ...]
@@ -65,8 +75,40 @@ class FrameGrid:
     def positions(self) -> list[tuple[int, int]]:
         return [(p.sigma_index, p.delta_index) for p in self.points]
 
+    @staticmethod
+    def check_one_way(sigma: Axis = None, sigmas: Axis = None, delta: Axis = None, deltas: Axis = None,
+                      atlas: int | None = None) -> None:
+        """Raises ValueError unless each axis is given one way: sigma (one
+        value) or sigmas, delta (one value) or deltas, or atlas alone."""
+        given = [name for name, v in (("sigma", sigma), ("sigmas", sigmas), ("delta", delta), ("deltas", deltas))
+                 if v is not None]
+        if atlas is not None and given:
+            raise ValueError(f"atlas lays out its own sigmas and deltas: give it without {' and '.join(given)}")
+        if sigma is not None and sigmas is not None:
+            raise ValueError("give sigma (one value) or sigmas, not both")
+        if delta is not None and deltas is not None:
+            raise ValueError("give delta (one value) or deltas, not both")
+
     @classmethod
-    def from_points(cls, points: Sequence[FramePoint]) -> "FrameGrid":
+    def from_axes(cls, sigma: Axis = None, sigmas: Axis = None, delta: Axis = None, deltas: Axis = None,
+                  atlas: int | None = None, max_frames: int | None = None) -> "FrameSet":
+        """The frames a run asks for, the CLI's and the API's alike: the grid
+        σ values x δ values (each axis 0 when not given), or with ``atlas``
+        the triangular grid of that many steps (atlas_grid). Raises
+        ValueError naming the axis for an axis given two ways or unreadable,
+        for more than ``max_frames`` frames (counted before anything is
+        expanded), and BandRuleError naming the pairs that break the band rule."""
+        cls.check_one_way(sigma, sigmas, delta, deltas, atlas)
+        if atlas is not None:
+            _check_frames(atlas_frames(atlas) if _is_count(atlas) else 0, max_frames)
+            return atlas_grid(atlas)
+        row = _axis("sigmas", sigmas) if sigmas is not None else _axis("sigma", 0.0 if sigma is None else sigma, True)
+        column = _axis("deltas", deltas) if deltas is not None else _axis("delta", 0.0 if delta is None else delta, True)
+        _check_frames(_count(row) * _count(column), max_frames)
+        return frame_grid(_values(row), _values(column))
+
+    @classmethod
+    def from_points(cls, points: Sequence[FramePoint]) -> "FrameSet":
         """The grid of frames stored with their places: each axis value is
         that of the first frame at its row or column (an atlas's diagonal
         frames may sit an ulp below their column's value)."""
@@ -125,7 +167,47 @@ def check_band_rule(pairs: Sequence[tuple[float, float]]) -> None:
                         "an atlas covers the whole space within the rule")
 
 
-def frame_grid(sigmas: Sequence[float], deltas: Sequence[float]) -> FrameGrid:
+def _is_count(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _axis(name: str, axis: Axis, one: bool = False) -> list[float] | tuple[float, float, int]:
+    """An axis read: its values, or a sweep (start, stop, count) not yet
+    expanded. ``one``: a single value only (sigma, delta). ValueError names the axis."""
+    try:
+        if one or not isinstance(axis, (str, list, tuple, Mapping)):
+            return [parse_angle(axis)]
+        if isinstance(axis, str):
+            return parse_sweep(axis) if ":" in axis else [parse_angle(axis)]
+        if isinstance(axis, Mapping):
+            if set(axis) != {"start", "stop", "count"}:
+                raise ValueError(f"a sweep is {{start, stop, count}}, got the keys {sorted(map(str, axis))}")
+            count = axis["count"]
+            if not _is_count(count) or count < 1:
+                raise ValueError(f"a sweep's count must be a whole number >= 1, got {count!r}")
+            return parse_angle(axis["start"]), parse_angle(axis["stop"]), count
+        if not axis:
+            raise ValueError("no values: give at least one")
+        return [parse_angle(v) for v in axis]
+    except ValueError as exc:
+        raise ValueError(f"{name}: {exc}") from None
+
+
+def _count(axis: list[float] | tuple[float, float, int]) -> int:
+    return axis[2] if isinstance(axis, tuple) else len(axis)
+
+
+def _values(axis: list[float] | tuple[float, float, int]) -> list[float]:
+    """An axis's values: a sweep's as delta_sweep sweeps it."""
+    return delta_sweep(*axis) if isinstance(axis, tuple) else axis
+
+
+def _check_frames(n: int, max_frames: int | None) -> None:
+    if max_frames is not None and n > max_frames:
+        raise ValueError(f"{n} frames exceed the limit of {max_frames}")
+
+
+def frame_grid(sigmas: Sequence[float], deltas: Sequence[float]) -> FrameSet:
     """Every pair of ``sigmas`` x ``deltas``, row (σ) by row; BandRuleError
     if any pair breaks the band rule, ValueError for an empty axis or a
     value that is not finite."""
@@ -136,7 +218,7 @@ def frame_grid(sigmas: Sequence[float], deltas: Sequence[float]) -> FrameGrid:
         raise ValueError("every sigma and delta must be a finite number")
     points = tuple(FramePoint(i, j, s, d) for i, s in enumerate(sigmas) for j, d in enumerate(deltas))
     check_band_rule([(p.sigma, p.delta) for p in points])
-    return FrameGrid(tuple(sigmas), tuple(deltas), points)
+    return FrameSet(tuple(sigmas), tuple(deltas), points)
 
 
 def atlas_frames(steps: int) -> int:
@@ -144,7 +226,7 @@ def atlas_frames(steps: int) -> int:
     return steps * (steps + 1) // 2
 
 
-def atlas_grid(steps: int) -> FrameGrid:
+def atlas_grid(steps: int) -> FrameSet:
     """The whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of ``steps``
     rows and columns, h = π / steps: σ = 0, h, ..., π - h (rows) and
     δ = h, 2h, ..., π (columns), every pair with σ + δ ≤ π, so row i holds
@@ -165,17 +247,7 @@ def atlas_grid(steps: int) -> FrameGrid:
             while not _core.band_rule_holds(s, d):  # the diagonal, rounded above pi: an ulp at a time
                 d = math.nextafter(d, 0.0)
             points.append(FramePoint(i, j, s, d))
-    return FrameGrid(sigmas, deltas, tuple(points))
-
-
-def axis_values(spec: float | Sequence[float] | tuple[float, float, int]) -> list[float]:
-    """One axis from a number, a list, or (start, stop, count) swept as
-    delta_sweep sweeps it (the same values for σ and δ, CLI and farm)."""
-    if isinstance(spec, tuple) and len(spec) == 3 and isinstance(spec[2], int):
-        return delta_sweep(float(spec[0]), float(spec[1]), spec[2])
-    if isinstance(spec, (int, float)):
-        return [float(spec)]
-    return [float(v) for v in spec]
+    return FrameSet(sigmas, deltas, tuple(points))
 
 
 def format_angle(value: float) -> str:

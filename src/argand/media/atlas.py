@@ -11,7 +11,7 @@ from typing import Mapping
 import numpy as np
 from PIL import Image
 
-from argand.frames.frame_set import FrameGrid, format_angle
+from argand.frames.frame_set import FrameSet, format_angle
 
 #: The longest side of a cell, in pixels (frames are scaled down to it, never up).
 CELL = 160
@@ -35,7 +35,7 @@ def scale_to_cell(rgb: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return np.asarray(Image.fromarray(np.ascontiguousarray(rgb)).resize(tuple(size), Image.LANCZOS))
 
 
-def contact_sheet(grid: FrameGrid, cells: Mapping[int, np.ndarray], size: tuple[int, int]) -> np.ndarray:
+def contact_sheet(grid: FrameSet, cells: Mapping[int, np.ndarray], size: tuple[int, int]) -> np.ndarray:
     """(rows, cols) cells of ``size`` (w, h) with PAD between them; ``cells``
     maps a frame's index (in grid.points) to its (h', w', 3) uint8 picture,
     scaled to the cell here; a missing frame is an empty cell."""
@@ -60,7 +60,7 @@ def to_rgb(colour: str) -> tuple[int, int, int]:
     return tuple(int(colour[i:i + 2], 16) for i in (1, 3, 5))  # type: ignore[return-value]
 
 
-def atlas_png(grid: FrameGrid, cells: Mapping[int, np.ndarray], width: int, height: int, title: str = "") -> bytes:
+def atlas_png(grid: FrameSet, cells: Mapping[int, np.ndarray], width: int, height: int, title: str = "") -> bytes:
     """The labelled atlas as PNG bytes: the contact sheet at one screen pixel
     per pixel, δ values under the columns, σ values beside the rows."""
     from matplotlib.figure import Figure

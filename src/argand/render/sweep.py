@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 from argand.render.frames import FrameParams, FrameResult, TileAOVs, render_bands
-from argand.frames.frame_set import FrameGrid
+from argand.frames.frame_set import FrameSet
 from argand.media.frame_files import EXR_COMPRESSION
 
 
@@ -40,7 +40,7 @@ def render_sweep(
     fps: float = 8.0,
     on_frame: Callable[[int, FrameParams], None] | None = None,
     on_tile: Callable[[TileAOVs], None] | None = None,
-    grid: FrameGrid | None = None,
+    grid: FrameSet | None = None,
     mp4: bool = True,
 ) -> list[dict]:
     """Renders ``params`` on ``workers`` threads (encoding too), frames that

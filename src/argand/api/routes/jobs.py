@@ -56,7 +56,7 @@ def submit(req: JobRequest, settings: SettingsDep, request: Request) -> JobOut:
     if req.samples is not None:
         scene["samples"] = req.samples  # the job's scene carries its samples per pixel
     try:
-        frames = job_frames(*req.axes(), atlas=req.atlas, max_frames=settings.max_frames)
+        frames = job_frames(settings.max_frames, **req.axes())
         spec = JobSpec(name, scene, frames, req.width, req.height, req.tile or settings.default_tile, req.priority,
                        req.method)
         job_id = create_job(settings, spec, send=False)
