@@ -8,7 +8,7 @@ PIP     := $(PY) -m pip
 STAMP   := $(VENV)/.argand-deps
 SOURCES := $(shell find core src -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name '*.mako' -o -name '*.conf' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: docs-atlas setup build run test test-cpp test-py test-sanitize test-fuzz fuzz fuzz-build bench bench-render bench-smoke bench-all load clean
+.PHONY: docs-atlas setup build run test test-cpp test-py cluster-test test-sanitize test-fuzz fuzz fuzz-build bench bench-render bench-smoke bench-all load clean
 
 setup: $(VENV)/.argand-built
 
@@ -17,7 +17,7 @@ setup: $(VENV)/.argand-built
 # test starts its own server from them) and Chromium for the browser tests
 # (Playwright's own browser download does not work offline), and Clang for
 # the libFuzzer targets (make fuzz, make test-fuzz).
-DEB_PACKAGES := mpsolve python3-mpsolve postgresql chromium clang
+DEB_PACKAGES := mpsolve python3-mpsolve postgresql chromium clang iproute2 nftables
 $(VENV)/.argand-debs:
 	@mkdir -p $(VENV)
 	@if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
@@ -66,7 +66,15 @@ test-cpp: $(STAMP)
 	$(VENV)/bin/ctest --test-dir build/cpp --output-on-failure
 
 test-py: setup
-	$(VENV)/bin/pytest
+	$(VENV)/bin/pytest --ignore=tests/cluster
+
+# The farm across hosts (tests/cluster; docs/deploy.md): network namespaces on
+# a bridge of their own, PostgreSQL and Redis on one host, the API on another,
+# two worker hosts, and every fault of docs/reliability.md's "Many hosts"
+# during a running job. Needs root, ip, nft (Debian's iproute2, nftables) and
+# PostgreSQL's server binaries; skipped with the reason otherwise. A few minutes.
+cluster-test: setup
+	$(VENV)/bin/pytest -q -p no:cacheprovider tests/cluster
 
 # The C++ core, its tests and the Python module with AddressSanitizer and
 # UndefinedBehaviorSanitizer (GCC; any report is fatal), in build/sanitize;
@@ -108,7 +116,7 @@ FUZZ_SMOKE_SECONDS ?= 15
 test-fuzz: fuzz-build
 	PYTHON=$(PY) sh fuzz/run.sh smoke $(FUZZ_SMOKE_SECONDS)
 
-test: test-cpp test-py test-sanitize test-fuzz bench-smoke
+test: test-cpp test-py cluster-test test-sanitize test-fuzz bench-smoke
 
 bench: setup
 	$(VENV)/bin/argand bench roots

@@ -13,6 +13,7 @@ from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Histogram, generate_latest
 
 from argand.api.auth import check_access, needs_token
+from argand.api.outages import add_outage_answers
 from argand.api.request_limits import BodyLimit
 from argand.api.routes import bands, frames, jobs, service
 from argand.farm.control import NoSuchJob
@@ -132,5 +133,6 @@ def create_app(settings: Settings) -> FastAPI:
     _add_metrics(app, settings)
     _add_front_end(app)
     _document_errors(app, settings)
+    add_outage_answers(app)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     return app

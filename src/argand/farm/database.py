@@ -16,6 +16,19 @@ from sqlalchemy.orm import Session, sessionmaker
 
 MIGRATIONS = Path(__file__).with_name("migrations")
 
+#: A database across the network must answer in bounded time, or the caller
+#: gets an error it can act on (the API a 503, a worker a failed run whose
+#: tiles go back) instead of waiting for TCP to give up (15 minutes):
+#: seconds to open a connection; seconds an unacknowledged send may wait
+#: (a link that stopped carrying packets), which also bounds a query sent
+#: into a dead link; keepalives that find a dead idle connection; and the
+#: longest statement the server runs.
+CONNECT_TIMEOUT_S = 3
+SEND_TIMEOUT_S = 4
+STATEMENT_TIMEOUT_S = 60
+#: Seconds a request waits for a free connection of the pool.
+POOL_TIMEOUT_S = 10
+
 _engines: dict[str, Engine] = {}
 _factories: dict[str, sessionmaker] = {}
 
@@ -41,10 +54,23 @@ def _sqlite_engine(url: str) -> Engine:
     return engine
 
 
+def _server_engine(url: str) -> Engine:
+    """A database server (PostgreSQL) over the network, with every wait bounded."""
+    connect_args = {}
+    if make_url(url).get_backend_name() == "postgresql":
+        connect_args = {
+            "connect_timeout": CONNECT_TIMEOUT_S,
+            "tcp_user_timeout": SEND_TIMEOUT_S * 1000,
+            "keepalives": 1, "keepalives_idle": SEND_TIMEOUT_S, "keepalives_interval": 1, "keepalives_count": 3,
+            "options": f"-c statement_timeout={STATEMENT_TIMEOUT_S * 1000}",
+        }
+    return create_engine(url, pool_pre_ping=True, pool_timeout=POOL_TIMEOUT_S, connect_args=connect_args)
+
+
 def engine_for(url: str) -> Engine:
     """One engine per URL and process (the schema is upgrade()'s)."""
     if url not in _engines:
-        _engines[url] = _sqlite_engine(url) if url.startswith("sqlite") else create_engine(url, pool_pre_ping=True)
+        _engines[url] = _sqlite_engine(url) if url.startswith("sqlite") else _server_engine(url)
     return _engines[url]
 
 

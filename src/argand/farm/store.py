@@ -127,6 +127,19 @@ class FrameStore:
             out.setdefault(int(t), {})[k] = a
         return out
 
+    def discard_chunk(self, job_id: str, frame: int, name: str) -> None:
+        """Removes a chunk that no tile row points at (its tiles went to
+        another worker), and the folders it leaves empty: a frame assembled
+        meanwhile, or a job deleted meanwhile, keeps no trace of it."""
+        path = self.job(job_id).chunk(frame, name)
+        path.unlink(missing_ok=True)
+        for folder in (path.parent, path.parent.parent, self.job(job_id).folder):
+            try:
+                folder.rmdir()
+            except OSError:  # not empty (or gone): what is left belongs to someone
+                break
+            self._dirs.discard(folder)
+
     def remove_tiles(self, job_id: str, frame: int) -> None:
         """Drops a frame's tiles once the frame is assembled (its EXR holds them)."""
         folder = self.job(job_id).tiles(frame)

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 from sqlalchemy import select, update
+from sqlalchemy.exc import NoResultFound
 
 from argand.farm import assembly
 from argand.farm.database import engine_for
@@ -29,7 +30,7 @@ from argand.farm.models import Frame, Job, Tile
 from argand.farm.planning import Rect, samples_of, tile_rects
 from argand.farm.outbox import add_runs, try_drain
 from argand.farm.settings import Settings
-from argand.farm.states import FRAME, JOB, STOPPED, TILE
+from argand.farm.states import ACTIVE, FRAME, JOB, STOPPED, TILE
 from argand.farm.store import is_store_error, store_for
 from argand.render.convert import to_core_scene
 from argand.render.options import EngineOptions
@@ -163,7 +164,8 @@ def _job_status(settings: Settings, job_id: str) -> str | None:
 
 def _render_claimed(run: TileRun) -> str | None:
     """Renders the run's tiles, committing on the way. Returns why it
-    stopped early (the job's state, or "gone"), or None."""
+    stopped early (the job's state: stopped, or done by other workers while
+    this one was frozen or cut off; or "gone"), or None."""
     channels = len(INTERLEAVED_CHANNELS)
     last_check = last_commit = time.monotonic()
     for n, i in enumerate(run.claimed):
@@ -172,7 +174,7 @@ def _render_claimed(run: TileRun) -> str | None:
         if time.monotonic() - last_check > STOP_CHECK_S:
             status = _job_status(run.settings, run.job_id)
             last_check = time.monotonic()
-            if status is None or status in STOPPED:
+            if status not in ACTIVE:
                 return status or "gone"
         ACTIVITY["tile"] = f"{run.job_id}/{run.frame_index}/{i}"
         x0, y0, x1, y1 = run.rects[i]
@@ -217,6 +219,8 @@ def _run_claimed(settings: Settings, job_id: str, frame_index: int, worker: str,
                  started: float) -> str:
     try:
         fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index, settings.engine)
+    except NoResultFound:  # the job was deleted since the claim: its tiles went with it
+        return _gone(settings, job_id)
     except BaseException as exc:
         # A frame that cannot be planned: its tiles go back (and after the
         # attempts, fail the job with the reason), never stay "running".
@@ -230,6 +234,8 @@ def _run_claimed(settings: Settings, job_id: str, frame_index: int, worker: str,
         run.frame_px = np.empty((fplan.height, fplan.width, len(INTERLEAVED_CHANNELS)), np.float32)
     try:
         return _finish_run(run, _render_claimed(run))
+    except (_Gone, NoResultFound):
+        return _gone(settings, job_id)
     except BaseException as exc:
         # An error: keep what is written, give back the rest (after the
         # attempts, the job fails); a store that refuses writes stops the job.
@@ -244,6 +250,19 @@ def _run_claimed(settings: Settings, job_id: str, frame_index: int, worker: str,
         raise
     finally:
         ACTIVITY["tile"] = None
+
+
+class _Gone(Exception):
+    """The run's job was deleted while it ran."""
+
+
+def _gone(settings: Settings, job_id: str) -> str:
+    """A run whose job was deleted under it: whatever it wrote into the
+    store since (a chunk, a frame's files) is removed with the job's folder,
+    if the job's row is indeed gone."""
+    if _job_status(settings, job_id) is None:
+        store_for(settings).remove_job(job_id)
+    return "gone"
 
 
 def stop_for_store(settings: Settings, job_id: str, worker: str, exc: BaseException) -> None:
@@ -291,21 +310,39 @@ def _tile_arrays(t: tuple[np.ndarray, int, int, np.ndarray]) -> dict[str, np.nda
     return {"px": np.ascontiguousarray(block), "meta": np.array([esc, calls, *stats], dtype=np.int64)}
 
 
+def _still_held(run: TileRun, tiles) -> set[int]:
+    """Those of ``tiles`` that this worker still holds (a tile the reaper gave
+    to another worker while this one was frozen or cut off is theirs)."""
+    with engine_for(run.settings.sqlalchemy_url).connect() as c:
+        return set(c.execute(select(Tile.tile_index).where(
+            *tile_key(run.job_id, run.frame_index), Tile.tile_index.in_(list(tiles)), Tile.status == "running",
+            Tile.worker == run.worker)).scalars())
+
+
 def _complete(run: TileRun) -> tuple[int, int]:
-    """Writes the run's pending tiles to the store (one chunk file), then
-    marks them done (only those this worker still holds: a tile the reaper
-    gave to another worker is theirs to count) and adds them to the frame's
-    counter, in one transaction. Returns (frame's tiles done, in all)."""
-    chunk = f"{min(run.pending):05d}-{uuid.uuid4().hex[:10]}"
-    store_for(run.settings).write_chunk(run.job_id, run.frame_index, chunk,
-                                        {i: _tile_arrays(run.local[i]) for i in run.pending})
+    """Writes the run's pending tiles that this worker still holds to the
+    store (one chunk file), then marks them done (those it still holds then)
+    and adds them to the frame's counter, in one transaction. A stale worker
+    writes nothing into a job that went on without it; a chunk that lost the
+    race between the check and the commit is removed. Returns (frame's tiles
+    done, in all); raises _Gone when the job was deleted."""
+    held = _still_held(run, run.pending)
+    run.pending = {i: s for i, s in run.pending.items() if i in held}
+    store = store_for(run.settings)
+    chunk = f"{min(run.pending):05d}-{uuid.uuid4().hex[:10]}" if run.pending else None
+    if chunk:
+        store.write_chunk(run.job_id, run.frame_index, chunk, {i: _tile_arrays(run.local[i]) for i in run.pending})
     with engine_for(run.settings.sqlalchemy_url).begin() as c:
-        won = _mark_done(c, run, chunk)
+        won = _mark_done(c, run, chunk) if chunk else []
         q = update(Frame).where(Frame.job_id == run.job_id, Frame.index == run.frame_index)
-        done, total = c.execute(q.values(tiles_done=Frame.tiles_done + len(won))
-                                .returning(Frame.tiles_done, Frame.tiles_total)).one()
+        row = c.execute(q.values(tiles_done=Frame.tiles_done + len(won))
+                        .returning(Frame.tiles_done, Frame.tiles_total)).one_or_none()
+    if chunk and not won:
+        store.discard_chunk(run.job_id, run.frame_index, chunk)
+    if row is None:
+        raise _Gone(run.job_id)
     ACTIVITY["done"] += len(won)
-    return done, total
+    return row.tiles_done, row.tiles_total
 
 
 def _mark_done(c, run: TileRun, chunk: str) -> list[int]:
@@ -333,6 +370,8 @@ def _finish_whole_frame(run: TileRun) -> bool:
     tiles claimed by a dead worker, and the reaper has them rendered again;
     a crash after it leaves a finished frame. Returns False (nothing
     committed; the caller goes the usual way) if any tile was taken away."""
+    if len(_still_held(run, run.pending)) < len(run.pending):
+        return False
     figures = assembly.assemble_frame(run.settings, run.job_id, run.frame_index, run.local,
                                       seconds=sum(run.pending.values()), commit=False, frame_px=run.frame_px)
     try:

@@ -1,0 +1,162 @@
+"""Faults a farm of several hosts meets, each during a running job of 768
+tiles (tests/cluster/checks.py says what is checked after each, and the
+figures go to build/cluster/figures.json)."""
+
+from __future__ import annotations
+
+import signal
+import time
+
+import pytest
+
+from tests.cluster.checks import JOB, Prober, check_job, record, submit, tiles_done, wait_done, wait_tiles
+from tests.cluster.harness import PG_PORT, REDIS_PORT
+
+pytestmark = pytest.mark.cluster
+TILES = 768
+
+
+def worker_tiles(cluster, job_id: str, host: str) -> int:
+    return cluster.sql("select count(*) from tiles where job_id = :j and worker like :w and status = 'done'",
+                       j=job_id, w=f"{host}+%")[0][0]
+
+
+def both_workers_render(cluster) -> float:
+    """After a fault is healed: a new job is rendered by both worker hosts.
+    Returns the seconds until each has rendered a tile of it."""
+    job_id = submit(cluster)
+    took = cluster.wait(lambda: all(worker_tiles(cluster, job_id, h) for h in ("w1", "w2")), 60,
+                        "both worker hosts render tiles of a new job")
+    wait_done(cluster, job_id, 60)
+    check_job(cluster, job_id)
+    return took
+
+
+def test_a_job_across_hosts_equals_a_local_render(farm):
+    start = time.monotonic()
+    job_id = submit(farm)
+    with Prober(farm, job_id) as probe:
+        wait_done(farm, job_id, 60)
+    figures = {"job_s": time.monotonic() - start, **check_job(farm, job_id), **probe.check(2.0)}
+    assert figures["claimed_again"] == 0
+    assert worker_tiles(farm, job_id, "w1") and worker_tiles(farm, job_id, "w2")
+    record("no fault", figures)
+
+
+def test_a_worker_host_killed_for_good(farm):
+    job_id = submit(farm)
+    wait_tiles(farm, job_id, TILES // 5)
+    farm.kill_host("w1")
+    killed = time.monotonic()
+    with Prober(farm, job_id) as probe:
+        wait_done(farm, job_id, 90)
+    figures = {"done_after_kill_s": time.monotonic() - killed, **check_job(farm, job_id), **probe.check()}
+    record("worker host killed", figures)
+
+
+def test_a_worker_host_cut_off_from_redis_past_the_visibility_timeout(farm):
+    job_id = submit(farm)
+    wait_tiles(farm, job_id, TILES // 5)
+    farm.partition("w1", "db", REDIS_PORT)
+    with Prober(farm, job_id) as probe:
+        took = wait_done(farm, job_id, 60)
+        time.sleep(max(0.0, 20 - took))  # past the visibility timeout (16 s)
+        farm.heal("w1")
+        healed = time.monotonic()
+        back = both_workers_render(farm)
+    figures = {"partition_s": 20, "job_s": took, "back_after_heal_s": back, **check_job(farm, job_id), **probe.check()}
+    record("worker host cut off from Redis for 20 s", figures)
+    assert time.monotonic() - healed < 60
+
+
+def test_a_worker_host_cut_off_from_postgresql(farm):
+    job_id = submit(farm)
+    wait_tiles(farm, job_id, TILES // 5)
+    farm.partition("w1", "db", PG_PORT)
+    with Prober(farm, job_id) as probe:
+        took = wait_done(farm, job_id, 60)
+        time.sleep(max(0.0, 12 - took))
+        farm.heal("w1")
+        back = both_workers_render(farm)
+    figures = {"partition_s": 12, "job_s": took, "back_after_heal_s": back, **check_job(farm, job_id), **probe.check()}
+    record("worker host cut off from PostgreSQL for 12 s", figures)
+
+
+def test_the_api_cut_off_from_postgresql_answers_503_then_recovers(farm):
+    job_id = submit(farm)
+    wait_tiles(farm, job_id, TILES // 5)
+    farm.partition("api", "db", PG_PORT)
+    with Prober(farm, job_id) as probe:
+        with farm.client(15) as c:
+            start = time.monotonic()
+            r = c.post("/api/jobs", json=JOB)
+            post_s = time.monotonic() - start
+        assert r.status_code == 503 and r.headers.get("retry-after"), (r.status_code, r.text)
+        time.sleep(12)
+        farm.heal("api")
+        healed = time.monotonic()
+        recovered = farm.wait(lambda: farm._status(f"/api/jobs/{job_id}") == 200, 30, "the API answers again")
+        wait_done(farm, job_id, 60)
+    figures = {"partition_s": 12, "refused_post_s": post_s, "api_back_after_heal_s": recovered,
+               **check_job(farm, job_id), **probe.check()}
+    assert probe.check()["answered_503"] > 0
+    record("API cut off from PostgreSQL for 12 s", figures)
+    assert time.monotonic() - healed < 60
+
+
+def test_the_api_cut_off_from_redis_keeps_taking_jobs(farm):
+    first = submit(farm)
+    wait_tiles(farm, first, TILES // 5)
+    farm.partition("api", "db", REDIS_PORT)
+    with Prober(farm, first) as probe:
+        start = time.monotonic()
+        second = submit(farm)  # written to the outbox; the reaper in a worker sends it
+        post_s = time.monotonic() - start
+        time.sleep(10)
+        farm.heal("api")
+        healed = time.monotonic()
+        wait_done(farm, first, 60)
+        wait_done(farm, second, 60)
+    figures = {"partition_s": 10, "accepted_post_s": post_s, "second_done_after_heal_s": time.monotonic() - healed,
+               **check_job(farm, first), **probe.check()}
+    check_job(farm, second)
+    record("API cut off from Redis for 10 s", figures)
+
+
+def test_redis_killed_and_restarted_under_load(farm):
+    job_id = submit(farm)
+    wait_tiles(farm, job_id, TILES // 5)
+    farm.stop_proc("db", "redis", signal.SIGKILL)
+    with Prober(farm, job_id) as probe:
+        time.sleep(3)
+        farm.start_redis()
+        restarted = time.monotonic()
+        wait_done(farm, job_id, 90)
+    figures = {"down_s": 3, "done_after_restart_s": time.monotonic() - restarted, **check_job(farm, job_id),
+               **probe.check()}
+    record("Redis killed, restarted after 3 s (AOF)", figures)
+
+
+def test_postgresql_restarted_under_load(farm):
+    job_id = submit(farm)
+    wait_tiles(farm, job_id, TILES // 5)
+    farm.stop_proc("db", "postgres", signal.SIGINT)  # a fast shutdown: every session cut
+    with Prober(farm, job_id) as probe:
+        time.sleep(3)
+        farm.start_postgres()
+        restarted = time.monotonic()
+        wait_done(farm, job_id, 90)
+    figures = {"down_s": 3, "done_after_restart_s": time.monotonic() - restarted, **check_job(farm, job_id),
+               **probe.check()}
+    record("PostgreSQL restarted (down 3 s)", figures)
+
+
+def test_a_lossy_worker_link_for_a_whole_job(farm):
+    farm.lossy("w1", 5)
+    start = time.monotonic()
+    job_id = submit(farm)
+    with Prober(farm, job_id) as probe:
+        wait_done(farm, job_id, 90)
+    figures = {"loss_percent": 5, "job_s": time.monotonic() - start, "w1_tiles": worker_tiles(farm, job_id, "w1"),
+               **check_job(farm, job_id), **probe.check()}
+    record("5% packet loss on a worker host's link", figures)

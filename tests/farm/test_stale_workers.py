@@ -1,0 +1,91 @@
+"""A worker that comes back after the farm went on without it (frozen by
+SIGSTOP, or cut off past the heartbeat timeout), and a job deleted under a
+running worker: neither may leave files in the store, nor raise. The
+task's body is called directly on a real Redis and SQLite (test_work.py's
+farm_parts); the freeze and the deletion happen between two tiles."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from argand.farm import control, tile_work
+from argand.farm.database import session_scope
+from argand.farm.models import Job, Tile
+from argand.farm.reaper import Reaper
+from argand.farm.workers import declare_dead, heartbeat
+from argand.media.frame_files import read_exr
+from argand.render import FrameParams, render_frame
+from argand.scene import load_scene
+from tests.farm.test_work import farm_parts, submit  # noqa: F401 (a fixture)
+
+
+def files_of(settings, job_id: str) -> list[str]:
+    folder = settings.store_path / "jobs" / job_id
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*")) if folder.exists() else []
+
+
+def test_a_worker_frozen_past_reassignment_writes_nothing_into_the_finished_job(farm_parts, monkeypatch):
+    settings, _redis = farm_parts
+    job_id = submit(settings, "steiner", [0.0], 64, 64, 16)
+    real = tile_work.render_tile_into
+    calls = []
+
+    def freeze_on_the_third_tile(plan, rect, out, ox=0, oy=0):
+        calls.append(rect)
+        if len(calls) == 3:
+            # Frozen: its heartbeats stop, the reaper gives its tiles to
+            # another worker, which finishes the job; then SIGCONT.
+            monkeypatch.setattr(tile_work, "render_tile_into", real)
+            declare_dead(settings, "stale")
+            Reaper(settings).round()
+            assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "fresh") == "rendered"
+            time.sleep(2 * tile_work.STOP_CHECK_S)
+            monkeypatch.setattr(tile_work, "render_tile_into", freeze_on_the_third_tile)
+        return real(plan, rect, out, ox, oy)
+
+    heartbeat(settings, "stale", 1)
+    monkeypatch.setattr(tile_work, "render_tile_into", freeze_on_the_third_tile)
+    monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)  # the stale worker holds its tiles uncommitted
+    assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "stale") == "done"
+    assert len(calls) == 3  # it stopped at its next check: the job is done
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
+        tiles = s.query(Tile).filter(Tile.job_id == job_id).all()
+        assert {(t.status, t.worker, t.renders) for t in tiles} == {("done", "fresh", 1)}
+    left = files_of(settings, job_id)
+    assert not [f for f in left if f.startswith("tiles") or f.endswith((".chunk", ".tmp"))], left
+    names, px = read_exr(settings.store_path / "jobs" / job_id / "frame_0000.exr")
+    local = render_frame(load_scene("steiner"), FrameParams(width=64, height=64), tile=16, workers=1)
+    assert np.array_equal(px[..., names.index("Z")], local.aovs["Z"])
+
+
+def test_deleting_a_running_job_leaves_nothing_in_the_store_and_the_worker_stops_quietly(farm_parts, monkeypatch):
+    settings, _redis = farm_parts
+    job_id = submit(settings, "steiner", [0.0, 0.1], 64, 64, 16)
+    assert tile_work.run_tiles(settings, job_id, 1, list(range(16)), "w") == "rendered"  # frame 1's files exist
+    real = tile_work.render_tile_into
+    calls = []
+
+    def delete_on_the_third_tile(plan, rect, out, ox=0, oy=0):
+        calls.append(rect)
+        if len(calls) == 3:
+            control.delete_job(settings, job_id)  # what DELETE /api/jobs/{id} does
+            time.sleep(2 * tile_work.STOP_CHECK_S)
+        return real(plan, rect, out, ox, oy)
+
+    monkeypatch.setattr(tile_work, "render_tile_into", delete_on_the_third_tile)
+    monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)
+    assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w") == "gone"
+    assert files_of(settings, job_id) == [] and not (settings.store_path / "jobs" / job_id).exists()
+
+
+def test_a_job_deleted_between_the_claim_and_the_frames_plan_is_gone_not_an_error(farm_parts):
+    settings, _redis = farm_parts
+    job_id = submit(settings, "steiner", [0.0], 64, 64, 16)
+    why, claimed = tile_work.claim(settings, job_id, 0, list(range(16)), "w", None)
+    assert why is None and claimed == list(range(16))
+    control.delete_job(settings, job_id)
+    assert tile_work._run_claimed(settings, job_id, 0, "w", claimed, time.monotonic()) == "gone"
+    assert not (settings.store_path / "jobs" / job_id).exists()
