@@ -142,6 +142,27 @@ def test_only_serve_and_the_cli_import_both_api_and_worker():
     assert "argand.api.app" in imports("argand.serve.supervisor", MODULES["argand.serve.supervisor"], False)
 
 
+def reached(name: str) -> set[str]:
+    """The argand modules ``name`` imports, directly or through others."""
+    seen: set[str] = set()
+    todo = [name]
+    while todo:
+        m = todo.pop()
+        if m not in seen:
+            seen.add(m)
+            todo += imports(m, MODULES[m], top_level_only=False)
+    return seen
+
+
+def test_submission_and_the_api_do_not_import_the_workers_run_of_tiles():
+    """A job is planned at submission by argand.farm.planning, which the
+    worker's run of tiles (argand.farm.tile_work) uses too: the API side
+    never loads the worker's module."""
+    assert "argand.farm.tile_work" in reached("argand.worker.tasks")
+    for name in ["argand.farm.submission"] + [n for n in MODULES if n.startswith("argand.api")]:
+        assert "argand.farm.tile_work" not in reached(name), name
+
+
 def test_the_farm_imports_at_the_top_only():
     for name in [n for n in MODULES if n.startswith("argand.farm")]:
         assert imports(name, MODULES[name], True) == imports(name, MODULES[name], False), name

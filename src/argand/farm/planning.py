@@ -1,16 +1,36 @@
-"""How a job's tiles become messages (pure functions, no I/O): the tile
-rectangles, the frames' sending order, and runs of tiles of one frame."""
+"""How a job becomes work (pure functions, no I/O): a frame's C++ plan (the
+submission's check and the worker's first step alike), the tile rectangles,
+the frames' sending order, and runs of tiles of one frame."""
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Sequence
 
-from argand.render.frames import tiles
+from argand.render.convert import to_core_scene
+from argand.render.frames import FrameParams, plan, tiles
+from argand.render.options import EngineOptions
+from argand.scene import scene_from_dict
 
 Rect = tuple[int, int, int, int]
 
 #: A job's tile size, in pixels (a side).
 MIN_TILE, MAX_TILE = 8, 4096
+
+
+def core_scene_of(scene: dict) -> Any:
+    """A job's stored scene as the renderer takes it (the worker's and the
+    submission's one way)."""
+    return to_core_scene(scene_from_dict(scene))
+
+
+def frame_plan(core_scene: Any, sigma: float, delta: float, width: int, height: int, method: str, samples: int = 1,
+               engine: EngineOptions = EngineOptions()):
+    """A frame's C++ plan: what a worker builds before its first tile, and
+    what a submission builds for every frame, so that a frame that cannot be
+    planned (the band rule, a camera or a coefficient out of range) is
+    refused at the door instead of failing in a worker. Raises ValueError."""
+    return plan(core_scene, FrameParams(sigma=sigma, delta=delta, width=width, height=height, method=method,
+                                        samples=samples, engine=engine))
 
 
 def preview_order(n_frames: int, stride: int = 4, positions: Sequence[tuple[int, int]] | None = None) -> list[int]:

@@ -16,8 +16,7 @@ from argand.farm.database import engine_for
 from argand.farm.dispatch import alive_workers
 from argand.farm.models import Frame, Job, Tile
 from argand.farm.outbox import add_runs, try_drain
-from argand.farm.planning import batch_pixels, plan_runs, samples_of, tile_rects
-from argand.farm.tile_work import core_scene_of, frame_plan
+from argand.farm.planning import batch_pixels, core_scene_of, frame_plan, plan_runs, samples_of, tile_rects
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
 from argand.frames.frame_set import BandRuleError, FrameSet, angle_text, check_band_rule
@@ -79,7 +78,7 @@ def check_limits(settings: Settings, spec: JobSpec) -> None:
 
 def check_renderable(spec: JobSpec) -> None:
     """Plans every distinct frame with the code a worker runs before its
-    first tile (argand.farm.tile_work.frame_plan): a frame that breaks the
+    first tile (argand.farm.planning.frame_plan): a frame that breaks the
     band rule or cannot be planned (a camera or coefficient out of range) is
     refused here, with the renderer's reason, instead of failing in a worker."""
     try:

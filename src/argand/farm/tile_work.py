@@ -27,15 +27,13 @@ from sqlalchemy.exc import NoResultFound
 from argand.farm import assembly
 from argand.farm.database import engine_for
 from argand.farm.models import Frame, Job, Tile
-from argand.farm.planning import Rect, samples_of, tile_rects
+from argand.farm.planning import Rect, core_scene_of, frame_plan, samples_of, tile_rects
 from argand.farm.outbox import add_runs, try_drain
 from argand.farm.settings import Settings
 from argand.farm.states import ACTIVE, FRAME, JOB, STOPPED, TILE
 from argand.farm.store import is_store_error, store_for
-from argand.render.convert import to_core_scene
 from argand.render.options import EngineOptions
-from argand.render.frames import INTERLEAVED_CHANNELS, FrameParams, TileRect, plan, render_tile_into
-from argand.scene import scene_from_dict
+from argand.render.frames import INTERLEAVED_CHANNELS, TileRect, render_tile_into
 
 #: Within a run of tiles: how often to look for a cancel or pause, and how
 #: often to commit the tiles finished so far.
@@ -75,22 +73,6 @@ def _frame_plan(url: str, job_id: str, frame_index: int, engine: EngineOptions):
         _plan_cache[key] = (frame_plan(core_scene, sigma, delta, w, h, method, samples, engine), tile_rects(w, h, tile),
                             tiles_total)
     return _plan_cache[key]
-
-
-def core_scene_of(scene: dict) -> Any:
-    """A job's stored scene as the renderer takes it (the worker's and the
-    submission's one way)."""
-    return to_core_scene(scene_from_dict(scene))
-
-
-def frame_plan(core_scene: Any, sigma: float, delta: float, width: int, height: int, method: str, samples: int = 1,
-               engine: EngineOptions = EngineOptions()):
-    """A frame's C++ plan: what a worker builds before its first tile, and
-    what a submission builds for every frame, so that a frame that cannot be
-    planned (the band rule, a camera or a coefficient out of range) is
-    refused at the door instead of failing in a worker. Raises ValueError."""
-    return plan(core_scene, FrameParams(sigma=sigma, delta=delta, width=width, height=height, method=method,
-                                        samples=samples, engine=engine))
 
 
 def tile_key(job_id: str, frame_index: int):
