@@ -14,6 +14,7 @@ from pathlib import Path
 import httpx
 import pytest
 
+from argand.farm.workers import given_name
 from tests.farm.test_farm import ARGAND, Farm
 
 
@@ -60,10 +61,11 @@ def test_a_killed_worker_and_a_killed_redis_are_started_again(farm1):
         "database": True, "redis": True, "workers": True, "outbox": True}
     [w] = farm.get("/api/workers")
     os.kill(w["pid"], signal.SIGKILL)
-    # A new worker under a new name; the killed one's row counts as alive
-    # until its last heartbeat is older than the heartbeat timeout.
-    farm.wait_for(lambda: {x["name"] for x in farm.get("/api/workers") if x["alive"]}
-                  == {w["name"].replace("@", ".2@", 1)}, 60)
+    # A new worker in the slot's next name (w1 -> w1.2), each process with a
+    # boot id of its own; the killed one's row counts as alive until its last
+    # heartbeat is older than the heartbeat timeout.
+    farm.wait_for(lambda: {given_name(x["name"]) for x in farm.get("/api/workers") if x["alive"]}
+                  == {given_name(w["name"]).replace("@", ".2@", 1)}, 60)
     assert all(x["pid"] != w["pid"] for x in farm.get("/api/workers") if x["alive"])
     _submit_and_finish(farm)
     [redis_pid] = [p for p, cmd in _children(farm.proc.pid).items() if "redis-server" in cmd]

@@ -1,6 +1,8 @@
 """A user's control of a job: cancel, pause, resume, retry (argand.farm.
 states.ACTIONS says which job states each applies to), a new priority, and
-deletion. Runs in flight see a cancel or pause between two tiles."""
+deletion. Runs in flight see a cancel or pause between two tiles. A resume
+of a job that is already active sends again its queued tiles that no
+message carries (what the reaper's census would find)."""
 
 from __future__ import annotations
 
@@ -9,9 +11,11 @@ import time
 from sqlalchemy import delete, update
 
 from argand.farm.database import session_scope
-from argand.farm.dispatch import alive_workers, queue_job_tiles
+from argand.farm.dispatch import alive_workers, dispatch_job, queue_job_tiles
 from argand.farm.models import Job, Outbox, Tile
 from argand.farm.outbox import PRIORITY_RESEND_S, try_drain
+from argand.farm.queue import broker_client
+from argand.farm.reaper import take_census
 from argand.farm.settings import Settings
 from argand.farm.states import ACTIONS, ACTIVE, JOB, TILE
 from argand.farm.store import store_for
@@ -28,7 +32,9 @@ def set_job_status(settings: Settings, job_id: str, action: str, send: bool = Tr
     """Applies ``action`` if the job's state allows it (else changes
     nothing); resume and retry give the unfinished tiles back to the queue
     and write their messages in the same transaction (argand.farm.outbox),
-    sent here with ``send``. Returns the job's state after."""
+    sent here with ``send``. A resume of an active job sends again its
+    queued tiles that no message carries (resend_unsent). Returns the job's
+    state after."""
     if action not in ACTIONS:
         raise ValueError(f"action must be one of {', '.join(ACTIONS)}, not {action!r}")
     applies_to, target = ACTIONS[action]
@@ -38,21 +44,44 @@ def set_job_status(settings: Settings, job_id: str, action: str, send: bool = Tr
         if job is None:
             raise NoSuchJob(job_id)
         if job.status not in applies_to:
-            return job.status
-        if target == "queued" and job.started:
-            target = "running"
-        job.status = JOB.check(job.status, target)
-        resend = target in ACTIVE
-        if resend:
-            s.execute(update(Tile).where(Tile.job_id == job_id, Tile.status.in_(TILE.sources("queued")))
-                      .values(status="queued", attempts=0, worker=None))
-            job.error = None
-            s.flush()
-            queue_job_tiles(s.connection(), settings, job_id, workers)
-        status = job.status
+            status, resend = job.status, False
+            lost = action == "resume" and status in ACTIVE
+        else:
+            status, resend, lost = _apply(s, settings, job, target, workers), target in ACTIVE, False
+    if lost:
+        resend_unsent(settings, job_id, send)
     if resend and send:
         try_drain(settings, job_id)
     return status
+
+
+def _apply(s, settings: Settings, job: Job, target: str, workers: int) -> str:
+    """The job's change of state in session ``s``; a job made active again
+    gets its unfinished tiles back, and their messages. Returns its state."""
+    if target == "queued" and job.started:
+        target = "running"
+    job.status = JOB.check(job.status, target)
+    if target in ACTIVE:
+        s.execute(update(Tile).where(Tile.job_id == job.id, Tile.status.in_(TILE.sources("queued")))
+                  .values(status="queued", attempts=0, worker=None))
+        job.error = None
+        s.flush()
+        queue_job_tiles(s.connection(), settings, job.id, workers)
+    return job.status
+
+
+def resend_unsent(settings: Settings, job_id: str, send: bool = True) -> int:
+    """The active job's queued tiles that no message carries (in the broker,
+    held by a worker or in the outbox), sent again now. Without an answer
+    from the broker nothing is sent (the reaper's census repairs it once the
+    broker is back). Returns the number of tiles sent again."""
+    try:
+        client = broker_client(settings)
+        client.connection_pool.connection_kwargs.update(socket_timeout=2, socket_connect_timeout=2)
+        lost = take_census(settings, client, job_id).unsent.get(job_id)
+    except Exception:  # redis errors, whatever the client: the reaper repairs later
+        return 0
+    return dispatch_job(settings, job_id, send=send, only_tiles=lost) if lost else 0
 
 
 def set_priority(settings: Settings, job_id: str, priority: int, send: bool = True) -> None:

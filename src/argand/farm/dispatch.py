@@ -23,9 +23,11 @@ def alive_workers(settings: Settings) -> int:
 
 
 def queue_job_tiles(conn, settings: Settings, job_id: str, workers: int, only_status: tuple[str, ...] = ("queued",),
-                    priority: int | None = None, not_before: float = 0.0) -> int:
+                    priority: int | None = None, not_before: float = 0.0,
+                    only_tiles: set[tuple[int, int]] | None = None) -> int:
     """In the caller's transaction (``conn``): outbox rows for every tile of
-    the job in one of the given states (see plan_runs), at the job's priority
+    the job in one of the given states (see plan_runs), limited to the
+    (frame, tile) pairs of ``only_tiles`` when given, at the job's priority
     unless ``priority`` is given. Returns the number of tiles."""
     job = conn.execute(select(Job.priority, Job.width, Job.height, Job.tile, Job.scene).where(Job.id == job_id)).first()
     if job is None:
@@ -34,6 +36,8 @@ def queue_job_tiles(conn, settings: Settings, job_id: str, workers: int, only_st
         Frame.job_id == job_id).order_by(Frame.index))]
     rows = conn.execute(select(Tile.frame_index, Tile.tile_index).where(
         Tile.job_id == job_id, Tile.status.in_(only_status)).order_by(Tile.frame_index, Tile.tile_index)).all()
+    if only_tiles is not None:
+        rows = [r for r in rows if tuple(r) in only_tiles]
     by_frame: dict[int, list[int]] = {}
     for f, t in rows:
         by_frame.setdefault(f, []).append(t)
@@ -45,13 +49,14 @@ def queue_job_tiles(conn, settings: Settings, job_id: str, workers: int, only_st
 
 
 def dispatch_job(settings: Settings, job_id: str, only_status: tuple[str, ...] = ("queued",),
-                 priority: int | None = None, send: bool = True) -> int:
+                 priority: int | None = None, send: bool = True,
+                 only_tiles: set[tuple[int, int]] | None = None) -> int:
     """queue_job_tiles in a transaction of its own, then (``send``) an
     attempt to send the job's messages (they wait in the outbox if the
     broker does not answer). Returns the number of tiles queued."""
     workers = alive_workers(settings)
     with engine_for(settings.sqlalchemy_url).begin() as c:
-        n = queue_job_tiles(c, settings, job_id, workers, only_status, priority)
+        n = queue_job_tiles(c, settings, job_id, workers, only_status, priority, only_tiles=only_tiles)
     if send and n:
         try_drain(settings, job_id)
     return n

@@ -7,7 +7,14 @@ wait (a message's sending to its claim). The API adds request latency.
 The gauges and the counter are counts over indexed columns, read on every
 scrape; the histograms scan the finished tiles, so they are read again only
 when those counts changed and at most once every ``histogram_refresh_s``
-(between two reads a scrape gets the last ones: at most that many seconds old)."""
+(between two reads a scrape gets the last ones: at most that many seconds old).
+
+Work nobody is doing: the queue compared with the database
+(argand.farm.reaper.take_census, at most once every ``histogram_refresh_s``):
+``argand_tiles_unsent``, the queued tiles of active jobs that no message
+carries (lost by the broker: the reaper sends them again), and
+``argand_messages_stale``, waiting messages that can claim nothing (the
+reaper drops them). Absent while the broker does not answer."""
 
 from __future__ import annotations
 
@@ -19,6 +26,8 @@ from sqlalchemy import case, func, select
 
 from argand.farm.database import session_scope
 from argand.farm.models import Frame, Job, Tile, Worker
+from argand.farm.queue import broker_client
+from argand.farm.reaper import take_census
 from argand.farm.settings import Settings
 from argand.farm.states import JOB, TILE
 
@@ -56,6 +65,8 @@ class FarmCollector:
         self._histograms: list[HistogramMetricFamily] = []
         self._token = None  # the counts the histograms were read at
         self._read_at = -float("inf")
+        self._census: list[GaugeMetricFamily] = []
+        self._census_at = -float("inf")
 
     def describe(self):  # no description up front: collect() is called on scrape only
         return []
@@ -69,6 +80,25 @@ class FarmCollector:
             _histogram(s, "argand_queue_wait_seconds", "From a message's sending to its tile's claim",
                        Tile.waited, Tile.status.in_(TILE.states), WAIT_BUCKETS),
         ]
+
+    def _read_census(self) -> list[GaugeMetricFamily]:
+        mono = time.monotonic()
+        if mono - self._census_at >= self.histogram_refresh_s:
+            self._census_at = mono
+            try:
+                client = broker_client(self.settings)
+                client.connection_pool.connection_kwargs.update(socket_timeout=2, socket_connect_timeout=2)
+                census = take_census(self.settings, client)
+            except Exception:  # the broker does not answer: /healthz says so; no figure rather than a wrong one
+                self._census = []
+                return self._census
+            unsent = GaugeMetricFamily("argand_tiles_unsent", "Queued tiles of active jobs that no message carries "
+                                       "(not in the broker, not held by a worker, not in the outbox)")
+            unsent.add_metric([], census.unsent_tiles)
+            stale = GaugeMetricFamily("argand_messages_stale", "Messages waiting in the broker that can claim nothing")
+            stale.add_metric([], len(census.stale))
+            self._census = [unsent, stale]
+        return self._census
 
     def collect(self):
         now = time.time()
@@ -87,4 +117,5 @@ class FarmCollector:
                 if token != self._token and mono - self._read_at >= self.histogram_refresh_s:
                     self._histograms, self._token, self._read_at = self._read_histograms(s), token, mono
                 histograms = self._histograms
-        yield from (jobs, tiles, done, alive, *histograms)
+                census = self._read_census()
+        yield from (jobs, tiles, done, alive, *census, *histograms)

@@ -9,6 +9,15 @@
 * The outbox (argand.farm.outbox): messages that a broker outage kept from
   being sent are sent (the reaper holds its lease in Redis, so it runs
   exactly when Redis is back).
+* The queue against the database (:meth:`Reaper.reconcile`, every
+  ``queue_check_s``): the database is the source of truth, so a queued tile
+  of an active job that no message carries (not in the broker's lists, not
+  held by a worker, not in the outbox) in two censuses in a row is sent
+  again (a broker that lost its messages: a FLUSHALL, an AOF tail lost on a
+  crash, a Redis replaced without its volume); and a waiting message that
+  can claim nothing (its job stopped or is gone, its tiles are no longer
+  queued, or an older priority's copy of tiles that a message at the job's
+  priority carries) is dropped.
 * A frame whose assembler died (or hangs) is assembled again.
 * A worker that died between its last commit and the assembly (or between
   the last frame and the animation) left a frame with every tile done but
@@ -22,15 +31,18 @@ It runs in the workers (argand.worker.heartbeat), one at a time: see
 from __future__ import annotations
 
 import time
+from collections import defaultdict
+from dataclasses import dataclass, field
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from argand.farm import assembly
-from argand.farm.database import session_scope
+from argand.farm.database import engine_for, session_scope
 from argand.farm.dispatch import dispatch_job
-from argand.farm.models import Frame, Job, Tile, Worker
+from argand.farm.models import Frame, Job, Outbox, Tile, Worker
 from argand.farm.outbox import drain
+from argand.farm.queue import BrokerRun, broker_runs, drop_waiting, level_of_key, priority_level
 from argand.farm.settings import Settings
 from argand.farm.states import ACTIVE, FRAME, JOB, TILE
 
@@ -79,6 +91,79 @@ def _stuck(s: Session) -> tuple[set[tuple[str, int]], set[str]]:
     return frames, jobs
 
 
+@dataclass
+class Census:
+    """The queue against the database at one moment: the queued tiles of
+    the active jobs, those no message carries (job -> {(frame, tile)}), and
+    the waiting messages that can claim nothing."""
+
+    queued: int = 0
+    unsent: dict[str, set[tuple[int, int]]] = field(default_factory=dict)
+    stale: list[BrokerRun] = field(default_factory=list)
+
+    @property
+    def unsent_tiles(self) -> int:
+        return sum(len(t) for t in self.unsent.values())
+
+
+def _outbox_cover(c) -> dict[str, set[tuple[int, int]]]:
+    cover: dict[str, set[tuple[int, int]]] = defaultdict(set)
+    for job_id, frame, tiles in c.execute(select(Outbox.job_id, Outbox.frame_index, Outbox.tile_indices)):
+        cover[job_id].update((frame, t) for t in tiles)
+    return cover
+
+
+def _judge_job(census: Census, job_id: str, queued: set[tuple[int, int]], runs: list[BrokerRun],
+               outbox: set[tuple[int, int]], level: int) -> None:
+    """One active job's part of the census: its tiles without a message, its
+    stale messages. A waiting message at another priority than the job's is
+    stale when waiting messages at the job's priority carry all its queued
+    tiles (an older priority's copy; or a given-back tile's top-priority copy
+    whose tile was waiting anyway)."""
+    current = {(r.frame_index, t) for r in runs if r.key is not None and level_of_key(r.key) == level
+               for t in r.tile_indices}
+    carried = outbox | {(r.frame_index, t) for r in runs for t in r.tile_indices}
+    census.queued += len(queued)
+    if queued - carried:
+        census.unsent[job_id] = queued - carried
+    for r in runs:
+        if r.key is None:
+            continue  # held by a worker: it acknowledges it when done
+        mine = {(r.frame_index, t) for t in r.tile_indices} & queued
+        if not mine or (level_of_key(r.key) != level and mine <= current):
+            census.stale.append(r)
+
+
+def take_census(settings: Settings, client, job_id: str | None = None) -> Census:
+    """Reads the tiles first, then the outbox, then the broker: a message
+    moves only forward (outbox, list, worker), so none is missed by the
+    order of the reads; a tile claimed meanwhile may look unsent (it is no
+    longer queued when it would be sent again: nothing is sent for it)."""
+    census = Census()
+    eng = engine_for(settings.sqlalchemy_url)
+    with eng.connect() as c:
+        active = select(Job.id).where(Job.status.in_(ACTIVE), *([Job.id == job_id] if job_id else []))
+        jobs = {job: priority for job, priority in c.execute(select(Job.id, Job.priority).where(Job.id.in_(active)))}
+        queued: dict[str, set[tuple[int, int]]] = defaultdict(set)
+        for owner, frame, tile in c.execute(select(Tile.job_id, Tile.frame_index, Tile.tile_index).where(
+                Tile.status == "queued", Tile.job_id.in_(active))):
+            queued[owner].add((frame, tile))
+        outbox = _outbox_cover(c)
+    by_job: dict[str, list[BrokerRun]] = defaultdict(list)
+    # A worker that holds a message longer than a run may last is dead (the
+    # watchdog stops a run at the hard limit): its message carries nothing.
+    for run in broker_runs(client, settings.tile_hard_time_limit_s + settings.heartbeat_timeout_s):
+        if job_id is None or run.job_id == job_id:
+            by_job[run.job_id].append(run)
+    for owner, runs in by_job.items():
+        if owner not in jobs:  # stopped, ended or deleted: nothing to claim
+            census.stale += [r for r in runs if r.key is not None]
+    for owner, priority in jobs.items():
+        _judge_job(census, owner, queued.get(owner, set()), by_job.get(owner, []), outbox.get(owner, set()),
+                   priority_level(priority))
+    return census
+
+
 class Reaper:
     """Keeps what it saw stuck in the last round (a stuck frame or job is
     finished when seen in two rounds in a row)."""
@@ -87,6 +172,8 @@ class Reaper:
         self.settings = settings
         self._seen_frames: set[tuple[str, int]] = set()
         self._seen_jobs: set[str] = set()
+        self._unsent: dict[str, set[tuple[int, int]]] = {}
+        self._next_census = 0.0
 
     def round(self) -> int:
         """One round. Returns the number of tiles sent again."""
@@ -116,4 +203,28 @@ class Reaper:
         n = sum(dispatch_job(settings, job_id, priority=9, send=False) for job_id in requeue)
         # Everything the outbox holds: this round's, and what a broker outage left.
         drain(settings)
+        return n
+
+    def census_due(self) -> bool:
+        return time.monotonic() >= self._next_census
+
+    def reconcile(self, client) -> int:
+        """The queue against the database (at most every queue_check_s, and
+        at most a tenth of the time: a census that took 1 s waits 10 s):
+        drops the stale messages, sends again the tiles without a message in
+        this census and the one before. Returns the number of tiles sent again."""
+        if not self.census_due():
+            return 0
+        start = time.monotonic()
+        census = take_census(self.settings, client)
+        drop_waiting(client, census.stale)
+        lost = {job_id: tiles & self._unsent[job_id] for job_id, tiles in census.unsent.items()
+                if job_id in self._unsent}
+        self._unsent = census.unsent
+        n = sum(dispatch_job(self.settings, job_id, send=False, only_tiles=tiles) for job_id, tiles in lost.items()
+                if tiles)
+        if n:
+            drain(self.settings)
+        took = time.monotonic() - start
+        self._next_census = start + max(self.settings.queue_check_s, 10 * took)
         return n

@@ -75,6 +75,10 @@ class Settings(BaseSettings):
     heartbeat_interval_s: float = Field(2.0, gt=0)
     heartbeat_timeout_s: float = Field(15.0, gt=0)
     max_tile_attempts: int = Field(3, ge=1)
+    #: Seconds between two comparisons of the queue with the database (the
+    #: reaper's census): a queued tile that no message carries in two in a
+    #: row is sent again, so lost messages are repaired within twice this.
+    queue_check_s: float = Field(10.0, gt=0)
 
     @field_validator("exr_compression")
     @classmethod

@@ -4,7 +4,14 @@ foreground; Ctrl-C stops everything. The settings travel to the workers as
 their environment (Settings.environment); this process's own are passed
 explicitly.
 
-* A lock on the data folder (``farm.lock``) refuses a second farm on it.
+* A lock on the data folder (``farm.lock``) refuses a second farm on it;
+  holding it proves that the farm that served the folder before is gone
+  (its workers die with it), so whatever its workers held is declared dead
+  at once (argand.farm.workers.declare_dead), not after heartbeat_timeout_s.
+* SIGTERM is handled as SIGINT: the API drains, the children are stopped,
+  the exit status is 0.
+* A worker's environment is this process's without the ARGAND_* variables
+  (the API token among them), plus the settings a worker needs.
 * A worker or the embedded Redis that dies is started again, after a
   backoff (1 s, doubling to 30 s; back to 1 s once it has lived a minute).
 * The children die with this process (PR_SET_PDEATHSIG), even on kill -9."""
@@ -13,6 +20,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -22,6 +30,7 @@ from pathlib import Path
 
 from argand.farm.database import upgrade
 from argand.farm.settings import Settings
+from argand.farm.workers import BOOT_MARK, declare_dead
 from argand.serve.embedded_redis import EmbeddedRedis, dying_with_parent
 
 BACKOFF_S = (1.0, 30.0)
@@ -60,10 +69,28 @@ def worker_command(name: str) -> list[str]:
 WORKER_NICE = 10
 
 
+def worker_environment(settings: Settings) -> dict[str, str]:
+    """A worker's environment: this process's without any ARGAND_* variable
+    (the API token, which a worker never needs, among them), then the
+    settings a worker reads (Settings.environment leaves the token out)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ARGAND_")}
+    return {**env, **settings.environment()}
+
+
 def start_worker(settings: Settings, name: str) -> subprocess.Popen:
     """A worker that dies with the supervisor and runs below the API."""
-    env = dict(os.environ, **settings.environment())
-    return subprocess.Popen(dying_with_parent(worker_command(name), WORKER_NICE), env=env)
+    return subprocess.Popen(dying_with_parent(worker_command(name), WORKER_NICE), env=worker_environment(settings))
+
+
+def slot_names(count: int) -> list[str]:
+    return [f"w{i + 1}@{os.uname().nodename}" for i in range(count)]
+
+
+def earlier_workers_pattern() -> str:
+    """The identities this folder's earlier `argand serve` gave its workers on
+    this host: w1+<boot>@host, w1.2+<boot>@host (restarts), and w1@host
+    (before boot ids)."""
+    return rf"w\d+(\.\d+)?(\{BOOT_MARK}[0-9a-f]+)?@{re.escape(os.uname().nodename)}"
 
 
 def stop_all(procs: list[subprocess.Popen]) -> None:
@@ -142,12 +169,20 @@ def serve(settings: Settings, workers: int, announce=print) -> None:
     from argand.api.app import create_app
 
     lock = lock_data_dir(settings.data_path)
+    # SIGTERM (docker stop, systemd, kill) as Ctrl-C: uvicorn drains and
+    # re-raises it once done, and the cleanup below runs.
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     redis = None
     if settings.redis_url is None:
         redis = EmbeddedRedis(settings.redis_socket).start()
         settings = settings.model_copy(update={"redis_url": redis.url})
     upgrade(settings.sqlalchemy_url)  # before the workers and the API use it
-    names = [f"w{i + 1}@{os.uname().nodename}" for i in range(workers)]
+    # The lock is ours: the farm that held it before is gone, and its workers with it.
+    earlier = declare_dead(settings, earlier_workers_pattern())
+    if earlier:
+        announce(f"the workers of this folder's previous run ({', '.join(sorted(earlier))}) are gone: "
+                 "their work is given back")
+    names = slot_names(workers)
     procs = [start_worker(settings, n) for n in names]
     supervisor = Supervisor(settings, redis, procs, names, announce)
     supervisor.start()

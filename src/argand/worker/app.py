@@ -9,6 +9,7 @@ from celery.signals import worker_ready, worker_shutdown
 
 from argand.farm.queue import QUEUE
 from argand.farm.settings import Settings
+from argand.farm.workers import unique_name
 from argand.worker.celery_config import celery_config
 from argand.worker.heartbeat import Heartbeat
 from argand.worker.watchdog import Watchdog
@@ -39,7 +40,11 @@ def worker_argv(name: str) -> list[str]:
 
 
 def run_worker(settings: Settings, name: str) -> None:
-    """Runs a worker in this process until it is stopped (SIGTERM: a warm shutdown)."""
+    """Runs a worker in this process until it is stopped (SIGTERM: a warm
+    shutdown), under ``name`` plus a boot id of this process
+    (argand.farm.workers.unique_name): its Celery hostname, heartbeat row
+    and tile claims."""
+    name = unique_name(name)
     app = create_celery_app(settings, name)
     beat = Heartbeat(settings, name)
     watchdog = Watchdog(settings)

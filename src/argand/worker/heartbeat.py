@@ -58,8 +58,12 @@ class Heartbeat:
 
     def _reap_rounds(self) -> None:
         client, reaper = broker_client(self.settings), Reaper(self.settings)
-        self._every(max(REAPER_EVERY_S, self.settings.heartbeat_interval_s),
-                    lambda: holds_lease(client, self.name) and reaper.round())
+        def step() -> None:
+            if holds_lease(client, self.name):
+                reaper.round()
+                reaper.reconcile(client)
+
+        self._every(max(REAPER_EVERY_S, self.settings.heartbeat_interval_s), step)
 
     def start(self) -> None:
         self.beat()  # registered before the first task

@@ -20,6 +20,7 @@ from argand.farm.outbox import pending
 from argand.farm.planning import MAX_TILE, MIN_TILE
 from argand.farm.previews import PREVIEW_CHANNELS, STATUS_COLOURS
 from argand.farm.queue import PRIORITIES, broker_client
+from argand.farm.reaper import take_census
 from argand.farm.states import ACTIONS, ENDED, FRAME_SHOWN, JOB
 from argand.farm.workers import list_workers
 from argand.render import MAX_OBJECTS, FrameParams, render_frame
@@ -153,12 +154,31 @@ def farm_health(settings) -> tuple[bool, dict]:
 _HEALTH_RESPONSES = {503: {"description": "The farm cannot work: a check failed (the body says which)"}}
 
 
+def queue_census(settings) -> dict:
+    """The queue against the database (argand.farm.reaper.take_census): the
+    queued tiles of active jobs, those that no message carries (work nobody
+    is doing until the reaper sends it again) and the stale messages."""
+
+    def census():
+        client = broker_client(settings)
+        client.connection_pool.connection_kwargs.update(socket_timeout=2, socket_connect_timeout=2)
+        c = take_census(settings, client)
+        return {"queued_tiles": c.queued, "unsent_tiles": c.unsent_tiles, "stale_messages": len(c.stale),
+                "unsent_by_job": {job_id: len(tiles) for job_id, tiles in sorted(c.unsent.items())}}
+
+    return _check("queue", census)
+
+
 @router.get("/healthz", responses=_HEALTH_RESPONSES)
 def healthz(settings: SettingsDep, response: Response) -> dict:
-    """The database, Redis and live workers; 503 when the farm cannot render."""
+    """The database, Redis and live workers; 503 when the farm cannot
+    render. The ``queue`` entry is a report, not a check: tiles that no
+    message carries are sent again by the reaper within twice
+    queue_check_s."""
     ok, body = farm_health(settings)
     if not ok:
         response.status_code = 503
+    body["queue"] = queue_census(settings)
     return body
 
 
