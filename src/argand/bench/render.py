@@ -23,6 +23,7 @@ from typing import Callable
 from argand.bench import machine_info
 from argand.render import FrameParams, render_frame
 from argand.media.contact_sheet import contact_sheet
+from argand.media.frame_files import to_srgb8, write_png
 from argand.render.frames import LADDER_LEVEL_NAMES, STATUS_NAMES
 from argand.render.options import EngineOptions
 from argand.scene import load_scene
@@ -86,13 +87,31 @@ def bench_render(out_dir: Path = Path("docs/bench"), smoke: bool = False, progre
     (out_dir / "render.md").write_text(markdown(report))
     progress("contact sheet")
     sweep = [i * math.pi / 36 for i in range(5)]  # 0 .. pi/9, as in the paper's figures
-    contact_sheet(PAPER_PRESETS, sweep, 96 if smoke else 192, out_dir / "render_contact.png")
-    contact_sheet(CLASSIC_PRESETS, sweep, 96 if smoke else 192, out_dir / "render_contact_classic.png")
+    preset_sheet(PAPER_PRESETS, sweep, 96 if smoke else 192, out_dir / "render_contact.png")
+    preset_sheet(CLASSIC_PRESETS, sweep, 96 if smoke else 192, out_dir / "render_contact_classic.png")
     progress("escalation picture")
     report["escalation_picture"] = escalation_picture(63 if smoke else 255, out_dir / "render_escalation.png")
     (out_dir / "render.json").write_text(json.dumps(report, indent=2) + "\n")
     (out_dir / "render.md").write_text(markdown(report))
     return report
+
+
+#: The preset sheets' gaps: white, as the README shows them.
+SHEET_BACKGROUND = (255, 255, 255)
+
+
+def preset_sheet(scenes: list[str] | tuple[str, ...], deltas: list[float], size: int, path: Path,
+                 sigma: float = 0.0) -> None:
+    """Renders every (scene, δ) at size x size and writes them as one PNG
+    contact sheet (argand.media.contact_sheet): the scenes in rows, δ in columns."""
+    cells = {}
+    for row, name in enumerate(scenes):
+        scene = load_scene(name)
+        for column, delta in enumerate(deltas):
+            result = render_frame(scene, FrameParams(sigma=sigma, delta=delta, width=size, height=size))
+            cells[(row, column)] = to_srgb8(result.rgba)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_png(contact_sheet(cells, (len(scenes), len(deltas)), (size, size), background=SHEET_BACKGROUND), path)
 
 
 def exact_figures(figures: dict) -> dict:

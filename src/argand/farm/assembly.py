@@ -27,7 +27,8 @@ from argand.farm.settings import Settings
 from argand.farm.states import FRAME, JOB
 from argand.farm.store import FrameStore, store_for
 from argand.media import gif
-from argand.media.atlas import atlas_png as draw_atlas, cell_size, scale_to_cell
+from argand.media.atlas import atlas_png as draw_atlas
+from argand.media.contact_sheet import cell_size, scale_to_cell
 from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, STATUS_NAMES, FrameParams, FrameResult, frame_figures
 from argand.frames.frame_set import FrameSet, FramePoint
 from argand.media.frame_files import to_srgb8, write_exr, write_png

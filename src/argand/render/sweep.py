@@ -51,7 +51,8 @@ def render_sweep(
     one σ and δ. on_frame(index, params) is called as each frame is written.
     Returns each frame's figures."""
     from argand.media import gif
-    from argand.media.atlas import atlas_png, cell_size, scale_to_cell
+    from argand.media.atlas import atlas_png
+    from argand.media.contact_sheet import cell_size, scale_to_cell
     from argand.media.frame_files import to_srgb8, write_frame
     from argand.media.video import Mp4Encoder
 
