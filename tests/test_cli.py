@@ -87,6 +87,58 @@ def test_bad_scene_file(tmp_path):
     assert r.returncode == 2 and "unmatched '('" in r.stderr and "Traceback" not in r.stderr
 
 
+def test_a_folder_holding_another_run_is_refused_or_cleared_with_overwrite(tmp_path):
+    """A new run never mixes with an old one: --out that holds another run's
+    files is refused (nothing written, nothing removed); --overwrite removes
+    exactly those files first, and leaves the rest of the folder alone."""
+    out = tmp_path / "render"
+    r = run("render", "whitney", "--deltas", "0:pi/9:3", "--sigmas", "0:pi/18:2", "--size", "16x16", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    before = {f.name: f.stat().st_mtime_ns for f in out.iterdir()}
+    assert "atlas.png" in before and "frame_0005.exr" in before
+    (out / "notes.txt").write_text("mine")
+    r = run("render", "whitney", "--delta", "pi/36", "--size", "16x16", "--out", str(out))
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert f"--out {out}/ holds another run (6 frame(s), animation.gif, animation.mp4, atlas.png)" in r.stderr, r.stderr
+    assert "--overwrite" in r.stderr
+    assert {f.name: f.stat().st_mtime_ns for f in out.iterdir() if f.name != "notes.txt"} == before
+    r = run("render", "whitney", "--delta", "pi/36", "--size", "16x16", "--out", str(out), "--overwrite")
+    assert r.returncode == 0, r.stderr
+    assert "σ = 0, δ = π/36: " in r.stdout  # angles as written, not 0.0872664626
+    assert sorted(f.name for f in out.iterdir()) == ["frame_0000.exr", "frame_0000.json", "frame_0000.png", "notes.txt"]
+    assert (out / "notes.txt").read_text() == "mine"
+    # A folder with other files only, or none, is fine.
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "readme.md").write_text("x")
+    assert run("render", "whitney", "--size", "8x8", "--out", str(other)).returncode == 0
+
+
+def test_help_names_what_options_take_not_their_types():
+    r = run("render", "--help")
+    assert r.returncode == 0, r.stderr
+    for typed in ("<str>", "<int>", "<bool>", "<float>", "<path>", "TEXT", "INTEGER"):
+        assert typed not in r.stdout.split("Arguments:")[-1].split("Options:")[-1], (typed, r.stdout)
+    for shown in ("--size WxH", "--out DIR", "--sigma ANGLE", "--deltas START:STOP:COUNT", "--overwrite ", "--hue "):
+        assert shown in r.stdout, shown
+    assert "[default: 512x512]" in r.stdout
+    api = run("api", "--help").stdout
+    for option, text in (("--host HOST", "Address to listen on"), ("--port PORT", "Port to listen on"),
+                         ("--data DIR", "Data folder")):
+        assert option in api and text in api, api
+    serve = run("serve", "--help").stdout
+    assert "--port PORT" in serve and "<int>" not in serve
+
+
+def test_the_cli_and_the_farm_share_one_default_size():
+    from argand.api.schemas import JobRequest
+    from argand.frames.frame_set import DEFAULT_HEIGHT, DEFAULT_WIDTH
+
+    fields = JobRequest.model_fields
+    assert (fields["width"].default, fields["height"].default) == (DEFAULT_WIDTH, DEFAULT_HEIGHT) == (512, 512)
+    assert f"[default: {DEFAULT_WIDTH}x{DEFAULT_HEIGHT}]" in run("render", "--help").stdout
+
+
 def test_render_writes_frames_aovs_and_animation(tmp_path):
     out = tmp_path / "frames"
     r = run("render", "whitney", "--deltas", "0:pi/9:3", "--size", "32x24", "--out", str(out))
@@ -345,3 +397,16 @@ def test_bench_farm_rejects_an_unknown_compression(tmp_path):
     r = run("bench", "farm", "--smoke", "--exr-compression", "lzma", "--out", str(tmp_path))
     assert r.returncode == 2 and "--exr-compression" in r.stderr and "Traceback" not in r.stderr
     assert not (tmp_path / "farm.json").exists()
+
+
+def test_what_runs_write_by_default_is_ignored_by_git():
+    """argand render's default --out, the docs' out/, argand serve's data
+    folder and the browser tests' screenshots never show in git status."""
+    from tests.web.browser import SHOTS
+
+    repo = Path(__file__).resolve().parents[1]
+    for path in ("render/frame_0000.png", "out/my-scene/atlas.png", "argand-data/farm.db",
+                 str((SHOTS / "states" / "done-job.png").relative_to(repo))):
+        r = subprocess.run(["git", "check-ignore", "-q", path], cwd=repo, timeout=30)
+        assert r.returncode == 0, f"{path} is not ignored by .gitignore"
+    assert not str(SHOTS.relative_to(repo)).startswith("docs")

@@ -9,15 +9,22 @@ from typing import List, Optional
 import typer
 from rich import box
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
+from argand.frames.frame_set import DEFAULT_HEIGHT, DEFAULT_WIDTH, angle_text
+
+# Plain help (click's layout): an option that takes a value shows what it
+# takes (WxH, ANGLE, DIR), a flag shows nothing, and no option its Python type.
 app = typer.Typer(
     help="Argand: verified complex roots and renders of algebraic surfaces in complex space.",
     no_args_is_help=True,
     add_completion=False,
+    rich_markup_mode=None,
 )
-bench_app = typer.Typer(help="Benchmarks against the alternatives; JSON and charts under docs/bench/.", no_args_is_help=True)
+bench_app = typer.Typer(help="Benchmarks against the alternatives; JSON and charts under docs/bench/.", no_args_is_help=True,
+                        rich_markup_mode=None)
 app.add_typer(bench_app, name="bench")
 
 console = Console()
@@ -25,7 +32,7 @@ err = Console(stderr=True)
 
 
 def fail(message: str, code: int = 2) -> None:
-    err.print(f"[bold red]error:[/] {message}")
+    err.print(f"[bold red]error:[/] {escape(message)}", soft_wrap=True)
     raise typer.Exit(code)
 
 
@@ -36,8 +43,8 @@ def fail(message: str, code: int = 2) -> None:
 
 @app.command(context_settings={"ignore_unknown_options": True, "allow_interspersed_args": True})
 def roots(
-    coefficients: List[str] = typer.Argument(..., help="p_0 p_1 ... p_n, lowest degree first (negative numbers are fine)."),
-    method: str = typer.Option("auto", "--method", "-m", help="auto | smith | paper | unverified"),
+    coefficients: List[str] = typer.Argument(..., metavar="P0 P1 ... PN", help="p_0 p_1 ... p_n, lowest degree first (negative numbers are fine)."),
+    method: str = typer.Option("auto", "--method", "-m", metavar="METHOD", help="auto | smith | paper | unverified"),
 ) -> None:
     """All complex roots of p(t) = p_0 + p_1 t + ... + p_n t^n, with proven enclosures."""
     from argand.core import METHODS, find_roots
@@ -100,42 +107,48 @@ def _parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
+#: A frame's size when none is given (the farm's default too).
+DEFAULT_SIZE = f"{DEFAULT_WIDTH}x{DEFAULT_HEIGHT}"
+
 #: The EXR compressions (argand.media.frame_files.exr_compressions, which checks them).
 EXR_COMPRESSION_HELP = "none, rle, zip, zips, piz, zstd (OpenEXR 3.5+ readers only); zip:N, zstd:N for a level."
 
 
 @app.command()
 def render(
-    scene: str = typer.Argument(..., help="A preset name (argand presets) or a scene file (.yaml/.json)."),
-    sigma: Optional[str] = typer.Option(None, "--sigma", help="Start of the argument band, one value (default 0; e.g. pi/36)."),
-    sigmas: Optional[str] = typer.Option(None, "--sigmas", help="A sweep of sigma START:STOP:COUNT (e.g. 0:pi/2:12); "
-                                         "with --deltas, a grid sigmas x deltas."),
-    delta: Optional[str] = typer.Option(None, "--delta", help="Width of the band, one value (default 0; e.g. pi/9)."),
-    deltas: Optional[str] = typer.Option(None, "--deltas", help="A sweep START:STOP:COUNT (e.g. 0:pi/9:24)."),
-    atlas: Optional[int] = typer.Option(None, "--atlas", min=1, help="N: the whole space sigma >= 0, sigma + delta <= pi "
-                                        "on a triangular grid of N rows and columns (N(N+1)/2 frames), step pi/N."),
-    size: str = typer.Option("512x512", "--size", help="WxH in pixels."),
-    out: Path = typer.Option(Path("render"), "--out", help="Output folder."),
-    workers: int = typer.Option(0, "--workers", help="Threads (0: all cores)."),
-    tile: int = typer.Option(64, "--tile", help="Tile size in pixels."),
-    method: str = typer.Option("auto", "--method", help="Root method: auto | smith | paper | unverified."),
+    scene: str = typer.Argument(..., metavar="SCENE", help="A preset name (argand presets) or a scene file (.yaml/.json)."),
+    sigma: Optional[str] = typer.Option(None, "--sigma", metavar="ANGLE", help="σ, the start of the argument band, one value (default 0; e.g. pi/36)."),
+    sigmas: Optional[str] = typer.Option(None, "--sigmas", metavar="START:STOP:COUNT", help="A sweep of σ START:STOP:COUNT (e.g. 0:pi/2:12); "
+                                         "with --deltas, a grid σ x δ."),
+    delta: Optional[str] = typer.Option(None, "--delta", metavar="ANGLE", help="δ, the width of the band, one value (default 0; e.g. pi/9)."),
+    deltas: Optional[str] = typer.Option(None, "--deltas", metavar="START:STOP:COUNT", help="A sweep of δ START:STOP:COUNT (e.g. 0:pi/9:24)."),
+    atlas: Optional[int] = typer.Option(None, "--atlas", metavar="N", min=1, help="N: the whole space σ ≥ 0, σ + δ ≤ π "
+                                        "on a triangular grid of N rows and columns (N(N+1)/2 frames), step π/N."),
+    size: str = typer.Option(DEFAULT_SIZE, "--size", metavar="WxH", help="WxH in pixels (the farm's default too)."),
+    out: Path = typer.Option(Path("render"), "--out", metavar="DIR", help="Output folder: one run's files; "
+                             "refused if it holds another run's (see --overwrite)."),
+    overwrite: bool = typer.Option(False, "--overwrite", help="Remove another run's files from --out first (frames, "
+                                   "animations, atlas.png; nothing else)."),
+    workers: int = typer.Option(0, "--workers", metavar="N", help="Threads (0: all cores)."),
+    tile: int = typer.Option(64, "--tile", metavar="PIXELS", help="Tile size in pixels."),
+    method: str = typer.Option("auto", "--method", metavar="METHOD", help="Root method: auto | smith | paper | unverified."),
     hue: bool = typer.Option(False, "--hue", help="Colour complex roots by their argument."),
     samples: Optional[int] = typer.Option(
-        None, "--samples", help="Samples per pixel, a square (1, 4, 9, ..., 64; default: the scene's, else 1): the "
+        None, "--samples", metavar="N", help="Samples per pixel, a square (1, 4, 9, ..., 64; default: the scene's, else 1): the "
         "colour is their mean, the status the worst of theirs (the certified_share AOV counts them)."),
-    fps: float = typer.Option(8.0, "--fps", help="Frames per second of the animation."),
-    exr_compression: str = typer.Option("zip", "--exr-compression",
+    fps: float = typer.Option(8.0, "--fps", metavar="FPS", help="Frames per second of the animation."),
+    exr_compression: str = typer.Option("zip", "--exr-compression", metavar="NAME[:LEVEL]",
                                         help=EXR_COMPRESSION_HELP),
     explain: Optional[str] = typer.Option(
-        None, "--explain", help="X,Y (or X,Y,SAMPLE with --samples): print that pixel's (sample's) ray, ray "
+        None, "--explain", metavar="X,Y[,SAMPLE]", help="X,Y (or X,Y,SAMPLE with --samples): print that pixel's (sample's) ray, ray "
         "polynomial with coefficient radii, discs, decisions, the exact tier's steps and status (first frame only), "
         "and render nothing."),
     exact_per_tile: Optional[int] = typer.Option(
-        None, "--exact-per-tile", help="The exact tier: at most N pixels per tile decided on the exact rational "
+        None, "--exact-per-tile", metavar="N", help="The exact tier: at most N pixels per tile decided on the exact rational "
         "ray polynomial when the double-double tier leaves them unproven (0: off; default: the renderer's, "
         "argand.render.frames.EXACT_PIXELS_PER_TILE)."),
     exact_bits: Optional[int] = typer.Option(
-        None, "--exact-bits", help="The exact tier's highest precision in bits (default: EXACT_DEFAULT_BITS)."),
+        None, "--exact-bits", metavar="BITS", help="The exact tier's highest precision in bits (default: EXACT_DEFAULT_BITS)."),
 ) -> None:
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, animation.gif and .mp4,
     and atlas.png for a grid of (sigma, delta)."""
@@ -175,6 +188,7 @@ def render(
     if explain is not None:
         _explain(loaded, params[0], explain, tile)
         return
+    _clear_out(out, overwrite)
     tiles_per_frame = math.ceil(width / tile) * math.ceil(height / tile)
     with Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("tiles"),
@@ -185,13 +199,13 @@ def render(
             summary = render_sweep(
                 loaded, params, out, tile=tile, workers=workers or None, compression=exr_compression, fps=fps,
                 on_frame=lambda i, p: progress.update(
-                    task, description=f"frame {i + 1}/{len(params)} (sigma={p.sigma:.4g}, delta={p.delta:.4g})"),
+                    task, description=f"frame {i + 1}/{len(params)} (σ = {angle_text(p.sigma)}, δ = {angle_text(p.delta)})"),
                 on_tile=lambda t: progress.advance(task), grid=grid)
         except ValueError as exc:
             fail(str(exc))
     for f in summary:
         console.print(
-            f"sigma={f['sigma']:.5g} delta={f['delta']:.5g}: {f['seconds'] * 1000:.0f} ms, "
+            f"σ = {angle_text(f['sigma'])}, δ = {angle_text(f['delta'])}: {f['seconds'] * 1000:.0f} ms, "
             f"{f['ns_per_pixel']:.0f} ns/pixel, "
             f"certified {100 * f['certified_share']:.3f}%, escalated {100 * f['escalated_share']:.3f}%, "
             f"exact {f['exact_pixels']} (multiple roots proven {f['exact_multiple_roots']}, "
@@ -199,6 +213,30 @@ def render(
         )
     extras = (["animation.gif", "animation.mp4"] if len(params) > 1 else []) + (["atlas.png"] if grid.is_grid else [])
     console.print(f"wrote {len(params)} frame(s) to {out}/" + (f" and {', '.join(extras)}" if extras else ""))
+
+
+#: The files a run writes into its --out folder (argand.render.sweep.render_sweep).
+RUN_FILES = ("frame_[0-9][0-9][0-9][0-9].exr", "frame_[0-9][0-9][0-9][0-9].png", "frame_[0-9][0-9][0-9][0-9].json",
+             "animation.gif", "animation.mp4", "animation.mp4.tmp", "atlas.png")
+
+
+def _clear_out(out: Path, overwrite: bool) -> None:
+    """A run's folder holds that run only: another run's files in ``out``
+    are refused (a new run would mix with them, its frames beside stale
+    ones), or removed first with ``overwrite``. Other files are left alone."""
+    if out.exists() and not out.is_dir():
+        fail(f"--out {out} is a file, not a folder")
+    found = sorted({f for pattern in RUN_FILES for f in out.glob(pattern)}) if out.is_dir() else []
+    if not found:
+        return
+    if not overwrite:
+        frames = sum(1 for f in found if f.suffix == ".exr")
+        others = [f.name for f in found if not f.name.startswith("frame_")]
+        held = ", ".join([f"{frames} frame(s)"] * bool(frames) + others)
+        fail(f"--out {out}/ holds another run ({held}): a new run would mix its frames with those. "
+             f"Give another folder (--out {out}-2), or add --overwrite to remove that run's files first.")
+    for f in found:
+        f.unlink()
 
 
 def _explain(scene, params, where: str, tile: int) -> None:
@@ -260,9 +298,9 @@ _BENCH_NAMES = {
 
 @bench_app.command("roots")
 def bench_roots_cmd(
-    count: int = typer.Option(20000, "--count", min=1, help="Polynomials per suite (alternatives run on subsets)."),
-    seed: int = typer.Option(1, "--seed", help="Seed of the random polynomials."),
-    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for roots.json, roots.md and roots.png."),
+    count: int = typer.Option(20000, "--count", metavar="N", min=1, help="Polynomials per suite (alternatives run on subsets)."),
+    seed: int = typer.Option(1, "--seed", metavar="N", help="Seed of the random polynomials."),
+    out: Path = typer.Option(Path("docs/bench"), "--out", metavar="DIR", help="Folder for roots.json, roots.md and roots.png."),
     smoke: bool = typer.Option(False, "--smoke", help="A tiny run (seconds) that keeps the benchmark alive in CI."),
 ) -> None:
     """Verified roots vs numpy, python-flint, mpmath and MPSolve: speed and accuracy on the same polynomials."""
@@ -318,7 +356,7 @@ def bench_roots_cmd(
 
 @bench_app.command("render")
 def bench_render_cmd(
-    out: Path = typer.Option(Path("docs/bench"), "--out"),
+    out: Path = typer.Option(Path("docs/bench"), "--out", metavar="DIR"),
     smoke: bool = typer.Option(False, "--smoke", help="Small sizes, for CI."),
     samples_only: bool = typer.Option(False, "--samples-only",
                                       help="Only the cost of antialiasing (1, 4, 16 samples per pixel)."),
@@ -372,11 +410,11 @@ def bench_render_cmd(
 
 @bench_app.command("farm")
 def bench_farm_cmd(
-    out: Path = typer.Option(Path("docs/bench"), "--out"),
+    out: Path = typer.Option(Path("docs/bench"), "--out", metavar="DIR"),
     smoke: bool = typer.Option(False, "--smoke", help="3 frames of 192x192, for CI."),
-    exr_compression: str = typer.Option(None, "--exr-compression",
+    exr_compression: str = typer.Option(None, "--exr-compression", metavar="NAME[:LEVEL]",
                                         help=f"The farms' EXR compression: {EXR_COMPRESSION_HELP} Default: the farm's."),
-    repeat: int = typer.Option(None, "--repeat", help="Runs of each configuration (the median is kept); default 3, smoke 1."),
+    repeat: int = typer.Option(None, "--repeat", metavar="N", help="Runs of each configuration (the median is kept); default 3, smoke 1."),
 ) -> None:
     """One job of 36 frames at 512x512 on 1 and 2 workers, tile sizes 32/64/128/frame."""
     from argand.bench.farm import bench_farm
@@ -412,20 +450,20 @@ def bench_farm_cmd(
 
 @bench_app.command("load")
 def bench_load_cmd(
-    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for load.json, load.md and load.png."),
-    url: Optional[str] = typer.Option(None, "--url", help="An existing farm (default: start argand serve --workers 2 "
+    out: Path = typer.Option(Path("docs/bench"), "--out", metavar="DIR", help="Folder for load.json, load.md and load.png."),
+    url: Optional[str] = typer.Option(None, "--url", metavar="URL", help="An existing farm (default: start argand serve --workers 2 "
                                       "on a free loopback port with its own data folder)."),
     smoke: bool = typer.Option(False, "--smoke", help="Seconds, not minutes: keeps the harness alive in CI."),
-    users: Optional[str] = typer.Option(None, "--users", help="The ramp's steps, e.g. 1,5,10,20,40,60."),
-    step_s: Optional[float] = typer.Option(None, "--step-s", help="Seconds per ramp step (default 20, smoke 4)."),
-    steady_s: Optional[float] = typer.Option(None, "--steady-s", help="Seconds of the steady phase (default 90, smoke 6)."),
-    steady_users: Optional[int] = typer.Option(None, "--steady-users", help="Users in the steady phase "
+    users: Optional[str] = typer.Option(None, "--users", metavar="N,N,...", help="The ramp's steps, e.g. 1,5,10,20,40,60."),
+    step_s: Optional[float] = typer.Option(None, "--step-s", metavar="SECONDS", help="Seconds per ramp step (default 20, smoke 4)."),
+    steady_s: Optional[float] = typer.Option(None, "--steady-s", metavar="SECONDS", help="Seconds of the steady phase (default 90, smoke 6)."),
+    steady_users: Optional[int] = typer.Option(None, "--steady-users", metavar="N", help="Users in the steady phase "
                                                "(default: the sustainable level the ramp found)."),
     profile: bool = typer.Option(False, "--profile", help="Sample the API with py-spy during the steady phase."),
     probes: Optional[bool] = typer.Option(None, "--probes/--no-probes", help="After the drain, time the list and "
                                           "status requests under conditions that isolate the causes (default: on, "
                                           "off with --smoke)."),
-    seed: int = typer.Option(1, "--seed", help="Seed of the users' choices."),
+    seed: int = typer.Option(1, "--seed", metavar="N", help="Seed of the users' choices."),
 ) -> None:
     """Simulated users (Locust) against a two-worker farm: ramp, steady, drain; latency per endpoint, lost jobs, throughput."""
     from argand.bench.load import bench_load
@@ -455,7 +493,7 @@ def bench_load_cmd(
 
 @bench_app.command("stability")
 def bench_stability_cmd(
-    out: Path = typer.Option(Path("docs/bench"), "--out", help="Folder for stability.json, stability.md and stability.png."),
+    out: Path = typer.Option(Path("docs/bench"), "--out", metavar="DIR", help="Folder for stability.json, stability.md and stability.png."),
     smoke: bool = typer.Option(False, "--smoke", help="A small picture, for CI."),
 ) -> None:
     """The named stability suite: every method (argand's, numpy, python-flint, mpmath, MPSolve) on every case, classed."""
@@ -492,12 +530,12 @@ def bench_bands_cmd(
 
 @bench_app.command("all")
 def bench_all_cmd(
-    out: Path = typer.Option(None, "--out", help="Folder for every section's files (default docs/bench, "
+    out: Path = typer.Option(None, "--out", metavar="DIR", help="Folder for every section's files (default docs/bench, "
                              "smoke build/bench-smoke)."),
-    page: Path = typer.Option(None, "--page", help="The report (default docs/benchmarks.md, smoke "
+    page: Path = typer.Option(None, "--page", metavar="FILE", help="The report (default docs/benchmarks.md, smoke "
                               "build/bench-smoke/benchmarks.md)."),
     smoke: bool = typer.Option(False, "--smoke", help="Every section at its smoke size (minutes): keeps them alive in CI."),
-    reuse: Optional[str] = typer.Option(None, "--reuse", help="Sections taken from their last JSON instead of run "
+    reuse: Optional[str] = typer.Option(None, "--reuse", metavar="SECTIONS", help="Sections taken from their last JSON instead of run "
                                         "again, e.g. farm,render (of: roots, stability, render, farm, load)."),
 ) -> None:
     """Every benchmark, then docs/benchmarks.md: machine and versions, roots, stability, render, farm, load."""
@@ -549,21 +587,22 @@ def _engine_options():
 
 @app.command()
 def serve(
-    workers: int = typer.Option(2, "--workers", min=0, help="Celery worker processes to start."),
-    host: Optional[str] = typer.Option(None, "--host", help="Default 127.0.0.1 (ARGAND_HOST)."),
-    port: Optional[int] = typer.Option(None, "--port", help="Default 8000 (ARGAND_PORT)."),
-    data: Optional[Path] = typer.Option(None, "--data", help="Data folder (default ./argand-data, ARGAND_DATA_DIR)."),
+    workers: int = typer.Option(2, "--workers", metavar="N", min=0, help="Celery worker processes to start."),
+    host: Optional[str] = typer.Option(None, "--host", metavar="HOST", help="Default 127.0.0.1 (ARGAND_HOST)."),
+    port: Optional[int] = typer.Option(None, "--port", metavar="PORT", help="Default 8000 (ARGAND_PORT)."),
+    data: Optional[Path] = typer.Option(None, "--data", metavar="DIR", help="Data folder (default ./argand-data, ARGAND_DATA_DIR)."),
 ) -> None:
     """The render farm: Redis (embedded unless ARGAND_REDIS_URL), the API and N workers. Ctrl-C stops it."""
-    from argand.serve.supervisor import serve as run
-
+    from argand.serve.ports import PortTaken
     from argand.serve.supervisor import FarmLocked
+    from argand.serve.supervisor import serve as run
 
     settings = _farm_settings(data, host, port)
     _refuse_exposure(settings)
     try:
-        run(settings, workers, announce=lambda m: console.print(m))
-    except FarmLocked as exc:
+        # A line each, as written (a URL or an error is never wrapped or read as markup).
+        run(settings, workers, announce=lambda m: console.print(m, markup=False, highlight=False, soft_wrap=True))
+    except (FarmLocked, PortTaken) as exc:
         fail(str(exc))
 
 
@@ -578,8 +617,8 @@ def _refuse_exposure(settings) -> None:
 
 @app.command()
 def worker(
-    name: Optional[str] = typer.Option(None, "--name", help="Worker name (default worker-PID@host)."),
-    data: Optional[Path] = typer.Option(None, "--data", help="Data folder shared with the API (ARGAND_DATA_DIR)."),
+    name: Optional[str] = typer.Option(None, "--name", metavar="NAME", help="Worker name (default worker-PID@host)."),
+    data: Optional[Path] = typer.Option(None, "--data", metavar="DIR", help="Data folder shared with the API (ARGAND_DATA_DIR)."),
 ) -> None:
     """One worker that joins an existing Redis + database + store (ARGAND_REDIS_URL, ARGAND_DATABASE_URL)."""
     import os
@@ -594,9 +633,11 @@ def worker(
 
 @app.command()
 def api(
-    host: Optional[str] = typer.Option(None, "--host"),
-    port: Optional[int] = typer.Option(None, "--port"),
-    data: Optional[Path] = typer.Option(None, "--data"),
+    host: Optional[str] = typer.Option(None, "--host", metavar="HOST", help="Address to listen on: default 127.0.0.1 "
+                                       "(ARGAND_HOST); another needs a token (see docs/farm.md)."),
+    port: Optional[int] = typer.Option(None, "--port", metavar="PORT", help="Port to listen on: default 8000 (ARGAND_PORT)."),
+    data: Optional[Path] = typer.Option(None, "--data", metavar="DIR", help="Data folder with the database and frame "
+                                        "store (default ./argand-data, ARGAND_DATA_DIR); shared with the workers."),
 ) -> None:
     """The API alone (ARGAND_REDIS_URL and ARGAND_DATABASE_URL point at the farm); upgrades the database's schema first."""
     import uvicorn
@@ -608,9 +649,16 @@ def api(
     if settings.redis_url is None:
         fail("set ARGAND_REDIS_URL to the farm's Redis (argand api does not start its own broker; argand serve does)")
     _refuse_exposure(settings)
+    from argand.serve.ports import PortTaken, listen_on
+
+    try:
+        listening = listen_on(settings.host, settings.port)
+    except PortTaken as exc:
+        fail(str(exc).replace("argand serve --port", "argand api --port"))
     upgrade(settings.sqlalchemy_url)
-    console.print(f"Argand API on http://{settings.host}:{settings.port}/")
-    uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="warning")
+    console.print(f"Argand API on http://{settings.host}:{settings.port}/", markup=False, highlight=False, soft_wrap=True)
+    uvicorn.Server(uvicorn.Config(create_app(settings), host=settings.host, port=settings.port,
+                                  log_level="warning")).run(sockets=[listening])
 
 
 def main() -> None:  # pragma: no cover

@@ -314,15 +314,32 @@ def test_presets_are_all_the_packaged_files():
         preset_path("nope")
 
 
+#: scenes/ holds the presets' copies and this example of a scene of one's own.
+EXAMPLE_SCENE = "my-scene.yaml"
+
+
 def test_scenes_folder_equals_the_packaged_presets_byte_for_byte():
     # The packaged files are the source; scenes/ holds copies for readers of
     # the repository. Fix a difference with: cp src/argand/scene/presets/*.yaml scenes/
     source = REPO / "src" / "argand" / "scene" / "presets"
-    assert sorted(p.name for p in (REPO / "scenes").glob("*.yaml")) == sorted(f"{n}.yaml" for n in PRESETS)
+    assert sorted(p.name for p in (REPO / "scenes").glob("*.yaml")) == sorted([f"{n}.yaml" for n in PRESETS] + [EXAMPLE_SCENE])
     for name in PRESETS:
         assert (REPO / "scenes" / f"{name}.yaml").read_bytes() == (source / f"{name}.yaml").read_bytes(), name
         # and the package this test imports ships the same files
         assert preset_path(name).read_bytes() == (source / f"{name}.yaml").read_bytes(), name
+
+
+def test_the_example_scene_loads_and_renders():
+    """scenes/my-scene.yaml, the commented example the docs point to, is a
+    valid scene whose surface shows in a small frame."""
+    from argand.render import FrameParams, render_frame
+
+    text = (REPO / "scenes" / EXAMPLE_SCENE).read_text()
+    assert text.count("\n#") >= 3 and "argand render scenes/my-scene.yaml" in text  # commented, with its command
+    scene = load_scene(str(REPO / "scenes" / EXAMPLE_SCENE))
+    assert [o.polynomial.degree for o in scene.objects] == [4] and scene.samples == 1
+    result = render_frame(scene, FrameParams(delta=math.pi / 18, width=48, height=48), workers=1)
+    assert result.aovs["status"].shape == (48, 48) and result.rgba[..., 3].mean() > 0.2  # the torus covers the frame
 
 
 def test_preset_files_are_minimal():

@@ -2,21 +2,16 @@
 against a real two-worker farm: submit through the form, watch progress
 reach 100%, play, scrub, switch channel, download the GIF; an invalid
 expression shows its error and submits nothing. Screenshots of each page go
-to docs/screenshots/."""
+to build/screenshots/ (tests.web.browser.SHOTS; `make screenshots` copies
+those the docs show into docs/screenshots/)."""
 
 from __future__ import annotations
-
-import shutil
-from pathlib import Path
 
 import httpx
 import pytest
 
 from tests.farm.test_farm import Farm
-
-REPO = Path(__file__).resolve().parents[2]
-SHOTS = REPO / "docs" / "screenshots"
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+from tests.web.browser import REPO, chromium_page, shot
 
 
 @pytest.fixture(scope="module")
@@ -28,23 +23,8 @@ def farm(tmp_path_factory):
 
 @pytest.fixture
 def page(farm):
-    from playwright.sync_api import sync_playwright
-
-    if not Path(CHROMIUM).exists():
-        pytest.fail("Chromium is missing: make setup installs Debian's chromium package (as root)")
-    with sync_playwright() as p:
-        browser = p.chromium.launch(
-            executable_path=CHROMIUM,
-            args=["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--disable-background-networking",
-                  "--disable-component-update", "--no-first-run", "--disable-sync"],
-        )
-        pg = browser.new_page(viewport={"width": 1280, "height": 900})
-        errors: list[str] = []
-        pg.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-        pg.on("pageerror", lambda e: errors.append(str(e)))
-        pg.errors = errors
+    with chromium_page() as pg:
         yield pg
-        browser.close()
 
 
 def test_invalid_expression_shows_its_error_and_submits_nothing(farm, page):
@@ -63,8 +43,7 @@ def test_invalid_expression_shows_its_error_and_submits_nothing(farm, page):
     page.wait_for_function(
         "[...document.querySelectorAll('.preset img')].every(i => i.complete && i.naturalWidth > 0)", timeout=120_000
     )
-    SHOTS.mkdir(parents=True, exist_ok=True)
-    page.screenshot(path=str(SHOTS / "new-job.png"), full_page=True)
+    shot(page, "new-job")
     assert not page.errors, page.errors
 
 
@@ -90,15 +69,16 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     job = farm.get(f"/api/jobs/{job_id}")
     assert job["scene"]["samples"] == 4 and job["frames"][0]["figures"]["samples"] == 4
     page.eval_on_selector("#scrub", "(el) => { el.value = 3; el.dispatchEvent(new Event('input')); }")
-    assert f"δ = {job['frames'][3]['delta']:.4f}" in page.text_content("#scrub-label")
+    assert job["delta_labels"][3] == "π/15" and "δ = π/15, σ = 0" in page.text_content("#scrub-label")
     page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'beauty/3'")
     assert page.is_hidden("#scrub-sigma") and page.is_hidden("#play-axis")  # one σ: δ only
-    page.screenshot(path=str(SHOTS / "job.png"), full_page=True)
+    shot(page, "job")
     # The status channel.
     page.select_option("#channel", "status")
     page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'status/3'")
     assert page.is_visible("#legend")
-    page.screenshot(path=str(SHOTS / "job-status-channel.png"), full_page=True)
+    assert "dark: no surface" in page.text_content("#legend")  # the background's pixels are explained too
+    shot(page, "job-status-channel")
     # The share of certified samples per pixel.
     page.select_option("#channel", "certified_share")
     page.wait_for_function("document.querySelector('#canvas')?.dataset?.drawn === 'certified_share/3'")
@@ -116,11 +96,11 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     # The jobs table and the workers page.
     page.goto(farm.url + "/#/jobs")
     page.wait_for_selector(f"tr[data-job='{job_id}']")
-    page.screenshot(path=str(SHOTS / "jobs.png"), full_page=True)
+    shot(page, "jobs")
     page.goto(farm.url + "/#/workers")
     page.wait_for_selector("#w table")
     assert page.locator("#w tbody tr").count() == 2
-    page.screenshot(path=str(SHOTS / "workers.png"), full_page=True)
+    shot(page, "workers")
     # Compare two frames of the job, then under a slider.
     page.goto(farm.url + f"/#/compare?a={job_id}:0&b={job_id}:5")
     page.wait_for_selector("#img-b")
@@ -130,7 +110,7 @@ def test_submit_watch_play_scrub_channel_download(farm, page, tmp_path):
     page.eval_on_selector("#cmp-split", "(el) => { el.value = 30; el.dispatchEvent(new Event('input')); }")
     assert "30%" in page.get_attribute("#img-b", "style")
     page.wait_for_function("document.querySelector('#img-b')?.complete")
-    page.screenshot(path=str(SHOTS / "compare.png"), full_page=True)
+    shot(page, "compare")
     assert not page.errors, page.errors
 
 
@@ -166,8 +146,9 @@ def test_a_grid_job_plays_along_both_axes_and_its_atlas_opens_frames(farm, page,
     assert frame() == at[(2, 0)]["index"]
     page.eval_on_selector("#scrub", "(el) => { el.value = 3; el.dispatchEvent(new Event('input')); }")
     assert frame() == at[(2, 3)]["index"]
-    f = at[(2, 3)]
-    assert f"δ = {f['delta']:.4f}, σ = {f['sigma']:.4f}" in page.text_content("#scrub-label")
+    assert (job["sigma_labels"], job["delta_labels"]) == (["0", "π/24", "π/12"], ["π/36", "π/18", "π/12", "π/9"])
+    assert "δ = π/9, σ = π/12" in page.text_content("#scrub-label")
+    assert [page.text_content(f"#grid .axis >> nth={i}") for i in range(7)] == job["delta_labels"] + job["sigma_labels"]
     # Arrow keys: up and down for σ, left and right for δ (wrapping).
     page.keyboard.press("ArrowUp")
     assert frame() == at[(1, 3)]["index"]
@@ -187,7 +168,7 @@ def test_a_grid_job_plays_along_both_axes_and_its_atlas_opens_frames(farm, page,
     page.click(f"#grid .cell[data-sigma-index='1'][data-delta-index='3']")
     assert frame() == at[(1, 3)]["index"]
     page.wait_for_function(f"document.querySelector('#canvas')?.dataset?.drawn === 'beauty/{at[(1, 3)]['index']}'")
-    page.screenshot(path=str(SHOTS / "job-atlas.png"), full_page=True)
+    shot(page, "job-atlas")
     # The downloads: the three animations and the atlas, each served.
     for link, kind in (("#gif", "image/gif"), ("#webp", "image/webp"), ("#mp4", "video/mp4"), ("#atlas-png", "image/png")):
         r = httpx.get(farm.url + page.get_attribute(link, "href"), timeout=120)
@@ -235,6 +216,9 @@ def test_the_front_end_reads_the_farms_definitions_from_api_meta(farm):
     assert set(meta["actions"]) == set(ACTIONS) and meta["channels"] == list(PREVIEW_CHANNELS)
     assert [(p["code"], p["name"]) for p in meta["pixel_statuses"]] == sorted(STATUS_NAMES.items())
     assert [p["colour"] for p in meta["pixel_statuses"]] == ["#%02x%02x%02x" % STATUS_COLOURS[n] for n in STATUS_NAMES.values()]
+    from argand.farm.previews import EMPTY
+
+    assert meta["status_empty"]["colour"] == "#%02x%02x%02x" % EMPTY
     assert meta["limits"]["max_width"] == 4096 and meta["defaults"]["tile"] == 64
     from argand.render.frames import MAX_SAMPLES
 

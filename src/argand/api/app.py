@@ -3,11 +3,13 @@ front end at /, Prometheus metrics at /metrics."""
 
 from __future__ import annotations
 
+import importlib.util
 import time
 from contextlib import asynccontextmanager
 from pathlib import Path
 
 from fastapi import Depends, FastAPI, Request
+from fastapi.openapi.docs import get_swagger_ui_html
 from fastapi.responses import FileResponse, JSONResponse, PlainTextResponse, Response
 from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Histogram, generate_latest
@@ -22,6 +24,8 @@ from argand.farm.outbox import Drainer
 from argand.farm.settings import Settings
 
 WEB = Path(__file__).resolve().parent.parent / "web"
+#: Swagger UI's own files, from the swagger-ui-py package (nothing from a CDN).
+SWAGGER_UI = Path(importlib.util.find_spec("swagger_ui").submodule_search_locations[0]) / "static"
 LATENCY_BUCKETS = (0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10)
 
 
@@ -45,10 +49,26 @@ def _add_metrics(app: FastAPI, settings: Settings) -> None:
         return Response(generate_latest(registry), media_type=CONTENT_TYPE_LATEST)
 
 
+def _add_api_page(app: FastAPI) -> None:
+    """/docs: Swagger UI served from this app's own files, so it works offline."""
+    app.mount("/docs-assets", StaticFiles(directory=SWAGGER_UI), name="docs-assets")
+
+    @app.get("/docs", include_in_schema=False)
+    def docs():
+        return get_swagger_ui_html(openapi_url=app.openapi_url, title=f"{app.title}: API",
+                                   swagger_js_url="/docs-assets/swagger-ui-bundle.js",
+                                   swagger_css_url="/docs-assets/swagger-ui.css", swagger_favicon_url="/favicon.ico",
+                                   swagger_ui_parameters={"validatorUrl": None})  # no badge from swagger.io
+
+
 def _add_front_end(app: FastAPI) -> None:
     index = WEB / "index.html"
     if WEB.is_dir():
         app.mount("/static", StaticFiles(directory=WEB), name="static")
+
+    @app.get("/favicon.ico", include_in_schema=False)
+    def favicon():
+        return FileResponse(WEB / "favicon.ico", media_type="image/x-icon")
 
     @app.get("/", include_in_schema=False)
     def root():
@@ -117,7 +137,7 @@ def create_app(settings: Settings) -> FastAPI:
             drainer.join(5)
 
     app = FastAPI(title="Argand", description="Render jobs of algebraic surfaces in complex space.",
-                  dependencies=[Depends(check_access)], lifespan=lifespan)
+                  dependencies=[Depends(check_access)], lifespan=lifespan, docs_url=None, redoc_url=None)
     app.state.settings = settings
     for module in (jobs, frames, bands, service):
         app.include_router(module.router)
@@ -132,6 +152,7 @@ def create_app(settings: Settings) -> FastAPI:
 
     _add_metrics(app, settings)
     _add_front_end(app)
+    _add_api_page(app)
     _document_errors(app, settings)
     add_outage_answers(app)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)

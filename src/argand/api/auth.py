@@ -18,8 +18,9 @@ from fastapi import HTTPException, Request
 from argand.api.deps import get_settings
 
 CHANGES_STATE = frozenset({"POST", "PUT", "PATCH", "DELETE"})
-#: Open even with token_for_reads: probes, the front end's files, the docs.
-OPEN_PATHS = frozenset({"/", "/healthz", "/readyz", "/docs", "/docs/oauth2-redirect", "/openapi.json", "/redoc"})
+#: Open even with token_for_reads: probes, the front end's files and icon, the docs
+#: (Swagger UI's own files are under /docs-assets, a mount outside these checks).
+OPEN_PATHS = frozenset({"/", "/healthz", "/readyz", "/docs", "/openapi.json", "/favicon.ico"})
 
 
 def needs_token(settings, method: str, path: str) -> bool:

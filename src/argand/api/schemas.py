@@ -16,7 +16,7 @@ from argand.farm.states import shown_frame_status
 from argand.frames.angles import parse_angle
 from argand.render.frames import MAX_SAMPLES
 from argand.scene.model import check_samples
-from argand.frames.frame_set import FramePoint, FrameSet
+from argand.frames.frame_set import DEFAULT_HEIGHT, DEFAULT_WIDTH, FramePoint, FrameSet, angle_text
 
 Priority = Field(5, ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
 
@@ -75,8 +75,8 @@ class JobRequest(BaseModel):
     atlas: int | None = Field(None, ge=1, le=MAX_ATLAS_STEPS, description=(
         "N: the whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of N rows and columns, step π/N "
         "(N(N+1)/2 frames); instead of sigma(s) and delta(s)"))
-    width: int = Field(256, ge=1, le=MAX_FRAME_SIDE)
-    height: int = Field(256, ge=1, le=MAX_FRAME_SIDE)
+    width: int = Field(DEFAULT_WIDTH, ge=1, le=MAX_FRAME_SIDE)
+    height: int = Field(DEFAULT_HEIGHT, ge=1, le=MAX_FRAME_SIDE)
     tile: int | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
     priority: int = Priority
     method: Literal[METHODS] = "auto"
@@ -128,6 +128,8 @@ class FrameBrief(BaseModel):
     index: int
     sigma: float
     delta: float
+    sigma_label: str = Field(description="σ as a person writes it (a π fraction where it is one: \"π/36\")")
+    delta_label: str = Field(description="δ as a person writes it")
     sigma_index: int = Field(description="The frame's row in the job's grid (its σ in the job's sigmas)")
     delta_index: int = Field(description="The frame's column in the job's grid (its δ in the job's deltas)")
     status: str = Field(description="queued, rendering, assembling or done; a frame not done of a stopped job "
@@ -150,6 +152,8 @@ class JobSummary(BaseModel):
     scene_name: str
     sigmas: list[float] = Field(description="The grid's σ axis (rows), by sigma_index")
     deltas: list[float] = Field(description="The grid's δ axis (columns), by delta_index")
+    sigma_labels: list[str] = Field(description="The σ axis as a person writes it (π fractions: \"π/36\"), by sigma_index")
+    delta_labels: list[str] = Field(description="The δ axis as a person writes it, by delta_index")
     width: int
     height: int
     tile: int
@@ -167,7 +171,7 @@ class JobSummary(BaseModel):
     animation_url: str | None
     webp_url: str | None
     mp4_url: str | None
-    atlas_url: str | None = Field(description="atlas.png, the frames as a labelled contact sheet (a grid job)")
+    atlas_url: str | None = Field(description="atlas.png, the frames as a labelled contact sheet (a grid job, once done)")
 
 
 class JobOut(JobSummary):
@@ -194,26 +198,29 @@ def _job_fields(job: Job, done: int, total: int, places: list[FramePoint]) -> di
     grid = FrameSet.from_points(places)
     sigmas, deltas = list(grid.sigmas), list(grid.deltas)
     return dict(
-        id=job.id, status=job.status, scene_name=job.scene_name, sigmas=sigmas, deltas=deltas, width=job.width,
+        id=job.id, status=job.status, scene_name=job.scene_name, sigmas=sigmas, deltas=deltas,
+        sigma_labels=[angle_text(v) for v in sigmas], delta_labels=[angle_text(v) for v in deltas], width=job.width,
         height=job.height, tile=job.tile, method=job.method, priority=job.priority,
         progress=done / total if total else 0.0, tiles_done=done, tiles_total=total,
         eta_s=eta_seconds(job, done, total), created=job.created, started=job.started, finished=job.finished,
         error=job.error, animation_url=f"{base}/animation.gif" if animated else None,
         webp_url=f"{base}/animation.webp" if animated else None,
         mp4_url=f"{base}/animation.mp4" if animated else None,
-        atlas_url=f"{base}/atlas.png" if grid.is_grid else None,
+        atlas_url=f"{base}/atlas.png" if grid.is_grid and job.status == "done" else None,
     )
 
 
 def frame_out(base: str, f, job_status: str) -> FrameOut:
-    return FrameOut(index=f.index, sigma=f.sigma, delta=f.delta, sigma_index=f.sigma_index, delta_index=f.delta_index,
+    return FrameOut(index=f.index, sigma=f.sigma, delta=f.delta, sigma_label=angle_text(f.sigma),
+                    delta_label=angle_text(f.delta), sigma_index=f.sigma_index, delta_index=f.delta_index,
                     status=shown_frame_status(job_status, f.status), **_urls(base, f.index, f.status == "done"),
                     finished=f.finished, certified_share=(f.figures or {}).get("certified_share"), figures=f.figures)
 
 
 def frame_brief(base: str, job_status: str, index: int, sigma: float, delta: float, sigma_index: int,
                 delta_index: int, status: str, finished: float | None) -> FrameBrief:
-    return FrameBrief(index=index, sigma=sigma, delta=delta, sigma_index=sigma_index, delta_index=delta_index,
+    return FrameBrief(index=index, sigma=sigma, delta=delta, sigma_label=angle_text(sigma), delta_label=angle_text(delta),
+                      sigma_index=sigma_index, delta_index=delta_index,
                       status=shown_frame_status(job_status, status), **_urls(base, index, status == "done"),
                       finished=finished)
 

@@ -1,12 +1,18 @@
-"""A job's progress and estimated time left, from its frames' counters."""
+"""A job's progress and estimated time left, from its frames' counters; the
+jobs' states for a log of their changes (argand.serve.job_log)."""
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
+from typing import Iterable
 
-from sqlalchemy import func, select
+from sqlalchemy import func, or_, select
 
+from argand.farm.database import session_scope
 from argand.farm.models import Frame, Job
+from argand.farm.settings import Settings
+from argand.farm.states import ACTIVE
 
 
 def job_progress(job: Job) -> tuple[int, int]:
@@ -36,3 +42,31 @@ def jobs_progress(s, job_ids: list[str]) -> dict[str, tuple[int, int]]:
     out = {job_id: (0, 0) for job_id in job_ids}
     out.update({job_id: (int(done or 0), int(total or 0)) for job_id, done, total in rows})
     return out
+
+
+@dataclass(frozen=True)
+class JobState:
+    """What a log of jobs' changes needs of a job."""
+    id: str
+    status: str
+    scene_name: str
+    frames: int
+    width: int
+    height: int
+    created: float
+    started: float | None
+    finished: float | None
+    error: str | None
+
+
+def watch_jobs(settings: Settings, created_after: float, watched: Iterable[str]) -> list[JobState]:
+    """The jobs created after ``created_after``, those of ``watched`` and every
+    active one (a retried job comes back), in one query over the jobs and
+    their frames' count; in order of creation."""
+    frames = select(func.count()).where(Frame.job_id == Job.id).scalar_subquery()
+    q = (select(Job.id, Job.status, Job.scene_name, frames, Job.width, Job.height, Job.created, Job.started,
+                Job.finished, Job.error)
+         .where(or_(Job.created > created_after, Job.id.in_(list(watched)), Job.status.in_(ACTIVE)))
+         .order_by(Job.created))
+    with session_scope(settings.sqlalchemy_url) as s:
+        return [JobState(*row) for row in s.execute(q)]

@@ -21,6 +21,9 @@ from argand.core import _core
 from argand.frames.angles import parse_angle, parse_sweep
 from argand.render.frames import BAND_RULE, delta_sweep
 
+#: A frame's size when a run gives none: a job over HTTP and `argand render` alike.
+DEFAULT_WIDTH = DEFAULT_HEIGHT = 512
+
 #: How many offending pairs a refusal quotes (the count says how many more).
 QUOTED_PAIRS = 5
 

@@ -32,6 +32,8 @@ from argand.farm.database import upgrade
 from argand.farm.settings import Settings
 from argand.farm.workers import BOOT_MARK, declare_dead
 from argand.serve.embedded_redis import EmbeddedRedis, dying_with_parent
+from argand.serve.job_log import JobLog
+from argand.serve.ports import listen_on
 
 BACKOFF_S = (1.0, 30.0)
 STEADY_S = 60.0
@@ -169,6 +171,11 @@ def serve(settings: Settings, workers: int, announce=print) -> None:
     from argand.api.app import create_app
 
     lock = lock_data_dir(settings.data_path)
+    try:
+        listening = listen_on(settings.host, settings.port)  # PortTaken before anything starts
+    except BaseException:
+        lock.close()
+        raise
     # SIGTERM (docker stop, systemd, kill) as Ctrl-C: uvicorn drains and
     # re-raises it once done, and the cleanup below runs.
     signal.signal(signal.SIGTERM, signal.default_int_handler)
@@ -186,11 +193,20 @@ def serve(settings: Settings, workers: int, announce=print) -> None:
     procs = [start_worker(settings, n) for n in names]
     supervisor = Supervisor(settings, redis, procs, names, announce)
     supervisor.start()
+    job_log = JobLog(settings, announce)
     try:
-        announce(f"Argand is serving on http://{settings.host}:{settings.port}/  (API docs: /docs; "
-                 f"{workers} worker(s); data in {settings.data_path})")
-        uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="warning")
+        if os.geteuid() == 0:
+            announce("note: running as root; the workers accept JSON messages only (never pickle), "
+                     "but a farm is better run as an ordinary user")
+        announce(f"{workers} worker(s), data in {settings.data_path}, API docs at /docs; Ctrl-C stops the farm")
+        announce(f"Argand is serving on http://{settings.host}:{settings.port}/")
+        job_log.start()
+        server = uvicorn.Server(uvicorn.Config(create_app(settings), host=settings.host, port=settings.port,
+                                               log_level="warning"))
+        server.run(sockets=[listening])
     finally:
+        job_log.stop.set()
+        listening.close()
         supervisor.stop.set()
         supervisor.join(5)
         stop_all(supervisor.procs)

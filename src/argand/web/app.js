@@ -31,8 +31,31 @@ let meta = null;
 async function loadMeta() { meta = meta || await api("/api/meta"); return meta; }
 const ended = (status) => meta.ended_states.includes(status);
 
-function fmtEta(s) { return s == null ? "" : s < 60 ? `${Math.round(s)} s` : `${Math.floor(s / 60)} min ${Math.round(s % 60)} s`; }
+function fmtEta(s) { return s == null ? "" : s < 1 ? "under 1 s" : s < 60 ? `${Math.round(s)} s` : `${Math.floor(s / 60)} min ${Math.round(s % 60)} s`; }
 function pct(x) { return `${Math.round(100 * x)}%`; }
+// A frame's angles as the API writes them (π fractions where they are: "π/36").
+const sigmaOf = (_j, f) => f.sigma_label;
+const deltaOf = (_j, f) => f.delta_label;
+
+// The user's actions on a job, each enabled only in the states it applies to
+// (meta.actions), and delete, which always applies.
+function actionButtons(j) {
+  return Object.keys(meta.actions).map((a) => `<button type="button" data-action="${a}"${meta.actions[a].includes(j.status) ? "" : " disabled"}>${a}</button>`).join(" ")
+    + ` <button type="button" class="danger" data-delete>delete</button>`;
+}
+// Runs the clicked action (a delete after a confirmation); returns the job
+// after it, null after a delete, undefined when nothing was clicked or done.
+async function runAction(ev, id) {
+  const b = ev.target.closest("button[data-action], button[data-delete]"); if (!b || b.disabled) return undefined;
+  try {
+    if (b.dataset.delete !== undefined) {
+      if (!window.confirm("Delete this job and its files?")) return undefined;
+      await api(`/api/jobs/${id}`, { method: "DELETE" });
+      return null;
+    }
+    return await api(`/api/jobs/${id}/${b.dataset.action}`, { method: "POST" });
+  } catch (e) { alert(e.message); return undefined; }
+}
 
 // ---------------------------------------------------------------- jobs list
 async function jobsPage() {
@@ -47,6 +70,7 @@ async function jobsPage() {
       const q = filter.value ? `?status=${filter.value}` : "";
       const { jobs } = await api(`/api/jobs${q}`);
       const table = view.querySelector("#table");
+      if (!table) return;  // the user has left the page
       if (!jobs.length) { table.replaceChildren(h(`<p class="muted">No jobs yet. <a href="#/new">Submit one</a>.</p>`)); return; }
       table.replaceChildren(h(`<table><thead><tr><th></th><th>Scene</th><th>Frames</th><th>Status</th><th>Progress</th><th>ETA</th><th>Priority</th><th>Actions</th></tr></thead><tbody>
         ${jobs.map((j) => {
@@ -55,19 +79,18 @@ async function jobsPage() {
           <td>${thumb ? `<img src="${thumb.thumbnail_url}" alt="">` : ""}</td>
           <td><a href="#/job/${j.id}">${esc(j.scene_name)}</a><div class="muted">${j.width}×${j.height}</div></td>
           <td>${j.frames.length}${j.sigmas.length > 1 && j.deltas.length > 1 ? `<div class="muted">${j.sigmas.length} σ × ${j.deltas.length} δ</div>` : ""}</td>
-          <td><span class="badge ${j.status}">${j.status}</span></td>
+          <td><span class="badge ${j.status}">${j.status}</span>${j.error ? `<div class="muted job-error" title="${esc(j.error)}">${esc(j.error)}</div>` : ""}</td>
           <td><div class="bar" role="progressbar" aria-valuenow="${Math.round(100 * j.progress)}" aria-valuemin="0" aria-valuemax="100"><span style="width:${pct(j.progress)}"></span></div></td>
-          <td>${fmtEta(j.eta_s)}</td>
+          <td>${j.eta_s == null ? '<span class="muted">—</span>' : fmtEta(j.eta_s)}</td>
           <td><input type="number" min="0" max="9" value="${j.priority}" aria-label="Priority" data-priority style="width:4rem"></td>
-          <td>${Object.keys(meta.actions).map((a) => `<button data-action="${a}"${meta.actions[a].includes(j.status) ? "" : " disabled"}>${a}</button>`).join(" ")}</td></tr>`;
+          <td class="actions">${actionButtons(j)}</td></tr>`;
         }).join("")}</tbody></table>`));
-    } catch (e) { view.querySelector("#table").replaceChildren(h(`<p class="error">${esc(e.message)}</p>`)); }
+    } catch (e) { view.querySelector("#table")?.replaceChildren(h(`<p class="error">${esc(e.message)}</p>`)); }
   };
   const table = view.querySelector("#table");  // new on every visit: listeners do not pile up
   table.addEventListener("click", async (ev) => {
-    const b = ev.target.closest("button[data-action]"); if (!b) return;
-    const id = b.closest("tr").dataset.job;
-    try { await api(`/api/jobs/${id}/${b.dataset.action}`, { method: "POST" }); render(); } catch (e) { alert(e.message); }
+    const row = ev.target.closest("tr[data-job]"); if (!row) return;
+    if (await runAction(ev, row.dataset.job) !== undefined) render();
   });
   table.addEventListener("change", async (ev) => {
     if (ev.target.matches("[data-priority]")) {
@@ -156,13 +179,32 @@ async function newPage() {
 // A job's frames are (σ, δ) pairs on a grid (row: sigma_index, column:
 // delta_index): a δ sweep is one row, a σ sweep one column, an atlas a
 // triangle. The player moves along either axis through the current frame.
-const angle = (v) => v.toFixed(4);
+function jobMissing(message) {
+  view.replaceChildren(h(`<h1>Job not found</h1><p class="error" id="job-error">${esc(message)}</p>
+    <p>It may have been deleted, or the address is wrong. <a href="#/jobs" id="back">← Back to the jobs</a></p>`));
+}
+
+// What the job is doing, in words: the ETA only while it runs; a stopped
+// job (paused, canceled, failed) says where it stopped, why, and which
+// actions take it up again (those of meta.actions that do not apply to a
+// running job).
+function progressText(j) {
+  const tiles = `${j.tiles_done}/${j.tiles_total} tiles`, done = j.frames.filter((f) => f.status === "done").length;
+  const frames = `${done} of ${j.frames.length} frame${j.frames.length === 1 ? "" : "s"} done`;
+  if (j.status === "done") return `done: ${frames}${j.started && j.finished ? ` in ${fmtEta(j.finished - j.started)}` : ""}`;
+  if (j.eta_s != null) return `${tiles}, ${frames}, about ${fmtEta(j.eta_s)} left`;
+  if (j.status === "queued") return `queued: waiting for a worker (${tiles})`;
+  if (j.status === "running") return `${tiles}, ${frames}`;
+  const next = Object.keys(meta.actions).filter((a) => meta.actions[a].includes(j.status) && !meta.actions[a].includes("running"));
+  return `${j.status} at ${tiles}, ${frames}${j.error ? `: ${j.error}` : ""}${next.length ? ` (${next.join(" or ")} to go on)` : ""}`;
+}
 
 async function jobPage(id) {
   view.replaceChildren(h(`<p class="muted">Loading job…</p>`));
   let job;
-  try { job = await api(`/api/jobs/${id}`); } catch (e) { view.replaceChildren(h(`<p class="error">${esc(e.message)}</p>`)); return; }
+  try { job = await api(`/api/jobs/${id}`); } catch (e) { jobMissing(e.message); return; }
   view.replaceChildren(h(`<h1>${esc(job.scene_name)} <span class="badge ${job.status}" id="status">${job.status}</span></h1>
+    <div class="controls" id="actions" aria-label="Job actions"></div>
     <div class="bar" role="progressbar" aria-label="Progress" id="progress"><span style="width:${pct(job.progress)}"></span></div>
     <p class="muted" id="progress-text"></p>
     <div class="player"><div>
@@ -181,9 +223,10 @@ async function jobPage(id) {
       <label class="slider">δ <input id="scrub" type="range" min="0" max="0" value="0" aria-label="Frame along δ (left and right arrows)"></label>
       <label class="slider">σ <input id="scrub-sigma" type="range" min="0" max="0" value="0" aria-label="Frame along σ (up and down arrows)"></label>
       <div id="scrub-label" class="muted"></div>
-      <div id="legend" class="legend muted" hidden>status:${meta.pixel_statuses.map((p) => `<span style="background:${p.colour}"></span>${p.name}`).join("")}</div>
+      <div id="legend" class="legend muted" hidden>status:${meta.pixel_statuses.map((p) => `<span style="background:${p.colour}"></span>${p.name}`).join("")}
+        <span style="background:${meta.status_empty.colour};outline:1px solid var(--line)"></span>dark: ${esc(meta.status_empty.meaning)}</div>
     </div><aside><h2 style="font-size:1rem">Frame</h2><dl id="figures"></dl>
-      <h2 style="font-size:1rem">Downloads</h2><div id="downloads" class="muted">when the frames are done</div></aside></div>
+      <h2 style="font-size:1rem">Downloads</h2><div id="downloads" class="muted">No frame is done yet.</div></aside></div>
     <h2 id="atlas-title" style="font-size:1rem">Frames</h2>
     <div class="frames" id="grid"></div>`));
   const canvas = view.querySelector("#canvas"), ctx = canvas.getContext("2d"), video = view.querySelector("#video");
@@ -210,14 +253,15 @@ async function jobPage(id) {
     const row = line("delta"), col = line("sigma");
     scrub.max = row.length - 1; scrub.value = row.findIndex((g) => g.index === i);
     scrubSigma.max = col.length - 1; scrubSigma.value = col.findIndex((g) => g.index === i);
-    view.querySelector("#scrub-label").textContent = `frame ${i + 1}/${job.frames.length} — δ = ${angle(f.delta)}, σ = ${angle(f.sigma)}`;
+    view.querySelector("#scrub-label").textContent = `frame ${i + 1}/${job.frames.length} — δ = ${deltaOf(job, f)}, σ = ${sigmaOf(job, f)}`;
     canvas.dataset.frame = String(i);
     const img = image(f, channel.value);
     const draw = () => { ctx.drawImage(img, 0, 0, canvas.width, canvas.height); canvas.dataset.drawn = `${channel.value}/${i}`; };
     if (img) { img.complete && img.naturalWidth ? draw() : img.addEventListener("load", draw, { once: true }); }
     else { ctx.fillStyle = "#000"; ctx.fillRect(0, 0, canvas.width, canvas.height); canvas.dataset.drawn = ""; }
     const fig = f.figures || {};
-    view.querySelector("#figures").replaceChildren(h(`<dt>σ</dt><dd>${f.sigma.toFixed(5)}</dd><dt>δ</dt><dd>${f.delta.toFixed(5)}</dd><dt>status</dt><dd>${f.status}</dd>
+    const exact = (label, v) => label.includes("π") ? `${label} <span class="muted">(${v.toFixed(5)})</span>` : label;
+    view.querySelector("#figures").replaceChildren(h(`<dt>σ</dt><dd>${exact(sigmaOf(job, f), f.sigma)}</dd><dt>δ</dt><dd>${exact(deltaOf(job, f), f.delta)}</dd><dt>status</dt><dd>${f.status}</dd>
       <dt>certified</dt><dd>${f.certified_share == null ? "—" : (100 * f.certified_share).toFixed(3) + "%"}</dd>
       <dt>render time</dt><dd>${fig.seconds == null ? "—" : (1000 * fig.seconds).toFixed(0) + " ms"}</dd>
       <dt>escalated</dt><dd>${fig.escalated_share == null ? "—" : (100 * fig.escalated_share).toFixed(3) + "%"}</dd>`));
@@ -243,19 +287,23 @@ async function jobPage(id) {
   // atlas); a sweep along one axis is a strip of thumbnails.
   function cells(j) {
     const cell = (f) => `<button type="button" class="cell" data-index="${f.index}" data-sigma-index="${f.sigma_index}" data-delta-index="${f.delta_index}"
-      title="σ = ${angle(f.sigma)}, δ = ${angle(f.delta)}" style="grid-row:${isGrid() ? f.sigma_index + 2 : "auto"};grid-column:${isGrid() ? f.delta_index + 2 : "auto"}">
+      title="σ = ${sigmaOf(j, f)}, δ = ${deltaOf(j, f)}" style="grid-row:${isGrid() ? f.sigma_index + 2 : "auto"};grid-column:${isGrid() ? f.delta_index + 2 : "auto"}">
       ${f.thumbnail_url ? `<img src="${f.thumbnail_url}" alt="frame ${f.index}">` : f.status}</button>`;
     if (!isGrid()) return j.frames.map(cell).join("");
     return `<span class="corner" style="grid-row:1;grid-column:1">σ ↓ δ →</span>`
-      + j.deltas.map((d, c) => `<span class="axis" style="grid-row:1;grid-column:${c + 2}">${angle(d)}</span>`).join("")
-      + j.sigmas.map((s, r) => `<span class="axis" style="grid-row:${r + 2};grid-column:1">${angle(s)}</span>`).join("")
+      + j.delta_labels.map((d, c) => `<span class="axis" style="grid-row:1;grid-column:${c + 2}">${esc(d)}</span>`).join("")
+      + j.sigma_labels.map((s, r) => `<span class="axis" style="grid-row:${r + 2};grid-column:1">${esc(s)}</span>`).join("")
       + j.frames.map(cell).join("");
   }
+  let live = true;  // false once the user has left the page (a late answer changes nothing)
   function refresh(j) {
+    if (!live) return;
     job = j;
     view.querySelector("#status").textContent = j.status; view.querySelector("#status").className = `badge ${j.status}`;
     view.querySelector("#progress > span").style.width = pct(j.progress);
-    view.querySelector("#progress-text").textContent = `${j.tiles_done}/${j.tiles_total} tiles${j.eta_s ? ", about " + fmtEta(j.eta_s) + " left" : ""}`;
+    view.querySelector("#progress-text").textContent = progressText(j);
+    const actions = view.querySelector("#actions");  // redrawn when the state changes, not under the pointer
+    if (actions.dataset.status !== j.status) { actions.replaceChildren(h(actionButtons(j))); actions.dataset.status = j.status; }
     const grid = view.querySelector("#grid");
     grid.classList.toggle("atlas", isGrid());
     grid.style.gridTemplateColumns = isGrid() ? `auto repeat(${j.deltas.length}, minmax(48px, 96px))` : "";
@@ -267,12 +315,14 @@ async function jobPage(id) {
     axisSelect.value = isGrid() ? axisSelect.value : (j.deltas.length > 1 ? "delta" : "sigma");
     scrub.closest("label").hidden = j.deltas.length < 2 && j.sigmas.length > 1;
     scrubSigma.closest("label").hidden = j.sigmas.length < 2;
-    if (j.status === "done") {
-      view.querySelector("#show-mp4").hidden = !j.mp4_url;
-      view.querySelector("#downloads").replaceChildren(h(`${j.animation_url ? `<p><a id="gif" href="${j.animation_url}" download>animation.gif</a> · <a id="webp" href="${j.webp_url}" download>animation.webp</a> · <a id="mp4" href="${j.mp4_url}" download>animation.mp4</a></p>` : ""}
+    // Finished frames can be downloaded whatever the job's state; the
+    // animations and the atlas once every frame is done.
+    const finished = j.frames.filter((f) => f.png_url);
+    view.querySelector("#show-mp4").hidden = !j.mp4_url;
+    view.querySelector("#downloads").replaceChildren(h(finished.length ? `${j.animation_url ? `<p><a id="gif" href="${j.animation_url}" download>animation.gif</a> · <a id="webp" href="${j.webp_url}" download>animation.webp</a> · <a id="mp4" href="${j.mp4_url}" download>animation.mp4</a></p>` : ""}
         ${j.atlas_url ? `<p><a id="atlas-png" href="${j.atlas_url}" target="_blank">atlas.png</a> (the grid, labelled)</p>` : ""}
-        <details><summary>frames</summary>${j.frames.map((f) => `<div>${f.index} (σ ${angle(f.sigma)}, δ ${angle(f.delta)}): <a href="${f.png_url}" download>PNG</a> <a href="${f.exr_url}" download>EXR</a></div>`).join("")}</details>`));
-    }
+        <details id="frame-files"${j.status === "done" ? "" : " open"}><summary>${finished.length} of ${j.frames.length} frames</summary>${finished.map((f) => `<div>${f.index} (σ ${sigmaOf(j, f)}, δ ${deltaOf(j, f)}): <a href="${f.png_url}" download>PNG</a> <a href="${f.exr_url}" download>EXR</a></div>`).join("")}</details>`
+      : `No frame is done yet.`));
     show(Math.min(current, j.frames.length - 1));
   }
   refresh(job);
@@ -299,14 +349,23 @@ async function jobPage(id) {
     else if (moves[ev.key]) { ev.preventDefault(); setPlaying(false); step(...moves[ev.key]); }
   };
   document.addEventListener("keydown", keys);
+  // The job's events while it may change (again after a resume or retry).
   let source = null;
-  if (!ended(job.status)) {
+  function follow() {
+    if (source || ended(job.status)) return;
     source = new EventSource(`/api/jobs/${id}/events`);
     source.addEventListener("progress", async () => { try { refresh(await api(`/api/jobs/${id}`)); } catch { /* next event */ } });
-    source.addEventListener("end", async () => { source.close(); refresh(await api(`/api/jobs/${id}`)); });
-    source.onerror = () => { view.querySelector("#progress-text").textContent += " (reconnecting…)"; };
+    source.addEventListener("end", async () => { source.close(); source = null; refresh(await api(`/api/jobs/${id}`)); });
+    source.addEventListener("deleted", () => { source.close(); source = null; if (live) jobMissing(`no job '${id}' (it was deleted)`); });
+    source.onerror = () => { view.querySelector("#progress-text").textContent = progressText(job) + " (reconnecting…)"; };
   }
-  cleanup = () => { clearInterval(timer); document.removeEventListener("keydown", keys); source?.close(); video.pause(); };
+  follow();
+  view.querySelector("#actions").addEventListener("click", async (ev) => {
+    const after = await runAction(ev, id);
+    if (after === null) { location.hash = "#/jobs"; return; }
+    if (after) { refresh(after); follow(); }
+  });
+  cleanup = () => { live = false; clearInterval(timer); document.removeEventListener("keydown", keys); source?.close(); video.pause(); };
 }
 
 // ---------------------------------------------------------------- workers
@@ -338,7 +397,7 @@ async function comparePage() {
   try { jobs = (await api("/api/jobs?status=done&per_page=200")).jobs; }
   catch (e) { view.querySelector("#pickers").replaceChildren(h(`<p class="error">${esc(e.message)}</p>`)); return; }
   if (!jobs.length) { view.querySelector("#pickers").replaceChildren(h(`<p class="muted">No finished jobs to compare yet.</p>`)); return; }
-  const opts = jobs.flatMap((j) => j.frames.map((f) => `<option value="${j.id}:${f.index}">${esc(j.scene_name)} ${j.id.slice(0, 6)} — σ=${f.sigma.toFixed(4)}, δ=${f.delta.toFixed(4)}</option>`)).join("");
+  const opts = jobs.flatMap((j) => j.frames.map((f) => `<option value="${j.id}:${f.index}">${esc(j.scene_name)} ${j.id.slice(0, 6)} — σ = ${sigmaOf(j, f)}, δ = ${deltaOf(j, f)}</option>`)).join("");
   view.querySelector("#pickers").replaceChildren(h(`<label>left <select id="cmp-a">${opts}</select></label><label>right <select id="cmp-b">${opts}</select></label>`));
   const a = view.querySelector("#cmp-a"), b = view.querySelector("#cmp-b"), mode = view.querySelector("#cmp-mode"), split = view.querySelector("#cmp-split");
   if (params.get("a")) a.value = params.get("a");

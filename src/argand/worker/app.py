@@ -4,7 +4,10 @@ the reaper) and the time limits' watchdog (argand.worker.watchdog) beside it."""
 
 from __future__ import annotations
 
+import warnings
+
 from celery import Celery
+from celery.exceptions import SecurityWarning
 from celery.signals import worker_ready, worker_shutdown
 
 from argand.farm.queue import QUEUE
@@ -35,7 +38,9 @@ def _one_core() -> None:
 
 
 def worker_argv(name: str) -> list[str]:
-    return ["worker", "--pool", "solo", "--concurrency", "1", "--hostname", name, "--queues", QUEUE,
+    """Celery's command line for a worker: quiet (no banner: `argand serve`
+    prints the farm's own lines), one task at a time."""
+    return ["--quiet", "worker", "--pool", "solo", "--concurrency", "1", "--hostname", name, "--queues", QUEUE,
             "--loglevel", "WARNING", "--without-gossip", "--without-mingle"]
 
 
@@ -45,6 +50,10 @@ def run_worker(settings: Settings, name: str) -> None:
     (argand.farm.workers.unique_name): its Celery hostname, heartbeat row
     and tile claims."""
     name = unique_name(name)
+    # Celery warns at length about root, for a worker that would accept
+    # pickle; these accept JSON only (celery_config), and `argand serve`
+    # says in one line that it runs as root.
+    warnings.filterwarnings("ignore", message="You're running the worker with superuser privileges", category=SecurityWarning)
     app = create_celery_app(settings, name)
     beat = Heartbeat(settings, name)
     watchdog = Watchdog(settings)

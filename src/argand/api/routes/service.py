@@ -18,7 +18,7 @@ from argand.farm.database import session_scope
 from argand.farm.models import Job
 from argand.farm.outbox import pending
 from argand.farm.planning import MAX_TILE, MIN_TILE
-from argand.farm.previews import PREVIEW_CHANNELS, STATUS_COLOURS
+from argand.farm.previews import EMPTY, PREVIEW_CHANNELS, STATUS_COLOURS
 from argand.farm.queue import PRIORITIES, broker_client
 from argand.farm.reaper import take_census
 from argand.farm.states import ACTIONS, ENDED, FRAME_SHOWN, JOB
@@ -44,6 +44,8 @@ def meta(settings: SettingsDep) -> dict:
         "actions": {action: list(applies_to) for action, (applies_to, _) in ACTIONS.items()},
         "pixel_statuses": [{"code": code, "name": name, "colour": "#%02x%02x%02x" % STATUS_COLOURS[name]}
                            for code, name in sorted(STATUS_NAMES.items())],
+        "status_empty": {"colour": "#%02x%02x%02x" % EMPTY,
+                         "meaning": "no surface: the pixel's ray provably meets none (the background)"},
         "channels": list(PREVIEW_CHANNELS),
         "methods": list(METHODS),
         "limits": {"max_width": settings.max_width, "max_height": settings.max_height,
