@@ -22,15 +22,18 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 from sqlalchemy import select
 
+from argand.core import _core, find_roots
 from argand.farm.database import engine_for
 from argand.farm.models import Job
 from argand.farm.planning import samples_of
 from argand.farm.settings import Settings
 from argand.frames.angles import parse_angle
 from argand.media.frame_files import to_srgb8, write_exr, write_png
-from argand.render.frames import FrameParams, FrameResult, render_frame
+from argand.render.convert import to_core_scene
+from argand.render.frames import FrameParams, FrameResult, plan, render_frame
 from argand.scene import scene_from_dict
 
 #: Bands kept (PNG bytes and figures, some 100-400 KB each at 512x512).
@@ -137,8 +140,6 @@ def inside_clip(obj, origin, direction, centres):
     """Which roots' points lie inside the object's clipping sphere (all
     when it has none): the point at distance |t| along the ray, in object
     space (object = linear (world - translate)), at the disc's centre."""
-    import numpy as np
-
     radius = float(obj.clip_radius)
     if radius <= 0.0:
         return np.ones(len(centres), bool)
@@ -159,12 +160,6 @@ def root_arguments(settings: Settings, job_id: str, grid: int = ARGUMENT_GRID, b
     a frame can show). A band's picture changes only where σ or σ + δ
     crosses such a root's argument, so the histogram shows which bands are
     worth looking at. Raises NoJob."""
-    import numpy as np
-
-    from argand.core import _core, find_roots
-    from argand.render.convert import to_core_scene
-    from argand.render.frames import plan
-
     with engine_for(settings.sqlalchemy_url).connect() as c:
         job = c.execute(select(Job.scene, Job.width, Job.height).where(Job.id == job_id)).first()
     if job is None:
