@@ -204,7 +204,7 @@ def test_a_full_store_fails_the_job_cleanly_and_a_retry_finishes_it(tmp_path):
     try:
         settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url)
         upgrade(settings.sqlalchemy_url)
-        job_id = create_job(settings, JobSpec("steiner", load_scene("steiner").to_dict(), frame_grid([0.0], [0.3]), 512, 512, 64))
+        job_id = create_job(settings, JobSpec("steiner", load_scene("steiner"), frame_grid([0.0], [0.3]), 512, 512, 64))
         from argand.farm.database import engine_for
 
         with engine_for(settings.sqlalchemy_url).connect() as c:  # the database's WAL starts empty, far below the limit
@@ -273,7 +273,7 @@ def test_an_unwritable_store_fails_the_job_cleanly_and_a_retry_finishes_it(tmp_p
     try:
         settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url)
         upgrade(settings.sqlalchemy_url)
-        job_id = create_job(settings, JobSpec("steiner", load_scene("steiner").to_dict(), frame_grid([0.0], [0.2]), 64, 64, 16))
+        job_id = create_job(settings, JobSpec("steiner", load_scene("steiner"), frame_grid([0.0], [0.2]), 64, 64, 16))
         folder = settings.store_path / "jobs" / job_id
         how = _make_unwritable(folder)
         with pytest.raises(OSError):

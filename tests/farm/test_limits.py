@@ -401,7 +401,7 @@ def test_the_reaper_sends_what_an_api_left_in_the_outbox(farm_parts):  # noqa: F
     from argand.scene import load_scene
 
     settings, redis_server = farm_parts
-    job_id = create_job(settings, JobSpec("plucker", load_scene("plucker").to_dict(), frame_grid([0.0], [0.0, 0.1]), 32, 32, 16),
+    job_id = create_job(settings, JobSpec("plucker", load_scene("plucker"), frame_grid([0.0], [0.0, 0.1]), 32, 32, 16),
                         send=False)
     assert queued_messages(redis_server) == 0
     Reaper(settings).round()

@@ -150,7 +150,7 @@ def farm_parts(tmp_path, monkeypatch):
 
 
 def submit(settings, scene: str, deltas: list[float], width: int, height: int, tile: int) -> str:
-    return create_job(settings, JobSpec(scene, load_scene(scene).to_dict(), frame_grid([0.0], deltas), width, height, tile))
+    return create_job(settings, JobSpec(scene, load_scene(scene), frame_grid([0.0], deltas), width, height, tile))
 
 
 def queued_messages(redis_server) -> int:
@@ -365,3 +365,21 @@ def test_one_worker_at_a_time_holds_the_reapers_lease(farm_parts, monkeypatch):
     assert heartbeat.holds_lease(client, "w1") and not heartbeat.holds_lease(client, "w2")
     time.sleep(0.4)  # w1 stopped renewing (it died): w2 takes over
     assert heartbeat.holds_lease(client, "w2") and not heartbeat.holds_lease(client, "w1")
+
+
+def test_a_job_stays_typed_from_the_request_to_the_store(farm_parts):
+    """A submission carries the validated scene and the FrameSet, not dicts:
+    anything else is refused before a row is written, and the store keeps
+    the scene as the model's JSON, which reads back to the same model."""
+    from argand.scene import scene_from_dict
+
+    settings, _ = farm_parts
+    with pytest.raises(TypeError, match="JobSpec.scene must be a validated argand.scene.Scene"):
+        JobSpec("steiner", load_scene("steiner").to_dict(), frame_grid([0.0], [0.1]), 16, 16, 16)
+    with pytest.raises(TypeError, match="JobSpec.frames must be a FrameSet"):
+        JobSpec("steiner", load_scene("steiner"), [(0.0, 0.1)], 16, 16, 16)
+    scene = load_scene("steiner").model_copy(update={"samples": 4})
+    job_id = create_job(settings, JobSpec("steiner", scene, frame_grid([0.0], [0.1]), 16, 16, 16), send=False)
+    with session_scope(settings.sqlalchemy_url) as s:
+        stored = s.get(Job, job_id).scene
+    assert stored == scene.to_dict() and stored["samples"] == 4 and scene_from_dict(stored) == scene

@@ -9,7 +9,7 @@ from typing import Any, Sequence
 from argand.render.convert import to_core_scene
 from argand.render.frames import FrameParams, plan, tiles
 from argand.render.options import EngineOptions
-from argand.scene import scene_from_dict
+from argand.scene import Scene, scene_from_dict
 
 Rect = tuple[int, int, int, int]
 
@@ -17,10 +17,10 @@ Rect = tuple[int, int, int, int]
 MIN_TILE, MAX_TILE = 8, 4096
 
 
-def core_scene_of(scene: dict) -> Any:
-    """A job's stored scene as the renderer takes it (the worker's and the
-    submission's one way)."""
-    return to_core_scene(scene_from_dict(scene))
+def core_scene_of(scene: Scene | dict) -> Any:
+    """A job's scene, validated (a submission's) or as stored (a worker's),
+    as the renderer takes it: the one way for both."""
+    return to_core_scene(scene if isinstance(scene, Scene) else scene_from_dict(scene))
 
 
 def frame_plan(core_scene: Any, sigma: float, delta: float, width: int, height: int, method: str, samples: int = 1,

@@ -16,10 +16,11 @@ from argand.farm.database import engine_for
 from argand.farm.dispatch import alive_workers
 from argand.farm.models import Frame, Job, Tile
 from argand.farm.outbox import add_runs, try_drain
-from argand.farm.planning import batch_pixels, core_scene_of, frame_plan, plan_runs, samples_of, tile_rects
+from argand.farm.planning import batch_pixels, core_scene_of, frame_plan, plan_runs, tile_rects
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
 from argand.frames.frame_set import BandRuleError, FrameSet, angle_text, check_band_rule
+from argand.scene import Scene
 
 
 class JobRefused(ValueError):
@@ -32,14 +33,24 @@ class FarmBusy(JobRefused):
 
 @dataclass(frozen=True)
 class JobSpec:
+    """A job as it arrives, typed: its scene validated (the store keeps it as
+    JSON, Scene.to_dict) and its frames as a FrameSet."""
+
     scene_name: str
-    scene: dict
+    scene: Scene
     frames: FrameSet
     width: int
     height: int
     tile: int
     priority: int = 5
     method: str = "auto"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.scene, Scene):
+            raise TypeError(f"JobSpec.scene must be a validated argand.scene.Scene (scene_from_dict, load_scene), "
+                            f"got {type(self.scene).__name__}")
+        if not isinstance(self.frames, FrameSet):
+            raise TypeError(f"JobSpec.frames must be a FrameSet (FrameSet.from_axes), got {type(self.frames).__name__}")
 
 
 def job_frames(max_frames: int | None = None, **axes: Any) -> FrameSet:
@@ -66,7 +77,7 @@ def check_limits(settings: Settings, spec: JobSpec) -> None:
     if n_frames > settings.max_frames:
         raise JobRefused(f"{n_frames} frames exceed the limit of {settings.max_frames}")
     pixels = spec.width * spec.height * n_frames
-    samples = samples_of(spec.scene)  # a sample costs what a pixel does: the limit counts traced rays
+    samples = spec.scene.samples  # a sample costs what a pixel does: the limit counts traced rays
     if pixels * samples > settings.max_job_pixels:
         rays = f" x {samples} samples per pixel = {pixels * samples} rays" if samples > 1 else ""
         raise JobRefused(f"the job has {pixels} pixels{rays}, above the limit of {settings.max_job_pixels}")
@@ -90,7 +101,7 @@ def check_renderable(spec: JobSpec) -> None:
         first.setdefault((p.sigma, p.delta), index)
     for (sigma, delta), index in sorted(first.items()):
         try:
-            frame_plan(core, sigma, delta, spec.width, spec.height, spec.method, samples_of(spec.scene))
+            frame_plan(core, sigma, delta, spec.width, spec.height, spec.method, spec.scene.samples)
         except (ValueError, ArithmeticError, RuntimeError) as exc:
             at = f"σ = {angle_text(sigma)}, δ = {angle_text(delta)}"
             where = f"frame {index} ({at})" if len(first) > 1 else at
@@ -143,13 +154,14 @@ def create_job(settings: Settings, spec: JobSpec, send: bool = True) -> str:
     check_in_flight(settings)
     check_disk(settings)
     job_id = uuid.uuid4().hex[:12]
+    stored = spec.scene.to_dict()
     rects = tile_rects(spec.width, spec.height, spec.tile)
     n_frames, positions = len(spec.frames), spec.frames.positions
     workers = max(1, alive_workers(settings))
     runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects,
-                     batch_pixels(settings.batch_pixels, spec.scene), workers, positions)
+                     batch_pixels(settings.batch_pixels, stored), workers, positions)
     with engine_for(settings.sqlalchemy_url).begin() as c:
-        c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=spec.scene,
+        c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=stored,
                                      width=spec.width, height=spec.height, tile=spec.tile,
                                      method=spec.method, priority=spec.priority, created=time.time()))
         c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=p.sigma, delta=p.delta, sigma_index=p.sigma_index,

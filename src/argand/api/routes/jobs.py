@@ -22,20 +22,20 @@ from argand.farm.progress import eta_seconds, jobs_progress
 from argand.farm.states import ACTIONS, ENDED, JOB, shown_frame_status
 from argand.farm.job_limits import MAX_PAGE
 from argand.farm.submission import FarmBusy, JobRefused, JobSpec, StoreFull, create_job, job_frames
-from argand.scene import SceneError, load_scene, scene_from_dict
+from argand.scene import Scene, SceneError, load_scene, scene_from_dict
 from argand.scene.presets import PRESETS
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
 
-def resolve_scene(spec: str | dict) -> tuple[str, dict]:
-    """(name, scene as a dict) of a preset's name or a scene object; 422 if invalid."""
+def resolve_scene(spec: str | dict) -> tuple[str, Scene]:
+    """(name, validated scene) of a preset's name or a scene object; 422 if invalid."""
     try:
         if isinstance(spec, str):
             if spec not in PRESETS:
                 raise SceneError(f"unknown preset {spec!r}; presets: {', '.join(PRESETS)}")
-            return spec, load_scene(spec).to_dict()
-        return "custom", scene_from_dict(spec).to_dict()
+            return spec, load_scene(spec)
+        return "custom", scene_from_dict(spec)
     except SceneError as exc:
         raise HTTPException(422, detail=str(exc)) from None
 
@@ -53,8 +53,8 @@ def submit(req: JobRequest, settings: SettingsDep, request: Request) -> JobOut:
     go to the broker from the outbox, so the answer does not wait on it (a
     job submitted while Redis is down runs once it is back)."""
     name, scene = resolve_scene(req.scene)
-    if req.samples is not None:
-        scene["samples"] = req.samples  # the job's scene carries its samples per pixel
+    if req.samples is not None:  # the job's scene carries its samples per pixel (checked by JobRequest)
+        scene = scene.model_copy(update={"samples": req.samples})
     try:
         frames = job_frames(settings.max_frames, **req.axes())
         spec = JobSpec(name, scene, frames, req.width, req.height, req.tile or settings.default_tile, req.priority,
