@@ -1,4 +1,5 @@
 // Argand's front end: plain ES module, no build step, data only from the API.
+import { attach as attachBands } from "./bands.js";
 
 const view = document.getElementById("view");
 const h = (html) => { const t = document.createElement("template"); t.innerHTML = html.trim(); return t.content; };
@@ -296,9 +297,18 @@ async function jobPage(id) {
       + j.frames.map(cell).join("");
   }
   let live = true;  // false once the user has left the page (a late answer changes nothing)
+  // Any band of the job once it is done (bands.js): σ and δ sliders over the whole band rule.
+  let bands = null;
+  const bandsFollow = (j) => {
+    if (!bands || (j.status === "done" && bands.section.dataset.done !== "yes")) {
+      bands?.detach(); bands?.section.remove();
+      bands = attachBands(view, j, authHeaders, view.querySelector("#atlas-title"));
+    }
+  };
   function refresh(j) {
     if (!live) return;
     job = j;
+    bandsFollow(j);
     view.querySelector("#status").textContent = j.status; view.querySelector("#status").className = `badge ${j.status}`;
     view.querySelector("#progress > span").style.width = pct(j.progress);
     view.querySelector("#progress-text").textContent = progressText(j);
@@ -360,12 +370,13 @@ async function jobPage(id) {
     source.onerror = () => { view.querySelector("#progress-text").textContent = progressText(job) + " (reconnecting…)"; };
   }
   follow();
+  bandsFollow(job);
   view.querySelector("#actions").addEventListener("click", async (ev) => {
     const after = await runAction(ev, id);
     if (after === null) { location.hash = "#/jobs"; return; }
     if (after) { refresh(after); follow(); }
   });
-  cleanup = () => { live = false; clearInterval(timer); document.removeEventListener("keydown", keys); source?.close(); video.pause(); };
+  cleanup = () => { live = false; bands?.detach(); clearInterval(timer); document.removeEventListener("keydown", keys); source?.close(); video.pause(); };
 }
 
 // ---------------------------------------------------------------- workers
