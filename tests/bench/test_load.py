@@ -114,3 +114,27 @@ def test_profile_summary_separates_work_from_waiting():
     assert summary["busy_samples"] == {"threadpool (sync endpoints)": 30, "event loop": 10, "reaper": 5}
     assert summary["named_share_of_busy"]["list_jobs"] == pytest.approx(30 / 45)
     assert summary["named_share_of_busy"]["stream"] == pytest.approx(10 / 45)
+
+
+def test_scrubbers_held_is_the_last_step_whose_bands_kept_p95_with_no_error():
+    from argand.bench.load_figures import BAND_P95_MS, ramp_steps, scrubbers_held
+    from argand.bench.load_report import band_lines
+
+    def steps(p95s_and_fails):
+        rows, phases, t = [], [], 0.0
+        for users, (ms, failed) in zip((1, 5, 10, 20), p95s_and_fails):
+            phases.append({"t": t, "users": users})
+            for k in range(20):  # every band request of the step takes `ms`, `failed` of them fail
+                rows.append(_row(t + 3 + k * 0.1, "GET band.png", ms, ok=0 if k < failed else 1, users=users))
+            rows.append(_row(t + 3, "GET /api/jobs", 5.0, users=users))
+            t += 10.0
+        phases.append({"t": t, "users": 0})
+        return ramp_steps(rows, phases)
+
+    assert scrubbers_held(steps([(20, 0), (40, 0), (90, 0), (150, 0)])) == 10
+    assert scrubbers_held(steps([(20, 0), (40, 1), (50, 0), (60, 0)])) == 1  # an error ends it, later steps or not
+    assert scrubbers_held(steps([(BAND_P95_MS + 1, 0), (20, 0), (20, 0), (20, 0)])) is None
+    assert scrubbers_held(steps([(BAND_P95_MS, 0)] * 4)) == 20
+    text = " ".join(band_lines(steps([(20, 0), (40, 0), (90, 0), (150, 0)])))
+    assert "holds 10 users" in text and "20 users 150 ms" in text
+    assert band_lines([{"users": 1, "band_p95_ms": None}]) == []  # no band asked: no line

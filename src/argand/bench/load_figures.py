@@ -9,6 +9,10 @@ import numpy as np
 TARGETS = {"status_list_p99_ms": 100.0, "frame_download_p99_ms": 200.0, "throughput_share": 0.9}
 STATUS_LIST = ("GET /api/jobs", "GET /api/jobs/{id}")
 FRAME_DOWNLOADS = ("GET frame.png", "GET thumbnail.png", "GET animation.gif")
+#: Users scrubbing the σ and δ sliders of done jobs: each request renders a band.
+BANDS = ("GET band.png",)
+#: What a scrubbing user needs: bands at p95 within this, and no error.
+BAND_P95_MS = 100.0
 ENDED = ("done", "failed", "canceled")
 #: A step's first seconds are left out of its figures (users arriving).
 SETTLE_S = 2.0
@@ -58,6 +62,8 @@ def ramp_steps(rows: list[list], phases: list[dict]) -> list[dict]:
                       "rps": len(inside) / max(t1 - t0, 1e-9), "failures": sum(1 for r in inside if not r[3]),
                       "status_list_p99_ms": group_p99(rows, t0, t1, STATUS_LIST),
                       "frame_download_p99_ms": group_p99(rows, t0, t1, FRAME_DOWNLOADS),
+                      "band_p95_ms": percentiles([r[2] for r in inside if r[1] in BANDS])["p95_ms"],
+                      "band_failures": sum(1 for r in inside if r[1] in BANDS and not r[3]),
                       "all_p50_ms": percentiles([r[2] for r in inside])["p50_ms"]})
     return steps
 
@@ -128,3 +134,15 @@ def time_series(rows: list[list], metrics: list[dict], processes: list[dict], t_
 
 def verdict_of(value: float | None, limit: float) -> str:
     return "unknown" if value is None else ("met" if value <= limit else "missed")
+
+
+def scrubbers_held(steps: list[dict]) -> int | None:
+    """The most users of the ramp's steps (from the first) whose band
+    requests all kept p95 <= BAND_P95_MS with no error; None when even the
+    first step missed (or no band was asked)."""
+    held = None
+    for s in steps:
+        if s.get("band_p95_ms") is None or s["band_p95_ms"] > BAND_P95_MS or s.get("band_failures", 0):
+            break
+        held = s["users"]
+    return held

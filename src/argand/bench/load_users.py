@@ -14,6 +14,8 @@ file; the harness computes every figure from those rows.
 
 from __future__ import annotations
 
+import math
+
 import json
 import random
 import sys
@@ -221,6 +223,18 @@ def make_user_class(shared: Shared):
             done = [j for j in shared.done_jobs() if j.get("animation_url")]
             if done:
                 self._download(shared.rng.choice(done)["animation_url"], "GET animation.gif", b"GIF8", "image/gif")
+
+        @task(4)
+        def scrub_band(self) -> None:
+            """A user dragging the σ and δ sliders of a done job: any band
+            of the band rule, rendered on demand by the API."""
+            done = shared.done_jobs()
+            if done:
+                job = shared.rng.choice(done)
+                sigma = shared.rng.uniform(0.0, math.pi)
+                delta = shared.rng.uniform(0.0, math.pi - sigma)
+                self._download(f"/api/jobs/{job['id']}/band.png?sigma={sigma!r}&delta={delta!r}", "GET band.png",
+                               b"\x89PNG", "image/png")
 
         def _done_frame_job(self) -> dict | None:
             done = shared.done_jobs()
