@@ -561,7 +561,7 @@ def bench_all_cmd(
 # ---------------------------------------------------------------------------
 
 
-def _farm_settings(data: Optional[Path], host: Optional[str], port: Optional[int]):
+def _farm_settings(data: Optional[Path], host: Optional[str], port: Optional[int], forwarded: Optional[str] = None):
     from argand.farm.settings import Settings
 
     overrides = {"engine": _engine_options()}
@@ -571,6 +571,8 @@ def _farm_settings(data: Optional[Path], host: Optional[str], port: Optional[int
         overrides["host"] = host
     if port is not None:
         overrides["port"] = port
+    if forwarded is not None:
+        overrides["forwarded_allow_ips"] = forwarded
     return Settings(**overrides)
 
 
@@ -585,19 +587,24 @@ def _engine_options():
         fail(str(exc))
 
 
+FORWARDED_HELP = ("Reverse proxies whose X-Forwarded-For is believed (addresses or networks, comma separated, "
+                  "or *; ARGAND_FORWARDED_ALLOW_IPS). Default: none, a client is the address that connected.")
+
+
 @app.command()
 def serve(
     workers: int = typer.Option(2, "--workers", metavar="N", min=0, help="Celery worker processes to start."),
     host: Optional[str] = typer.Option(None, "--host", metavar="HOST", help="Default 127.0.0.1 (ARGAND_HOST)."),
     port: Optional[int] = typer.Option(None, "--port", metavar="PORT", help="Default 8000 (ARGAND_PORT)."),
     data: Optional[Path] = typer.Option(None, "--data", metavar="DIR", help="Data folder (default ./argand-data, ARGAND_DATA_DIR)."),
+    forwarded_allow_ips: Optional[str] = typer.Option(None, "--forwarded-allow-ips", metavar="ADDRESSES", help=FORWARDED_HELP),
 ) -> None:
-    """The render farm: Redis (embedded unless ARGAND_REDIS_URL), the API and N workers. Ctrl-C stops it."""
+    """The render farm: Redis (embedded unless ARGAND_REDIS_URL), the API and N workers. Ctrl-C or SIGTERM stops it."""
     from argand.serve.ports import PortTaken
     from argand.serve.supervisor import FarmLocked
     from argand.serve.supervisor import serve as run
 
-    settings = _farm_settings(data, host, port)
+    settings = _farm_settings(data, host, port, forwarded_allow_ips)
     _refuse_exposure(settings)
     try:
         # A line each, as written (a URL or an error is never wrapped or read as markup).
@@ -638,14 +645,15 @@ def api(
     port: Optional[int] = typer.Option(None, "--port", metavar="PORT", help="Port to listen on: default 8000 (ARGAND_PORT)."),
     data: Optional[Path] = typer.Option(None, "--data", metavar="DIR", help="Data folder with the database and frame "
                                         "store (default ./argand-data, ARGAND_DATA_DIR); shared with the workers."),
+    forwarded_allow_ips: Optional[str] = typer.Option(None, "--forwarded-allow-ips", metavar="ADDRESSES", help=FORWARDED_HELP),
 ) -> None:
     """The API alone (ARGAND_REDIS_URL and ARGAND_DATABASE_URL point at the farm); upgrades the database's schema first."""
     import uvicorn
 
-    from argand.api.app import create_app
+    from argand.api.app import create_app, uvicorn_options
     from argand.farm.database import upgrade
 
-    settings = _farm_settings(data, host, port)
+    settings = _farm_settings(data, host, port, forwarded_allow_ips)
     if settings.redis_url is None:
         fail("set ARGAND_REDIS_URL to the farm's Redis (argand api does not start its own broker; argand serve does)")
     _refuse_exposure(settings)
@@ -657,8 +665,7 @@ def api(
         fail(str(exc).replace("argand serve --port", "argand api --port"))
     upgrade(settings.sqlalchemy_url)
     console.print(f"Argand API on http://{settings.host}:{settings.port}/", markup=False, highlight=False, soft_wrap=True)
-    uvicorn.Server(uvicorn.Config(create_app(settings), host=settings.host, port=settings.port,
-                                  log_level="warning")).run(sockets=[listening])
+    uvicorn.Server(uvicorn.Config(create_app(settings), **uvicorn_options(settings))).run(sockets=[listening])
 
 
 def main() -> None:  # pragma: no cover

@@ -80,7 +80,7 @@ def _set_tiles_done(settings, job_id: str, done: dict[int, int]) -> None:
         s.commit()
 
 
-def test_the_list_is_each_jobs_own_view_without_the_scene_and_the_figures(farm_parts):  # noqa: F811
+def test_the_list_is_each_jobs_own_view_without_the_scene_the_axes_and_the_frames(farm_parts):  # noqa: F811
     settings, _ = farm_parts
     with _served(farm_parts) as (c, _, _app):
         ids = [c.post("/api/jobs", json={"scene": "plucker", "deltas": [0, 0.1, 0.2][:n], "width": 32, "height": 32,
@@ -90,15 +90,24 @@ def test_the_list_is_each_jobs_own_view_without_the_scene_and_the_figures(farm_p
         assert page["total"] == 2 and [j["id"] for j in page["jobs"]] == ids[::-1]
         for listed in page["jobs"]:
             own = c.get(f"/api/jobs/{listed['id']}").json()
-            assert set(own) - set(listed) == {"scene"} and "scene" in own
-            assert {k: v for k, v in own.items() if k not in ("scene", "frames", "eta_s")} == \
-                   {k: v for k, v in listed.items() if k not in ("frames", "eta_s")}
-            assert [{k: v for k, v in f.items() if k not in ("figures", "certified_share")} for f in own["frames"]] \
-                == listed["frames"]
-            assert all("figures" not in f for f in listed["frames"])
+            grown = set(own) - set(listed)  # what grows with the frames: the job's own view only
+            assert {"scene", "sigmas", "deltas", "frames"} <= grown and not set(listed) - set(own)
+            assert grown <= {"scene", "sigmas", "deltas", "sigma_labels", "delta_labels", "frames"}
+            assert {k: v for k, v in own.items() if k not in grown | {"eta_s"}} == \
+                   {k: v for k, v in listed.items() if k != "eta_s"}
+            frames = c.get(listed["frames_url"]).json()
+            assert frames["total"] == listed["frames_total"] == len(own["frames"]) and frames["frames"] == own["frames"]
+            assert (listed["sigma_count"], listed["delta_count"]) == (len(own["sigmas"]), len(own["deltas"]))
         second = next(j for j in page["jobs"] if j["id"] == ids[1])
         assert (second["tiles_done"], second["tiles_total"], second["progress"]) == (5, 12, 5 / 12)
+        assert (second["frames_total"], second["frames_done"], second["thumbnail_url"]) == (3, 0, None)
         assert c.get("/api/jobs?per_page=5&status=done").json() == {"total": 0, "page": 1, "per_page": 5, "jobs": []}
+        # The frames route pages: in index order, the last page short, past the end empty.
+        pages = [c.get(f"/api/jobs/{ids[1]}/frames?per_page=2&page={n}").json() for n in (1, 2, 3)]
+        assert [[f["index"] for f in p["frames"]] for p in pages] == [[0, 1], [2], []]
+        assert all(p["total"] == 3 and p["per_page"] == 2 for p in pages)
+        assert c.get(f"/api/jobs/{ids[1]}/frames?per_page=1001").status_code == 422
+        assert c.get("/api/jobs/nosuchjob/frames").status_code == 404
 
 
 def _events(c, job_id: str, out: list) -> None:

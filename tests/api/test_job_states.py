@@ -25,9 +25,12 @@ WORKER = "w-states"
 
 
 def _views(c: httpx.Client, job_id: str) -> list[dict]:
-    """The job as its own view, as the list shows it, and as its event stream's first message."""
+    """The job as its own view, as the list shows it (its frames from the frames route), and as its event
+    stream's first message."""
     own = c.get(f"/api/jobs/{job_id}").json()
-    listed = next(j for j in c.get("/api/jobs?per_page=50").json()["jobs"] if j["id"] == job_id)
+    summary = next(j for j in c.get("/api/jobs?per_page=50").json()["jobs"] if j["id"] == job_id)
+    listed = {**summary, "frames": c.get(summary["frames_url"]).json()["frames"]}  # the list's frames route
+    assert summary["frames_done"] == sum(f["status"] == "done" for f in listed["frames"])
     time.sleep(2.5 * POLL_S)  # the last stream's poller has stopped: this stream's first poll is new
     with c.stream("GET", f"/api/jobs/{job_id}/events", timeout=30) as stream:
         lines = stream.iter_lines()

@@ -122,6 +122,15 @@ def _document_errors(app: FastAPI, settings: Settings) -> None:
     app.openapi = openapi
 
 
+def uvicorn_options(settings: Settings) -> dict:
+    """How uvicorn serves the app: X-Forwarded-* believed only from the
+    proxies the settings name (uvicorn's own default trusts 127.0.0.1, and
+    with it any local client's header)."""
+    trusted = settings.forwarded_allow_ips
+    return {"host": settings.host, "port": settings.port, "log_level": "warning",
+            "proxy_headers": trusted is not None, "forwarded_allow_ips": trusted or ""}
+
+
 def create_app(settings: Settings) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):

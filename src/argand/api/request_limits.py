@@ -1,9 +1,12 @@
 """The request body limit: an ASGI middleware that answers 413, naming the
 limit, for a body above ``max_body_bytes`` (by its Content-Length at once,
-or while it arrives when it has none), before any route reads or parses it."""
+or while it arrives when it has none), before any route reads or parses it;
+the event streams' slots, and who a client is for them."""
 
 from __future__ import annotations
 
+import hashlib
+import hmac
 import json
 
 
@@ -98,3 +101,16 @@ class StreamSlots:
                 del self.by_client[client]
 
         return give_back
+
+
+def client_key(request, token: str | None) -> str:
+    """Who a client is, for the per-client limits: the holder of the API
+    token when the request carries it (all its holders are one client),
+    else the address that connected. That address is a proxy's X-Forwarded-
+    For only where the setting forwarded_allow_ips names that proxy (uvicorn
+    rewrites the client then); by default a forged header changes nothing."""
+    scheme, _, given = request.headers.get("authorization", "").partition(" ")
+    given = given.strip()
+    if token is not None and scheme.lower() == "bearer" and hmac.compare_digest(given.encode(), token.encode()):
+        return "token " + hashlib.sha256(token.encode()).hexdigest()[:12]
+    return request.client.host if request.client else "unknown"

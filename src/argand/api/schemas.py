@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -16,7 +17,7 @@ from argand.farm.states import shown_frame_status
 from argand.frames.angles import parse_angle
 from argand.render.frames import MAX_SAMPLES
 from argand.scene.model import check_samples
-from argand.frames.frame_set import DEFAULT_HEIGHT, DEFAULT_WIDTH, FramePoint, FrameSet, angle_text
+from argand.frames.frame_set import DEFAULT_HEIGHT, DEFAULT_WIDTH, FrameSet, FramePoint, angle_text
 
 Priority = Field(5, ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
 
@@ -124,7 +125,7 @@ class PriorityPatch(BaseModel):
 
 
 class FrameBrief(BaseModel):
-    """A frame in the job list: no figures (their JSON is read by the job's own view only)."""
+    """A frame without its figures."""
     index: int
     sigma: float
     delta: float
@@ -145,15 +146,21 @@ class FrameOut(FrameBrief):
     figures: dict | None
 
 
+class FramePage(BaseModel):
+    """A page of a job's frames, in index order, with their figures."""
+    total: int
+    page: int
+    per_page: int
+    frames: list[FrameOut]
+
+
 class JobSummary(BaseModel):
-    """A job in the list: its counters and frames, without the scene and the frames' figures."""
+    """A job in the list: its counters, of a size that does not grow with its
+    frames (no scene, no axes, no frames: the job's own route has them, and
+    its frames route pages through them)."""
     id: str
     status: str
     scene_name: str
-    sigmas: list[float] = Field(description="The grid's σ axis (rows), by sigma_index")
-    deltas: list[float] = Field(description="The grid's δ axis (columns), by delta_index")
-    sigma_labels: list[str] = Field(description="The σ axis as a person writes it (π fractions: \"π/36\"), by sigma_index")
-    delta_labels: list[str] = Field(description="The δ axis as a person writes it, by delta_index")
     width: int
     height: int
     tile: int
@@ -167,7 +174,12 @@ class JobSummary(BaseModel):
     started: float | None
     finished: float | None
     error: str | None
-    frames: list[FrameBrief]
+    frames_total: int
+    frames_done: int
+    sigma_count: int = Field(description="Values on the grid's σ axis (rows)")
+    delta_count: int = Field(description="Values on the grid's δ axis (columns)")
+    thumbnail_url: str | None = Field(description="The thumbnail of the job's first frame done")
+    frames_url: str = Field(description="The job's frames, page by page (GET, ?page=&per_page=)")
     animation_url: str | None
     webp_url: str | None
     mp4_url: str | None
@@ -175,7 +187,12 @@ class JobSummary(BaseModel):
 
 
 class JobOut(JobSummary):
+    """The job's own view: the summary, its scene, its grid's axes and every frame with its figures."""
     scene: dict
+    sigmas: list[float] = Field(description="The grid's σ axis (rows), by sigma_index")
+    deltas: list[float] = Field(description="The grid's δ axis (columns), by delta_index")
+    sigma_labels: list[str] = Field(description="The σ axis as a person writes it (π fractions: \"π/36\"), by sigma_index")
+    delta_labels: list[str] = Field(description="The δ axis as a person writes it, by delta_index")
     frames: list[FrameOut]
 
 
@@ -192,21 +209,31 @@ def _urls(base: str, index: int, done: bool) -> dict:
             "thumbnail_url": f"{base}/frames/{index}/thumbnail.png" if done else None}
 
 
-def _job_fields(job: Job, done: int, total: int, places: list[FramePoint]) -> dict:
+@dataclass(frozen=True)
+class FrameCounts:
+    """What a job's summary says of its frames (one aggregate query for a page of jobs)."""
+    total: int = 0
+    done: int = 0
+    sigma_count: int = 0
+    delta_count: int = 0
+    first_done: int | None = None
+
+
+def _job_fields(job: Job, done: int, total: int, frames: FrameCounts, is_grid: bool) -> dict:
     base = f"/api/jobs/{job.id}"
-    animated = job.status == "done" and len(places) > 1
-    grid = FrameSet.from_points(places)
-    sigmas, deltas = list(grid.sigmas), list(grid.deltas)
+    animated = job.status == "done" and frames.total > 1
     return dict(
-        id=job.id, status=job.status, scene_name=job.scene_name, sigmas=sigmas, deltas=deltas,
-        sigma_labels=[angle_text(v) for v in sigmas], delta_labels=[angle_text(v) for v in deltas], width=job.width,
+        id=job.id, status=job.status, scene_name=job.scene_name, width=job.width,
         height=job.height, tile=job.tile, method=job.method, priority=job.priority,
         progress=done / total if total else 0.0, tiles_done=done, tiles_total=total,
         eta_s=eta_seconds(job, done, total), created=job.created, started=job.started, finished=job.finished,
-        error=job.error, animation_url=f"{base}/animation.gif" if animated else None,
+        error=job.error, frames_total=frames.total, frames_done=frames.done, sigma_count=frames.sigma_count,
+        delta_count=frames.delta_count,
+        thumbnail_url=None if frames.first_done is None else f"{base}/frames/{frames.first_done}/thumbnail.png",
+        frames_url=f"{base}/frames", animation_url=f"{base}/animation.gif" if animated else None,
         webp_url=f"{base}/animation.webp" if animated else None,
         mp4_url=f"{base}/animation.mp4" if animated else None,
-        atlas_url=f"{base}/atlas.png" if grid.is_grid and job.status == "done" else None,
+        atlas_url=f"{base}/atlas.png" if is_grid and job.status == "done" else None,
     )
 
 
@@ -217,26 +244,22 @@ def frame_out(base: str, f, job_status: str) -> FrameOut:
                     finished=f.finished, certified_share=(f.figures or {}).get("certified_share"), figures=f.figures)
 
 
-def frame_brief(base: str, job_status: str, index: int, sigma: float, delta: float, sigma_index: int,
-                delta_index: int, status: str, finished: float | None) -> FrameBrief:
-    return FrameBrief(index=index, sigma=sigma, delta=delta, sigma_label=angle_text(sigma), delta_label=angle_text(delta),
-                      sigma_index=sigma_index, delta_index=delta_index,
-                      status=shown_frame_status(job_status, status), **_urls(base, index, status == "done"),
-                      finished=finished)
-
-
 def job_out(job: Job) -> JobOut:
     """The job's own view: every frame with its figures."""
     done, total = job_progress(job)
     base = f"/api/jobs/{job.id}"
     places = [FramePoint(f.sigma_index, f.delta_index, f.sigma, f.delta) for f in job.frames]
-    return JobOut(scene=job.scene, frames=[frame_out(base, f, job.status) for f in job.frames],
-                  **_job_fields(job, done, total, places))
+    grid = FrameSet.from_points(places)
+    sigmas, deltas = list(grid.sigmas), list(grid.deltas)
+    done_frames = [f.index for f in job.frames if f.status == "done"]
+    counts = FrameCounts(len(places), len(done_frames), len(sigmas), len(deltas), min(done_frames, default=None))
+    return JobOut(scene=job.scene, sigmas=sigmas, deltas=deltas, sigma_labels=[angle_text(v) for v in sigmas],
+                  delta_labels=[angle_text(v) for v in deltas],
+                  frames=[frame_out(base, f, job.status) for f in job.frames],
+                  **_job_fields(job, done, total, counts, grid.is_grid))
 
 
-def job_summary(job: Job, progress: tuple[int, int], frames: list[tuple]) -> JobSummary:
-    """A job in the list, from its row (scene deferred), its (tiles done, total) and its
-    frames' (index, sigma, delta, sigma_index, delta_index, status, finished)."""
-    base = f"/api/jobs/{job.id}"
-    places = [FramePoint(f[3], f[4], f[1], f[2]) for f in frames]
-    return JobSummary(frames=[frame_brief(base, job.status, *f) for f in frames], **_job_fields(job, *progress, places))
+def job_summary(job: Job, progress: tuple[int, int], frames: FrameCounts) -> JobSummary:
+    """A job in the list, from its row (scene deferred), its (tiles done, total) and its frames' counts."""
+    is_grid = frames.sigma_count > 1 and frames.delta_count > 1  # FrameSet.is_grid, from the counts
+    return JobSummary(**_job_fields(job, *progress, frames, is_grid))

@@ -68,6 +68,12 @@ class Settings(BaseSettings):
     # line of the file ARGAND_API_TOKEN_FILE names.
     api_token: SecretStr | None = None
     api_token_file: Path | None = None
+    #: The reverse proxies whose X-Forwarded-For and X-Forwarded-Proto the API
+    #: believes (uvicorn's forwarded_allow_ips: addresses or networks, comma
+    #: separated, or "*"). None: none, and a client is the address that
+    #: connected (a header is a client's claim, and would let one client pose
+    #: as many to the per-client limits).
+    forwarded_allow_ips: str | None = None
 
     # Work model.
     tile_soft_time_limit_s: int = Field(120, ge=1)

@@ -168,7 +168,7 @@ class Supervisor(threading.Thread):
 def serve(settings: Settings, workers: int, announce=print) -> None:
     import uvicorn
 
-    from argand.api.app import create_app
+    from argand.api.app import create_app, uvicorn_options
 
     lock = lock_data_dir(settings.data_path)
     try:
@@ -201,9 +201,11 @@ def serve(settings: Settings, workers: int, announce=print) -> None:
         announce(f"{workers} worker(s), data in {settings.data_path}, API docs at /docs; Ctrl-C stops the farm")
         announce(f"Argand is serving on http://{settings.host}:{settings.port}/")
         job_log.start()
-        server = uvicorn.Server(uvicorn.Config(create_app(settings), host=settings.host, port=settings.port,
-                                               log_level="warning"))
-        server.run(sockets=[listening])
+        server = uvicorn.Server(uvicorn.Config(create_app(settings), **uvicorn_options(settings)))
+        try:
+            server.run(sockets=[listening])
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM, re-raised by uvicorn once it drained: a clean stop
+            pass
     finally:
         job_log.stop.set()
         listening.close()

@@ -75,11 +75,10 @@ async function jobsPage() {
       if (!jobs.length) { table.replaceChildren(h(`<p class="muted">No jobs yet. <a href="#/new">Submit one</a>.</p>`)); return; }
       table.replaceChildren(h(`<table><thead><tr><th></th><th>Scene</th><th>Frames</th><th>Status</th><th>Progress</th><th>ETA</th><th>Priority</th><th>Actions</th></tr></thead><tbody>
         ${jobs.map((j) => {
-          const thumb = j.frames.find((f) => f.thumbnail_url);
           return `<tr data-job="${j.id}">
-          <td>${thumb ? `<img src="${thumb.thumbnail_url}" alt="">` : ""}</td>
+          <td>${j.thumbnail_url ? `<img src="${j.thumbnail_url}" alt="">` : ""}</td>
           <td><a href="#/job/${j.id}">${esc(j.scene_name)}</a><div class="muted">${j.width}×${j.height}</div></td>
-          <td>${j.frames.length}${j.sigmas.length > 1 && j.deltas.length > 1 ? `<div class="muted">${j.sigmas.length} σ × ${j.deltas.length} δ</div>` : ""}</td>
+          <td>${j.frames_total}${j.sigma_count > 1 && j.delta_count > 1 ? `<div class="muted">${j.sigma_count} σ × ${j.delta_count} δ</div>` : ""}</td>
           <td><span class="badge ${j.status}">${j.status}</span>${j.error ? `<div class="muted job-error" title="${esc(j.error)}">${esc(j.error)}</div>` : ""}</td>
           <td><div class="bar" role="progressbar" aria-valuenow="${Math.round(100 * j.progress)}" aria-valuemin="0" aria-valuemax="100"><span style="width:${pct(j.progress)}"></span></div></td>
           <td>${j.eta_s == null ? '<span class="muted">—</span>' : fmtEta(j.eta_s)}</td>
@@ -404,9 +403,13 @@ async function comparePage() {
     <div class="controls"><label>view <select id="cmp-mode"><option value="side">side by side</option><option value="slider">slider</option></select></label>
       <input id="cmp-split" type="range" min="0" max="100" value="50" aria-label="Split position" hidden></div>
     <div id="cmp"></div>`));
+  // The list holds summaries; each job's frames come from its own frames route.
   let jobs;
-  try { jobs = (await api("/api/jobs?status=done&per_page=200")).jobs; }
-  catch (e) { view.querySelector("#pickers").replaceChildren(h(`<p class="error">${esc(e.message)}</p>`)); return; }
+  try {
+    jobs = (await api("/api/jobs?status=done&per_page=50")).jobs;
+    const pages = await Promise.all(jobs.map((j) => api(`${j.frames_url}?per_page=1000`)));
+    jobs.forEach((j, i) => { j.frames = pages[i].frames; });
+  } catch (e) { view.querySelector("#pickers").replaceChildren(h(`<p class="error">${esc(e.message)}</p>`)); return; }
   if (!jobs.length) { view.querySelector("#pickers").replaceChildren(h(`<p class="muted">No finished jobs to compare yet.</p>`)); return; }
   const opts = jobs.flatMap((j) => j.frames.map((f) => `<option value="${j.id}:${f.index}">${esc(j.scene_name)} ${j.id.slice(0, 6)} — σ = ${sigmaOf(j, f)}, δ = ${deltaOf(j, f)}</option>`)).join("");
   view.querySelector("#pickers").replaceChildren(h(`<label>left <select id="cmp-a">${opts}</select></label><label>right <select id="cmp-b">${opts}</select></label>`));

@@ -9,12 +9,12 @@ from typing import Literal
 from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import StreamingResponse
-from sqlalchemy import func, select
+from sqlalchemy import case, func, select
 from sqlalchemy.orm import defer
 
 from argand.api.deps import JobIdDep, SettingsDep, job_or_404, wake_drainer
-from argand.api.request_limits import StreamSlots
-from argand.api.schemas import JobOut, JobPage, JobRequest, PriorityPatch, job_out, job_summary
+from argand.api.request_limits import StreamSlots, client_key
+from argand.api.schemas import FrameCounts, JobOut, JobPage, JobRequest, PriorityPatch, job_out, job_summary
 from argand.farm.control import delete_job, set_job_status, set_priority
 from argand.farm.database import session_scope
 from argand.farm.models import Frame, Job
@@ -77,11 +77,14 @@ def list_jobs(
     page: int = Query(1, ge=1, le=MAX_PAGE),
     per_page: int = Query(20, ge=1, le=200),
 ) -> JobPage:
+    """Summaries, newest first: a job's frames are not listed (GET
+    /api/jobs/{id}/frames pages through them), so a page's size and time do
+    not grow with its jobs' frames."""
     if status is not None and status not in JOB.states:
         raise HTTPException(422, detail=f"status must be one of {', '.join(JOB.states)}")
     with session_scope(settings.sqlalchemy_url) as s:
         # A fixed number of queries whatever the page holds: the jobs (their scene
-        # JSON deferred), their progress in one aggregate, their frames' plain columns.
+        # JSON deferred), their progress in one aggregate, their frames' counts in another.
         q = select(Job).options(defer(Job.scene)).order_by(Job.created.desc())
         cq = select(func.count()).select_from(Job)
         if status:
@@ -90,14 +93,22 @@ def list_jobs(
         rows = s.scalars(q.offset((page - 1) * per_page).limit(per_page)).all()
         ids = [j.id for j in rows]
         progress = jobs_progress(s, ids)
-        frames: dict[str, list[tuple]] = {i: [] for i in ids}
-        if ids:
-            for job_id, *f in s.execute(select(Frame.job_id, Frame.index, Frame.sigma, Frame.delta, Frame.sigma_index,
-                                               Frame.delta_index, Frame.status, Frame.finished).where(Frame.job_id.in_(ids))
-                                        .order_by(Frame.job_id, Frame.index)):
-                frames[job_id].append(tuple(f))
+        counts = frame_counts(s, ids)
         return JobPage(total=total, page=page, per_page=per_page,
-                       jobs=[job_summary(j, progress[j.id], frames[j.id]) for j in rows])
+                       jobs=[job_summary(j, progress[j.id], counts.get(j.id, FrameCounts())) for j in rows])
+
+
+def frame_counts(s, job_ids: list[str]) -> dict[str, FrameCounts]:
+    """Each job's frames counted (in all, done, σ rows, δ columns, the first
+    done) in one aggregate query over the frames' indexed columns."""
+    if not job_ids:
+        return {}
+    done = Frame.status == "done"
+    rows = s.execute(select(Frame.job_id, func.count(), func.sum(case((done, 1), else_=0)),
+                            func.count(Frame.sigma_index.distinct()), func.count(Frame.delta_index.distinct()),
+                            func.min(case((done, Frame.index), else_=None)))
+                     .where(Frame.job_id.in_(job_ids)).group_by(Frame.job_id)).all()
+    return {job_id: FrameCounts(int(n), int(d or 0), int(rs), int(cs), first) for job_id, n, d, rs, cs, first in rows}
 
 
 @router.get("/{job_id}")
@@ -213,14 +224,15 @@ class _SlotStream(StreamingResponse):
 @router.get("/{job_id}/events", responses={429: {"description": "Too many event streams open (per client or in all)"}})
 async def events(job_id: JobIdDep, settings: SettingsDep, request: Request):
     """Server-sent events: the job's progress until it ends. At most
-    max_streams_per_client open streams per client address and max_streams
-    in all (a 429 beyond)."""
+    max_streams_per_client open streams per client (the API token's holder,
+    or the address that connected: request_limits.client_key) and
+    max_streams in all (a 429 beyond)."""
     state = request.app.state
     if not hasattr(state, "job_pollers"):
         state.job_pollers = {}  # (database, job id) -> _Poller, for this app's event loop
         state.stream_slots = StreamSlots(settings.max_streams_per_client, settings.max_streams)
     pollers = state.job_pollers
-    give_back = state.stream_slots.take(request.client.host if request.client else "unknown")
+    give_back = state.stream_slots.take(client_key(request, settings.token()))
 
     async def stream():
         poller = _Poller.join(pollers, settings, job_id)  # when the response starts: left in `finally`
