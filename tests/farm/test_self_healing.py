@@ -18,7 +18,7 @@ import redis as redis_py
 
 from argand.farm import control
 from argand.farm.queue import broker_client
-from argand.farm.reaper import Reaper, take_census
+from argand.farm.reaper import Reaper, still_idle, take_census
 from tests.farm.test_farm import Farm, check_frames_against_local
 from tests.farm.test_faults import _db, _wait
 from tests.farm.test_work import farm_parts, queued_messages, submit  # noqa: F401  (the fixture)
@@ -188,3 +188,28 @@ def test_the_census_drops_stale_messages_and_sends_what_two_censuses_found_lost(
     control.set_job_status(settings, job_id, "cancel")
     _census(reaper, client)
     assert queued_messages(redis_server) == 0
+
+
+def test_a_message_that_looked_idle_is_kept_once_its_tiles_are_queued_again(farm_parts):  # noqa: F811
+    """The census reads the tiles before the broker: a tile given back in
+    between (queued again, with a new message) would make that message look
+    idle. It is read again before anything is dropped."""
+    from sqlalchemy import update
+
+    from argand.farm import tile_work
+    from argand.farm.database import session_scope
+    from argand.farm.models import Tile
+
+    settings, redis_server = farm_parts
+    client = broker_client(settings)
+    job_id = submit(settings, "plucker", [0.0], 32, 32, 16)
+    sent = queued_messages(redis_server)
+    why, claimed = tile_work.claim(settings, job_id, 0, [0, 1, 2, 3], "w-elsewhere", None)
+    assert why is None and claimed == [0, 1, 2, 3]
+    census = take_census(settings, client)
+    assert len(census.idle) == sent and census.unsent == {}  # running: the waiting copy claims nothing
+    with session_scope(settings.sqlalchemy_url) as s:  # given back meanwhile
+        s.execute(update(Tile).where(Tile.job_id == job_id).values(status="queued", worker=None))
+    assert still_idle(settings, census.idle) == []
+    assert Reaper(settings.model_copy(update={"queue_check_s": 0.01})).reconcile(client) == 0
+    assert queued_messages(redis_server) == sent  # kept

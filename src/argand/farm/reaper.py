@@ -95,15 +95,22 @@ def _stuck(s: Session) -> tuple[set[tuple[str, int]], set[str]]:
 class Census:
     """The queue against the database at one moment: the queued tiles of
     the active jobs, those no message carries (job -> {(frame, tile)}), and
-    the waiting messages that can claim nothing."""
+    the stale waiting messages: those that can claim nothing (``idle``) and
+    the copies at another priority of tiles that messages at the job's
+    priority carry (``copies``)."""
 
     queued: int = 0
     unsent: dict[str, set[tuple[int, int]]] = field(default_factory=dict)
-    stale: list[BrokerRun] = field(default_factory=list)
+    idle: list[BrokerRun] = field(default_factory=list)
+    copies: list[BrokerRun] = field(default_factory=list)
 
     @property
     def unsent_tiles(self) -> int:
         return sum(len(t) for t in self.unsent.values())
+
+    @property
+    def stale(self) -> list[BrokerRun]:
+        return self.idle + self.copies
 
 
 def _outbox_cover(c) -> dict[str, set[tuple[int, int]]]:
@@ -130,8 +137,10 @@ def _judge_job(census: Census, job_id: str, queued: set[tuple[int, int]], runs: 
         if r.key is None:
             continue  # held by a worker: it acknowledges it when done
         mine = {(r.frame_index, t) for t in r.tile_indices} & queued
-        if not mine or (level_of_key(r.key) != level and mine <= current):
-            census.stale.append(r)
+        if not mine:
+            census.idle.append(r)
+        elif level_of_key(r.key) != level and mine <= current:
+            census.copies.append(r)
 
 
 def take_census(settings: Settings, client, job_id: str | None = None) -> Census:
@@ -157,11 +166,24 @@ def take_census(settings: Settings, client, job_id: str | None = None) -> Census
             by_job[run.job_id].append(run)
     for owner, runs in by_job.items():
         if owner not in jobs:  # stopped, ended or deleted: nothing to claim
-            census.stale += [r for r in runs if r.key is not None]
+            census.idle += [r for r in runs if r.key is not None]
     for owner, priority in jobs.items():
         _judge_job(census, owner, queued.get(owner, set()), by_job.get(owner, []), outbox.get(owner, set()),
                    priority_level(priority))
     return census
+
+
+def still_idle(settings: Settings, runs: list[BrokerRun]) -> list[BrokerRun]:
+    """Those of ``runs`` that still can claim nothing, read again: a tile
+    given back, or a job resumed, after the census read the tiles has new
+    messages that the census may have taken for idle ones."""
+    if not runs:
+        return []
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        queued = {tuple(row) for row in c.execute(select(Tile.job_id, Tile.frame_index, Tile.tile_index).where(
+            Tile.status == "queued", Tile.job_id.in_({r.job_id for r in runs}),
+            Tile.job_id.in_(select(Job.id).where(Job.status.in_(ACTIVE)))))}
+    return [r for r in runs if not any((r.job_id, r.frame_index, t) in queued for t in r.tile_indices)]
 
 
 class Reaper:
@@ -217,7 +239,7 @@ class Reaper:
             return 0
         start = time.monotonic()
         census = take_census(self.settings, client)
-        drop_waiting(client, census.stale)
+        drop_waiting(client, still_idle(self.settings, census.idle) + census.copies)
         lost = {job_id: tiles & self._unsent[job_id] for job_id, tiles in census.unsent.items()
                 if job_id in self._unsent}
         self._unsent = census.unsent
