@@ -1,11 +1,13 @@
 """The routes' dependencies: the app's settings (given to create_app, kept on
-app.state: tests pass their own) and the job a path names."""
+app.state: tests pass their own), the request's database session and the
+job a path names."""
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Iterator
 
 from fastapi import Depends, HTTPException, Request
+from sqlalchemy.orm import Session
 
 from argand.farm.database import session_scope
 from argand.farm.models import Job
@@ -19,6 +21,18 @@ def get_settings(request: Request) -> Settings:
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 
 
+def get_session(settings: SettingsDep) -> Iterator[Session]:
+    """One session per request (shared by the route and its dependencies),
+    committed when the route returns, before the response is sent, and
+    rolled back if it raises. Farm functions a route calls take it."""
+    with session_scope(settings.sqlalchemy_url) as s:
+        yield s
+
+
+#: scope="function": the commit (or its error) comes before the response, never after a 2xx was sent.
+SessionDep = Annotated[Session, Depends(get_session, scope="function")]
+
+
 def job_or_404(s, job_id: str) -> Job:
     job = s.get(Job, job_id)
     if job is None:
@@ -26,10 +40,9 @@ def job_or_404(s, job_id: str) -> Job:
     return job
 
 
-def require_job(job_id: str, settings: SettingsDep) -> str:
+def require_job(job_id: str, s: SessionDep) -> str:
     """The path's job id, after a 404 if there is no such job."""
-    with session_scope(settings.sqlalchemy_url) as s:
-        job_or_404(s, job_id)
+    job_or_404(s, job_id)
     return job_id
 
 

@@ -9,8 +9,9 @@ from __future__ import annotations
 import time
 
 from sqlalchemy import delete, update
+from sqlalchemy.orm import Session
 
-from argand.farm.database import session_scope
+from argand.farm.database import in_session
 from argand.farm.dispatch import alive_workers, dispatch_job, queue_job_tiles
 from argand.farm.models import Job, Outbox, Tile
 from argand.farm.outbox import PRIORITY_RESEND_S, try_drain
@@ -28,18 +29,20 @@ class NoSuchJob(LookupError):
         super().__init__(f"no job {job_id!r}")
 
 
-def set_job_status(settings: Settings, job_id: str, action: str, send: bool = True) -> str:
+def set_job_status(settings: Settings, job_id: str, action: str, send: bool = True,
+                   session: Session | None = None) -> str:
     """Applies ``action`` if the job's state allows it (else changes
     nothing); resume and retry give the unfinished tiles back to the queue
     and write their messages in the same transaction (argand.farm.outbox),
     sent here with ``send``. A resume of an active job sends again its
-    queued tiles that no message carries (resend_unsent). Returns the job's
+    queued tiles that no message carries (resend_unsent). In ``session``
+    when given (committed here), else in one of its own. Returns the job's
     state after."""
     if action not in ACTIONS:
         raise ValueError(f"action must be one of {', '.join(ACTIONS)}, not {action!r}")
     applies_to, target = ACTIONS[action]
     workers = alive_workers(settings)
-    with session_scope(settings.sqlalchemy_url) as s:
+    with in_session(settings.sqlalchemy_url, session) as s:
         job = s.get(Job, job_id)
         if job is None:
             raise NoSuchJob(job_id)
@@ -84,15 +87,17 @@ def resend_unsent(settings: Settings, job_id: str, send: bool = True) -> int:
     return dispatch_job(settings, job_id, send=send, only_tiles=lost) if lost else 0
 
 
-def set_priority(settings: Settings, job_id: str, priority: int, send: bool = True) -> None:
+def set_priority(settings: Settings, job_id: str, priority: int, send: bool = True,
+                 session: Session | None = None) -> None:
     """A new priority: an active job's queued tiles are sent again at that
     priority (the older messages become no-ops, since a tile is claimed by
     compare-and-set). Bounded: the same priority sends nothing, and a job's
     tiles are sent again at most once per PRIORITY_RESEND_S (a later change
     replaces the messages still waiting, and goes out when that time has
-    passed), so PATCHes in a loop cannot flood the broker."""
+    passed), so PATCHes in a loop cannot flood the broker. In ``session``
+    when given (committed here), else in one of its own."""
     workers = alive_workers(settings)
-    with session_scope(settings.sqlalchemy_url) as s:
+    with in_session(settings.sqlalchemy_url, session) as s:
         job = s.get(Job, job_id)
         if job is None:
             raise NoSuchJob(job_id)
@@ -113,10 +118,11 @@ def set_priority(settings: Settings, job_id: str, priority: int, send: bool = Tr
         try_drain(settings, job_id)
 
 
-def delete_job(settings: Settings, job_id: str) -> None:
-    """The job's rows and files. Its runs in flight stop at their next
-    check (the job is gone)."""
-    with session_scope(settings.sqlalchemy_url) as s:
+def delete_job(settings: Settings, job_id: str, session: Session | None = None) -> None:
+    """The job's rows, then its files. Its runs in flight stop at their next
+    check (the job is gone). In ``session`` when given (committed here
+    before the files go), else in one of its own."""
+    with in_session(settings.sqlalchemy_url, session) as s:
         job = s.get(Job, job_id)
         if job is None:
             raise NoSuchJob(job_id)

@@ -89,6 +89,20 @@ def session_scope(url: str) -> Iterator[Session]:
             raise
 
 
+@contextmanager
+def in_session(url: str, session: Session | None = None) -> Iterator[Session]:
+    """The caller's ``session`` (a route's, argand.api.deps.SessionDep),
+    committed at the end of the block so that what follows it (a message
+    sent, a folder removed) comes after the change, as with a session of
+    its own; or, without one, a new session_scope(url)."""
+    if session is None:
+        with session_scope(url) as s:
+            yield s
+    else:
+        yield session
+        session.commit()
+
+
 def alembic_config(url: str) -> Config:
     config = Config()
     config.set_main_option("script_location", str(MIGRATIONS))

@@ -11,8 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from sqlalchemy import func, insert, select
+from sqlalchemy.orm import Session
 
-from argand.farm.database import engine_for
+from argand.farm.database import in_session
 from argand.farm.dispatch import alive_workers
 from argand.farm.models import Frame, Job, Tile
 from argand.farm.outbox import add_runs, try_drain
@@ -132,26 +133,27 @@ def check_disk(settings: Settings) -> None:
                         "refused until space is freed (delete finished jobs)")
 
 
-def check_in_flight(settings: Settings) -> None:
+def check_in_flight(settings: Settings, session: Session | None = None) -> None:
     """Raises FarmBusy when the farm already holds max_active_jobs unfinished jobs."""
-    with engine_for(settings.sqlalchemy_url).connect() as c:
-        n = c.execute(select(func.count()).select_from(Job).where(Job.status.not_in(ENDED))).scalar()
+    with in_session(settings.sqlalchemy_url, session) as s:
+        n = s.scalar(select(func.count()).select_from(Job).where(Job.status.not_in(ENDED)))
     if n >= settings.max_active_jobs:
         raise FarmBusy(f"the farm has {n} jobs queued, running or paused (the limit is {settings.max_active_jobs}); "
                        "retry when some have finished")
 
 
-def create_job(settings: Settings, spec: JobSpec, send: bool = True) -> str:
+def create_job(settings: Settings, spec: JobSpec, send: bool = True, session: Session | None = None) -> str:
     """Checks the limits, then stores the job, its frames, its tiles and its
     messages (outbox rows, argand.farm.outbox) in one transaction: a broker
     outage, or a crash right after the commit, cannot leave a queued job
     without work. With ``send``, the messages are then sent here if the
     broker answers (else they wait for a drainer); the API passes False and
     wakes its drainer instead, so a submission never waits on the broker.
-    Returns the job's id."""
+    In ``session`` when given (a route's; committed here), else in one of
+    its own. Returns the job's id."""
     check_limits(settings, spec)
     check_renderable(spec)
-    check_in_flight(settings)
+    check_in_flight(settings, session)
     check_disk(settings)
     job_id = uuid.uuid4().hex[:12]
     stored = spec.scene.to_dict()
@@ -160,7 +162,8 @@ def create_job(settings: Settings, spec: JobSpec, send: bool = True) -> str:
     workers = max(1, alive_workers(settings))
     runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects,
                      batch_pixels(settings.batch_pixels, stored), workers, positions)
-    with engine_for(settings.sqlalchemy_url).begin() as c:
+    with in_session(settings.sqlalchemy_url, session) as s:
+        c = s.connection()
         c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=stored,
                                      width=spec.width, height=spec.height, tile=spec.tile,
                                      method=spec.method, priority=spec.priority, created=time.time()))

@@ -10,9 +10,9 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import StreamingResponse
 from sqlalchemy import case, func, select
-from sqlalchemy.orm import defer
+from sqlalchemy.orm import Session, defer
 
-from argand.api.deps import JobIdDep, SettingsDep, job_or_404, wake_drainer
+from argand.api.deps import JobIdDep, SessionDep, SettingsDep, job_or_404, wake_drainer
 from argand.api.request_limits import StreamSlots, client_key
 from argand.api.schemas import FrameCounts, JobOut, JobPage, JobRequest, PriorityPatch, job_out, job_summary
 from argand.farm.control import delete_job, set_job_status, set_priority
@@ -40,15 +40,14 @@ def resolve_scene(spec: str | dict) -> tuple[str, Scene]:
         raise HTTPException(422, detail=str(exc)) from None
 
 
-def _job(settings, job_id: str) -> JobOut:
-    with session_scope(settings.sqlalchemy_url) as s:
-        return job_out(job_or_404(s, job_id))
+def _job(s: Session, job_id: str) -> JobOut:
+    return job_out(job_or_404(s, job_id))
 
 
 @router.post("", status_code=201, responses={413: {"description": "The body is above max_body_bytes"},
                                                  429: {"description": "max_active_jobs are in flight"},
                                                  507: {"description": "The data folder's free space is below min_free_bytes"}})
-def submit(req: JobRequest, settings: SettingsDep, request: Request) -> JobOut:
+def submit(req: JobRequest, settings: SettingsDep, s: SessionDep, request: Request) -> JobOut:
     """A new job, stored with its messages in one transaction; the messages
     go to the broker from the outbox, so the answer does not wait on it (a
     job submitted while Redis is down runs once it is back)."""
@@ -59,7 +58,7 @@ def submit(req: JobRequest, settings: SettingsDep, request: Request) -> JobOut:
         frames = job_frames(settings.max_frames, **req.axes())
         spec = JobSpec(name, scene, frames, req.width, req.height, req.tile or settings.default_tile, req.priority,
                        req.method)
-        job_id = create_job(settings, spec, send=False)
+        job_id = create_job(settings, spec, send=False, session=s)
     except FarmBusy as exc:
         raise HTTPException(429, detail=str(exc)) from None
     except StoreFull as exc:
@@ -67,7 +66,7 @@ def submit(req: JobRequest, settings: SettingsDep, request: Request) -> JobOut:
     except JobRefused as exc:
         raise HTTPException(422, detail=str(exc)) from None
     wake_drainer(request)
-    return _job(settings, job_id)
+    return _job(s, job_id)
 
 
 @router.get("")
@@ -112,29 +111,30 @@ def frame_counts(s, job_ids: list[str]) -> dict[str, FrameCounts]:
 
 
 @router.get("/{job_id}")
-def get_job(job_id: str, settings: SettingsDep) -> JobOut:
-    return _job(settings, job_id)
+def get_job(job_id: str, s: SessionDep) -> JobOut:
+    return _job(s, job_id)
 
 
 @router.post("/{job_id}/{action}")
-def control(job_id: str, action: Literal[tuple(ACTIONS)], settings: SettingsDep, request: Request) -> JobOut:
-    set_job_status(settings, job_id, action, send=False)
+def control(job_id: str, action: Literal[tuple(ACTIONS)], settings: SettingsDep, s: SessionDep,
+            request: Request) -> JobOut:
+    set_job_status(settings, job_id, action, send=False, session=s)
     wake_drainer(request)
-    return _job(settings, job_id)
+    return _job(s, job_id)
 
 
 @router.patch("/{job_id}")
-def patch(job_id: str, body: PriorityPatch, settings: SettingsDep, request: Request) -> JobOut:
+def patch(job_id: str, body: PriorityPatch, settings: SettingsDep, s: SessionDep, request: Request) -> JobOut:
     """A new priority for the job's queued tiles: at once, or (after another
     change in the last 10 s) within 10 s; the same priority changes nothing."""
-    set_priority(settings, job_id, body.priority, send=False)
+    set_priority(settings, job_id, body.priority, send=False, session=s)
     wake_drainer(request)
-    return _job(settings, job_id)
+    return _job(s, job_id)
 
 
 @router.delete("/{job_id}", status_code=204)
-def delete(job_id: str, settings: SettingsDep) -> None:
-    delete_job(settings, job_id)
+def delete(job_id: str, settings: SettingsDep, s: SessionDep) -> None:
+    delete_job(settings, job_id, session=s)
 
 
 #: Seconds between two polls of a followed job's progress.
