@@ -31,9 +31,11 @@ def test_one_session_per_request_committed_before_the_answer_or_rolled_back(farm
     job_id = submit(settings, "steiner", [0.0], 16, 16, 16)
     app = create_app(settings)
     shared: list[bool] = []
+    reading: list[bool] = []
 
     @app.post("/probe/{job_id}")
     def probe(job_id: JobIdDep, s: SessionDep, again: SessionDep, priority: int, fail: bool = False) -> dict:
+        reading.append(s.in_transaction())  # JobIdDep's check ended its read: no connection held
         s.get(Job, job_id).priority = priority
         s.flush()
         shared.append(s is again)
@@ -54,7 +56,7 @@ def test_one_session_per_request_committed_before_the_answer_or_rolled_back(farm
         assert priority_of(settings, job_id) == 3
         assert c.delete(f"/api/jobs/{job_id}").status_code == 204
         assert c.get(f"/api/jobs/{job_id}").status_code == 404
-    assert shared == [True, True]
+    assert shared == [True, True] and reading == [False, False]
 
 
 def test_in_session_commits_a_callers_session_at_the_end_of_the_block(farm_parts):  # noqa: F811

@@ -41,8 +41,11 @@ def job_or_404(s, job_id: str) -> Job:
 
 
 def require_job(job_id: str, s: SessionDep) -> str:
-    """The path's job id, after a 404 if there is no such job."""
+    """The path's job id, after a 404 if there is no such job. The check's
+    read ends here, so a route that then serves or encodes a file holds no
+    database connection meanwhile (the session starts another when used)."""
     job_or_404(s, job_id)
+    s.commit()
     return job_id
 
 

@@ -10,7 +10,7 @@ from fastapi import APIRouter, HTTPException, Query
 from fastapi.responses import FileResponse, Response
 from sqlalchemy import func, select
 
-from argand.api.deps import JobIdDep, SettingsDep, job_or_404
+from argand.api.deps import JobIdDep, SessionDep, SettingsDep, job_or_404
 from argand.api.schemas import FramePage, frame_out
 from argand.farm.assembly import animation_mp4, animation_webp, atlas_png
 from argand.farm.database import session_scope
@@ -38,16 +38,15 @@ MAX_FRAMES_PER_PAGE = 1000
 
 
 @router.get("/frames")
-def frames_page(job_id: JobIdDep, settings: SettingsDep, page: int = Query(1, ge=1, le=MAX_PAGE),
+def frames_page(job_id: JobIdDep, s: SessionDep, page: int = Query(1, ge=1, le=MAX_PAGE),
                 per_page: int = Query(100, ge=1, le=MAX_FRAMES_PER_PAGE)) -> FramePage:
     """The job's frames with their figures, in index order, a page at a time."""
-    with session_scope(settings.sqlalchemy_url) as s:
-        status = s.scalar(select(Job.status).where(Job.id == job_id))
-        total = s.scalar(select(func.count()).select_from(Frame).where(Frame.job_id == job_id))
-        rows = s.scalars(select(Frame).where(Frame.job_id == job_id).order_by(Frame.index)
-                         .offset((page - 1) * per_page).limit(per_page)).all()
-        base = f"/api/jobs/{job_id}"
-        return FramePage(total=total, page=page, per_page=per_page, frames=[frame_out(base, f, status) for f in rows])
+    status = s.scalar(select(Job.status).where(Job.id == job_id))
+    total = s.scalar(select(func.count()).select_from(Frame).where(Frame.job_id == job_id))
+    rows = s.scalars(select(Frame).where(Frame.job_id == job_id).order_by(Frame.index)
+                     .offset((page - 1) * per_page).limit(per_page)).all()
+    base = f"/api/jobs/{job_id}"
+    return FramePage(total=total, page=page, per_page=per_page, frames=[frame_out(base, f, status) for f in rows])
 
 
 @router.get("/frames/{index}.png", **binary("image/png", "The frame's PNG"))

@@ -71,7 +71,7 @@ def submit(req: JobRequest, settings: SettingsDep, s: SessionDep, request: Reque
 
 @router.get("")
 def list_jobs(
-    settings: SettingsDep,
+    s: SessionDep,
     status: str | None = Query(None, description="|".join(JOB.states)),
     page: int = Query(1, ge=1, le=MAX_PAGE),
     per_page: int = Query(20, ge=1, le=200),
@@ -81,20 +81,19 @@ def list_jobs(
     not grow with its jobs' frames."""
     if status is not None and status not in JOB.states:
         raise HTTPException(422, detail=f"status must be one of {', '.join(JOB.states)}")
-    with session_scope(settings.sqlalchemy_url) as s:
-        # A fixed number of queries whatever the page holds: the jobs (their scene
-        # JSON deferred), their progress in one aggregate, their frames' counts in another.
-        q = select(Job).options(defer(Job.scene)).order_by(Job.created.desc())
-        cq = select(func.count()).select_from(Job)
-        if status:
-            q, cq = q.where(Job.status == status), cq.where(Job.status == status)
-        total = s.scalar(cq)
-        rows = s.scalars(q.offset((page - 1) * per_page).limit(per_page)).all()
-        ids = [j.id for j in rows]
-        progress = jobs_progress(s, ids)
-        counts = frame_counts(s, ids)
-        return JobPage(total=total, page=page, per_page=per_page,
-                       jobs=[job_summary(j, progress[j.id], counts.get(j.id, FrameCounts())) for j in rows])
+    # A fixed number of queries whatever the page holds: the jobs (their scene
+    # JSON deferred), their progress in one aggregate, their frames' counts in another.
+    q = select(Job).options(defer(Job.scene)).order_by(Job.created.desc())
+    cq = select(func.count()).select_from(Job)
+    if status:
+        q, cq = q.where(Job.status == status), cq.where(Job.status == status)
+    total = s.scalar(cq)
+    rows = s.scalars(q.offset((page - 1) * per_page).limit(per_page)).all()
+    ids = [j.id for j in rows]
+    progress = jobs_progress(s, ids)
+    counts = frame_counts(s, ids)
+    return JobPage(total=total, page=page, per_page=per_page,
+                   jobs=[job_summary(j, progress[j.id], counts.get(j.id, FrameCounts())) for j in rows])
 
 
 def frame_counts(s, job_ids: list[str]) -> dict[str, FrameCounts]:
