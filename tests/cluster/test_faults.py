@@ -24,10 +24,10 @@ def worker_tiles(cluster, job_id: str, host: str) -> int:
 def both_workers_render(cluster) -> float:
     """After a fault is healed: a new job is rendered by both worker hosts.
     Returns the seconds until each has rendered a tile of it."""
-    job_id = submit(cluster)
+    job_id = submit(cluster, {**JOB, "deltas": {"start": 0, "stop": "pi/9", "count": 24}})
     took = cluster.wait(lambda: all(worker_tiles(cluster, job_id, h) for h in ("w1", "w2")), 60,
                         "both worker hosts render tiles of a new job")
-    wait_done(cluster, job_id, 60)
+    wait_done(cluster, job_id, 120)
     check_job(cluster, job_id)
     return took
 
@@ -62,11 +62,10 @@ def test_a_worker_host_cut_off_from_redis_past_the_visibility_timeout(farm):
         took = wait_done(farm, job_id, 60)
         time.sleep(max(0.0, 20 - took))  # past the visibility timeout (16 s)
         farm.heal("w1")
-        healed = time.monotonic()
         back = both_workers_render(farm)
     figures = {"partition_s": 20, "job_s": took, "back_after_heal_s": back, **check_job(farm, job_id), **probe.check()}
     record("worker host cut off from Redis for 20 s", figures)
-    assert time.monotonic() - healed < 60
+    assert back < 45  # the stalled consumer is noticed (argand.worker.stall_check) and the worker started again
 
 
 def test_a_worker_host_cut_off_from_postgresql(farm):

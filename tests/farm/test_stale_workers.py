@@ -89,3 +89,39 @@ def test_a_job_deleted_between_the_claim_and_the_frames_plan_is_gone_not_an_erro
     control.delete_job(settings, job_id)
     assert tile_work._run_claimed(settings, job_id, 0, "w", claimed, time.monotonic()) == "gone"
     assert not (settings.store_path / "jobs" / job_id).exists()
+
+
+def test_a_worker_whose_consumer_stalled_while_messages_wait_stops_itself(farm_parts, monkeypatch):  # noqa: F811
+    """Celery's Redis consumer can stay idle for good after a cut connection;
+    the worker notices (messages wait, it took none for STALL_S) and ends
+    itself so that its supervisor starts it again. A busy worker, or an
+    idle one with nothing waiting, is left alone."""
+    import threading
+
+    from argand.farm.queue import broker_client
+    from argand.worker import stall_check
+
+    settings, _redis = farm_parts
+    monkeypatch.setattr(stall_check, "CHECK_S", 0.05)
+    monkeypatch.setattr(stall_check, "STALL_S", 0.5)
+    monkeypatch.setattr(stall_check, "END_WAIT_S", 0.0)
+    monkeypatch.setattr(stall_check.os, "_exit", lambda code: None)
+
+    def ended_within(seconds: float) -> bool:
+        ended = threading.Event()
+        check = stall_check.StallCheck(settings, "w", end=ended.set)
+        check.start()
+        try:
+            return ended.wait(seconds)
+        finally:
+            check.stop.set()
+            check.join(5)
+
+    stall_check.TASKS.update(running=False, at=time.monotonic())
+    assert not ended_within(1.0)  # idle, and nothing waits
+    client = broker_client(settings)
+    client.rpush("argand", b"{}")
+    stall_check.TASKS.update(running=True, at=time.monotonic() - 60)
+    assert not ended_within(1.0)  # a message waits, but the worker is busy
+    stall_check.TASKS.update(running=False, at=time.monotonic())
+    assert ended_within(3.0)  # idle while a message waits

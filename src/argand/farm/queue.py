@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import base64
 import json
+import socket
 import time
 from dataclasses import dataclass
 
@@ -28,6 +29,19 @@ BROKER_CONNECT_TIMEOUT_S = 3
 BROKER_TIMEOUT_S = 5
 
 
+def tcp_liveness() -> dict[int, int]:
+    """TCP options (level IPPROTO_TCP) that end a broker connection whose
+    link stopped carrying packets: keepalives when it is idle, and a limit
+    on how long sent data may stay unacknowledged. Without them a worker
+    that waits on a connection cut mid-command (its consumer waits for
+    readiness, which no socket timeout bounds) waits for TCP to give up,
+    about 15 minutes, and takes no work after the link is back."""
+    options = {socket.TCP_KEEPIDLE: BROKER_TIMEOUT_S, socket.TCP_KEEPINTVL: 1, socket.TCP_KEEPCNT: 3}
+    if hasattr(socket, "TCP_USER_TIMEOUT"):
+        options[socket.TCP_USER_TIMEOUT] = BROKER_TIMEOUT_S * 1000
+    return options
+
+
 def transport_options(settings: Settings) -> dict:
     return {
         # Above the longest message (a run of tiles; the hard time limit) so it is
@@ -40,6 +54,7 @@ def transport_options(settings: Settings) -> dict:
         "socket_connect_timeout": BROKER_CONNECT_TIMEOUT_S,
         "socket_timeout": BROKER_TIMEOUT_S,
         "socket_keepalive": True,
+        "socket_keepalive_options": tcp_liveness(),
     }
 
 
@@ -184,4 +199,4 @@ def broker_client(settings: Settings):
     bounded = {"socket_timeout": BROKER_TIMEOUT_S, "socket_connect_timeout": BROKER_CONNECT_TIMEOUT_S}
     if url.startswith("redis+socket://"):
         return redis.Redis(unix_socket_path=url.split("://", 1)[1], **bounded)
-    return redis.Redis.from_url(url, socket_keepalive=True, **bounded)
+    return redis.Redis.from_url(url, socket_keepalive=True, socket_keepalive_options=tcp_liveness(), **bounded)

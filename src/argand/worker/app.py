@@ -15,6 +15,7 @@ from argand.farm.settings import Settings
 from argand.farm.workers import unique_name
 from argand.worker.celery_config import celery_config
 from argand.worker.heartbeat import Heartbeat
+from argand.worker.stall_check import StallCheck
 from argand.worker.watchdog import Watchdog
 from argand.worker.tasks import register_tasks
 
@@ -57,11 +58,13 @@ def run_worker(settings: Settings, name: str) -> None:
     app = create_celery_app(settings, name)
     beat = Heartbeat(settings, name)
     watchdog = Watchdog(settings)
+    stall_check = StallCheck(settings, name)
 
     def ready(**_kwargs) -> None:
         _one_core()
         beat.start()
         watchdog.start()
+        stall_check.start()
 
     worker_ready.connect(ready, weak=False)
     worker_shutdown.connect(lambda **_kwargs: beat.stop(), weak=False)
