@@ -91,18 +91,23 @@ def test_a_broker_that_lost_its_messages_is_refilled_from_the_database(tmp_path)
     data = tmp_path / "data"
     farm = Farm(data, workers=1, ARGAND_QUEUE_CHECK_S="2").start()
     try:
-        r = farm.post("/api/jobs", {"scene": "whitney-in-sphere", "deltas": {"start": 0, "stop": "pi/9", "count": 10},
-                                    "width": 96, "height": 96, "tile": 16})
+        r = farm.post("/api/jobs", {"scene": "whitney-in-sphere", "deltas": {"start": 0, "stop": "pi/9", "count": 40},
+                                    "width": 64, "height": 64, "tile": 16})
         assert r.status_code == 201, r.text
         job_id = r.json()["id"]
-        _wait(lambda: farm.get(f"/api/jobs/{job_id}")["tiles_done"] > 0, 120, "the first tiles")
+
+        def tiles(status: str) -> int:
+            return _db(data, "select count(*) from tiles where job_id = :j and status = :s", j=job_id, s=status)[0][0]
+
+        _wait(lambda: tiles("done") > 0, 120, "the first tiles")
+        assert tiles("queued") > 0  # work left that only messages can bring to a worker
         redis_py.Redis(unix_socket_path=str(data / "redis" / "redis.sock")).flushall()
         unsent = _metric(farm.url, "argand_tiles_unsent")
         health = httpx.get(farm.url + "/healthz", timeout=30).json()["queue"]
         assert unsent is not None and unsent > 0, unsent
         assert health["ok"] and health["unsent_tiles"] > 0 and health["unsent_by_job"][job_id] > 0, health
         job = farm.wait_job(job_id, 240)
-        assert job["status"] == "done" and job["tiles_done"] == job["tiles_total"] == 10 * 36, job
+        assert job["status"] == "done" and job["tiles_done"] == job["tiles_total"] == 40 * 16, job
         assert set(_renders(data, job_id)) == {1}
         time.sleep(5.5)  # the collector's census is at most 5 s old
         assert _metric(farm.url, "argand_tiles_unsent") == 0
