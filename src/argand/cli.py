@@ -624,7 +624,8 @@ def _refuse_exposure(settings) -> None:
 
 @app.command()
 def worker(
-    name: Optional[str] = typer.Option(None, "--name", metavar="NAME", help="Worker name (default worker-PID@host)."),
+    name: Optional[str] = typer.Option(None, "--name", metavar="NAME", help="Worker name (default worker-PID@host); each process adds a boot id "
+                                       "of its own (w1@host runs as w1+1a2b3c4d@host)."),
     data: Optional[Path] = typer.Option(None, "--data", metavar="DIR", help="Data folder shared with the API (ARGAND_DATA_DIR)."),
 ) -> None:
     """One worker that joins an existing Redis + database + store (ARGAND_REDIS_URL, ARGAND_DATABASE_URL)."""
