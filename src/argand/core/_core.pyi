@@ -264,6 +264,17 @@ def render_tile_frame(
     certified_share: npt.NDArray[np.float32],
     exact: ExactSolver | None = None,
 ) -> tuple[int, int, tuple[int, int, int, int], int, tuple[int, int, int, int, int, int, int, int]]: ...
+def render_tile_bands(
+    plans: Sequence[FramePlan],
+    x0: int,
+    y0: int,
+    x1: int,
+    y1: int,
+    outs: list[tuple[npt.NDArray[Any], ...]],
+    ox: int = -1,
+    oy: int = -1,
+    exact: ExactSolver | None = None,
+) -> list[tuple[int, int, tuple[int, int, int, int], int, tuple[int, int, int, int, int, int, int, int]]]: ...
 def render_tile_into(
     plan: FramePlan,
     x0: int,
