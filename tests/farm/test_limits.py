@@ -306,13 +306,13 @@ def test_the_soft_time_limit_gives_back_the_tiles_a_run_did_not_start(farm_parts
     settings, redis_server = farm_parts
     settings = settings.model_copy(update={"tile_soft_time_limit_s": 1, "tile_hard_time_limit_s": 100})
     job_id = submit(settings, "plucker", [0.0], 64, 64, 16)
-    real = tile_work.render_tile_into
+    real = tile_work.render_tile_bands_into
 
     def slow(*args):
         time.sleep(0.4)
         return real(*args)
 
-    monkeypatch.setattr(tile_work, "render_tile_into", slow)
+    monkeypatch.setattr(tile_work, "render_tile_bands_into", slow)
     sent = queued_messages(redis_server)
     assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == tile_work.SOFT_LIMIT
     with session_scope(settings.sqlalchemy_url) as s:
@@ -323,7 +323,7 @@ def test_the_soft_time_limit_gives_back_the_tiles_a_run_did_not_start(farm_parts
         assert all(t.status == "queued" and t.attempts == 0 and t.worker is None for t in rest)
         assert rest[0].error.startswith("TimeLimitExceeded: the run of 16 tiles passed the soft time limit of 1 s")
     assert queued_messages(redis_server) == sent + 1  # the rest, sent again
-    monkeypatch.setattr(tile_work, "render_tile_into", real)
+    monkeypatch.setattr(tile_work, "render_tile_bands_into", real)
     assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.get(Job, job_id).status == "done"

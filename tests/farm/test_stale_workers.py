@@ -29,24 +29,24 @@ def files_of(settings, job_id: str) -> list[str]:
 def test_a_worker_frozen_past_reassignment_writes_nothing_into_the_finished_job(farm_parts, monkeypatch):
     settings, _redis = farm_parts
     job_id = submit(settings, "steiner", [0.0], 64, 64, 16)
-    real = tile_work.render_tile_into
+    real = tile_work.render_tile_bands_into
     calls = []
 
-    def freeze_on_the_third_tile(plan, rect, out, ox=0, oy=0):
+    def freeze_on_the_third_tile(plans, rect, outs):
         calls.append(rect)
         if len(calls) == 3:
             # Frozen: its heartbeats stop, the reaper gives its tiles to
             # another worker, which finishes the job; then SIGCONT.
-            monkeypatch.setattr(tile_work, "render_tile_into", real)
+            monkeypatch.setattr(tile_work, "render_tile_bands_into", real)
             declare_dead(settings, "stale")
             Reaper(settings).round()
             assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "fresh") == "rendered"
             time.sleep(2 * tile_work.STOP_CHECK_S)
-            monkeypatch.setattr(tile_work, "render_tile_into", freeze_on_the_third_tile)
-        return real(plan, rect, out, ox, oy)
+            monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze_on_the_third_tile)
+        return real(plans, rect, outs)
 
     heartbeat(settings, "stale", 1)
-    monkeypatch.setattr(tile_work, "render_tile_into", freeze_on_the_third_tile)
+    monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze_on_the_third_tile)
     monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)  # the stale worker holds its tiles uncommitted
     assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "stale") == "done"
     assert len(calls) == 3  # it stopped at its next check: the job is done
@@ -65,17 +65,17 @@ def test_deleting_a_running_job_leaves_nothing_in_the_store_and_the_worker_stops
     settings, _redis = farm_parts
     job_id = submit(settings, "steiner", [0.0, 0.1], 64, 64, 16)
     assert tile_work.run_tiles(settings, job_id, 1, list(range(16)), "w") == "rendered"  # frame 1's files exist
-    real = tile_work.render_tile_into
+    real = tile_work.render_tile_bands_into
     calls = []
 
-    def delete_on_the_third_tile(plan, rect, out, ox=0, oy=0):
+    def delete_on_the_third_tile(plans, rect, outs):
         calls.append(rect)
         if len(calls) == 3:
             control.delete_job(settings, job_id)  # what DELETE /api/jobs/{id} does
             time.sleep(2 * tile_work.STOP_CHECK_S)
-        return real(plan, rect, out, ox, oy)
+        return real(plans, rect, outs)
 
-    monkeypatch.setattr(tile_work, "render_tile_into", delete_on_the_third_tile)
+    monkeypatch.setattr(tile_work, "render_tile_bands_into", delete_on_the_third_tile)
     monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)
     assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w") == "gone"
     assert files_of(settings, job_id) == [] and not (settings.store_path / "jobs" / job_id).exists()

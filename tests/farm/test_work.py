@@ -143,7 +143,9 @@ def farm_parts(tmp_path, monkeypatch):
     from argand.serve.embedded_redis import EmbeddedRedis
 
     redis_server = EmbeddedRedis(tmp_path / "redis" / "redis.sock").start()
-    settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, max_tile_attempts=2)
+    # One frame a run: these tests follow a frame's tiles run by run (tests/farm/test_siblings.py
+    # runs the same tiles of several frames at once, as the farm does by default).
+    settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, max_tile_attempts=2, bands_per_run=1)
     upgrade(settings.sqlalchemy_url)
     yield settings, redis_server
     redis_server.stop()
@@ -166,16 +168,16 @@ def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts,
     job_id = submit(settings, "steiner", [0.0], 64, 64, 16)
     sent = queued_messages(redis_server)
     assert sent >= 1
-    real = tile_work.render_tile_into
+    real = tile_work.render_tile_bands_into
     calls = []
 
-    def failing(plan, rect, out, ox=0, oy=0):
+    def failing(plans, rect, outs):
         calls.append(rect)
         if len(calls) == 6:
             raise RuntimeError("the renderer broke")
-        return real(plan, rect, out, ox, oy)
+        return real(plans, rect, outs)
 
-    monkeypatch.setattr(tile_work, "render_tile_into", failing)
+    monkeypatch.setattr(tile_work, "render_tile_bands_into", failing)
     monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)  # one commit, at the end or on the error
     with pytest.raises(RuntimeError, match="renderer broke"):
         tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w-test")
@@ -197,7 +199,7 @@ def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts,
         assert tiles[10].attempts == 2 and tiles[10].status == "failed"
         assert job.status == "failed" and job.error == "tile 0/10 failed 2 times (RuntimeError: the renderer broke)"
     # Nothing more runs for a failed job, and what was rendered is kept.
-    monkeypatch.setattr(tile_work, "render_tile_into", real)
+    monkeypatch.setattr(tile_work, "render_tile_bands_into", real)
     assert tile_work.run_tiles(settings, job_id, 0, list(range(11, 16)), "w-test") == "failed"
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.query(Frame).filter(Frame.job_id == job_id).one().tiles_done == 10
@@ -259,17 +261,17 @@ def test_a_pause_stops_a_run_between_tiles_and_resume_sends_the_rest(farm_parts,
     settings, redis_server = farm_parts
     job_id = submit(settings, "whitney", [0.0], 64, 64, 16)
     sent = queued_messages(redis_server)
-    real = tile_work.render_tile_into
+    real = tile_work.render_tile_bands_into
     calls = []
 
-    def pausing(plan, rect, out, ox=0, oy=0):
+    def pausing(plans, rect, outs):
         calls.append(rect)
         if len(calls) == 3:  # someone pauses the job while the third tile renders
             control.set_job_status(settings, job_id, "pause")
             time.sleep(2 * tile_work.STOP_CHECK_S)
-        return real(plan, rect, out, ox, oy)
+        return real(plans, rect, outs)
 
-    monkeypatch.setattr(tile_work, "render_tile_into", pausing)
+    monkeypatch.setattr(tile_work, "render_tile_bands_into", pausing)
     assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "paused"
     assert len(calls) == 3  # not one tile more
     with session_scope(settings.sqlalchemy_url) as s:
@@ -280,7 +282,7 @@ def test_a_pause_stops_a_run_between_tiles_and_resume_sends_the_rest(farm_parts,
     assert queued_messages(redis_server) == sent  # a pause sends nothing
     assert control.set_job_status(settings, job_id, "resume") == "running"
     assert queued_messages(redis_server) > sent
-    monkeypatch.setattr(tile_work, "render_tile_into", real)
+    monkeypatch.setattr(tile_work, "render_tile_bands_into", real)
     assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "rendered"
     with session_scope(settings.sqlalchemy_url) as s:
         assert s.get(Job, job_id).status == "done"

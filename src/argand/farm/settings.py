@@ -76,6 +76,9 @@ class Settings(BaseSettings):
     forwarded_allow_ips: str | None = None
 
     # Work model.
+    #: Frames a run renders at once: its own and the same tiles of the job's
+    #: next frames (their primary roots solved once); 1 renders one frame a run.
+    bands_per_run: int = Field(8, ge=1, le=64)
     tile_soft_time_limit_s: int = Field(120, ge=1)
     tile_hard_time_limit_s: int = Field(150, ge=2)
     heartbeat_interval_s: float = Field(2.0, gt=0)

@@ -1,4 +1,5 @@
-"""The body of a worker's task: a run of tiles of one frame.
+"""The body of a worker's task: a run of tiles of one frame, and the same
+tiles of the job's next frames where they are queued (claim_siblings).
 
 * The database is the source of truth; a tile is rendered by whichever
   worker claims its row (compare-and-set), written atomically to the store,
@@ -6,9 +7,11 @@
   the same transaction). A redelivered tile that is done is a no-op.
 * Completions are committed every ``COMMIT_INTERVAL_S`` within a run, so
   progress is smooth and a crash loses at most that much work.
-* The tiles are rendered by argand.render.frames.render_tile_into straight
-  into the EXR's interleaved layout; a run that holds its whole frame renders
-  into the frame's buffer and assembles it from memory.
+* A job's frames share their rays: a run renders a tile of all the frames
+  it holds in one pass (argand.render.frames.render_tile_bands_into: the
+  primary roots solved once, each frame's pixels the bits it gets alone),
+  straight into the EXR's interleaved layout; a run that holds a whole frame
+  renders into the frame's buffer and assembles it from memory.
 * A run stops between tiles (checked every ``STOP_CHECK_S``) when its job is
   cancelled or paused, and gives back what it did not render.
 """
@@ -33,7 +36,7 @@ from argand.farm.settings import Settings
 from argand.farm.states import ACTIVE, FRAME, JOB, STOPPED, TILE
 from argand.farm.store import is_store_error, store_for
 from argand.render.options import EngineOptions
-from argand.render.frames import INTERLEAVED_CHANNELS, TileRect, render_tile_into
+from argand.render.frames import INTERLEAVED_CHANNELS, TileRect, render_tile_bands_into
 
 #: Within a run of tiles: how often to look for a cancel or pause, and how
 #: often to commit the tiles finished so far.
@@ -139,16 +142,56 @@ def claim(settings: Settings, job_id: str, frame_index: int, tile_indices: list[
     return None, claimed
 
 
+def claim_siblings(settings: Settings, job_id: str, frame_index: int, tiles: list[int], worker: str,
+                   sent_at: float | None = None) -> dict[int, list[int]]:
+    """The same tiles of the job's next frames (up to settings.bands_per_run
+    frames in all, the run's own included), claimed by compare-and-set where
+    they are queued: every frame of a job shares its rays, so one pass
+    solves their primary roots once for all of them (render_tile_bands).
+    The messages of those frames' tiles then find them taken or done. Their
+    wait in the queue is counted from ``sent_at``, the run's own message's
+    (a job's messages are sent together). Returns {frame: claimed tiles}."""
+    if settings.bands_per_run <= 1 or not tiles:
+        return {}
+    now = time.time()
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        frames = c.execute(select(Frame.index).where(Frame.job_id == job_id, Frame.index > frame_index)
+                           .order_by(Frame.index).limit(settings.bands_per_run - 1)).scalars().all()
+        if not frames:
+            return {}
+        rows = c.execute(
+            update(Tile)
+            .where(Tile.job_id == job_id, Tile.frame_index.in_(frames), Tile.tile_index.in_(tiles),
+                   Tile.status.in_(TILE.sources("running")))
+            .values(status="running", worker=worker, started=now, attempts=Tile.attempts + 1,
+                    waited=None if sent_at is None else max(0.0, now - sent_at))
+            .returning(Tile.frame_index, Tile.tile_index)
+        ).all()
+        siblings: dict[int, list[int]] = {}
+        for f, i in rows:
+            siblings.setdefault(f, []).append(i)
+        for f in siblings:
+            siblings[f].sort()
+            if (job_id, f) not in _marked:
+                c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == f,
+                                              Frame.status == FRAME.step("queued", "rendering")).values(status="rendering"))
+                _marked.add((job_id, f))
+    return siblings
+
+
 def _job_status(settings: Settings, job_id: str) -> str | None:
     with engine_for(settings.sqlalchemy_url).connect() as c:
         return c.execute(select(Job.status).where(Job.id == job_id)).scalar()
 
 
-def _render_claimed(run: TileRun) -> str | None:
-    """Renders the run's tiles, committing on the way. Returns why it
-    stopped early (the job's state: stopped, or done by other workers while
-    this one was frozen or cut off; or "gone"), or None."""
+def _render_claimed(runs: list[TileRun]) -> str | None:
+    """Renders the runs' tiles (the first run's, and the same tiles of its
+    sibling frames: one render_tile_bands pass a tile), committing on the
+    way. Returns why it stopped early (the job's state: stopped, or done by
+    other workers while this one was frozen or cut off; or "gone"), or None."""
+    run = runs[0]
     channels = len(INTERLEAVED_CHANNELS)
+    held = [set(r.claimed) for r in runs]
     last_check = last_commit = time.monotonic()
     for n, i in enumerate(run.claimed):
         if n and time.monotonic() > run.soft_at:
@@ -159,17 +202,19 @@ def _render_claimed(run: TileRun) -> str | None:
             if status not in ACTIVE:
                 return status or "gone"
         ACTIVITY["tile"] = f"{run.job_id}/{run.frame_index}/{i}"
+        group = [r for r, tiles in zip(runs, held) if i in tiles]
         x0, y0, x1, y1 = run.rects[i]
-        if run.frame_px is not None:
-            block, ox, oy = run.frame_px, x0, y0
-        else:
-            block, ox, oy = np.empty((y1 - y0, x1 - x0, channels), np.float32), 0, 0
+        outs = [(r.frame_px, x0, y0) if r.frame_px is not None else
+                (np.empty((y1 - y0, x1 - x0, channels), np.float32), 0, 0) for r in group]
         start = time.perf_counter()
-        esc, calls, stats = render_tile_into(run.plan, TileRect(x0, y0, x1, y1), block, ox, oy)
-        run.pending[i] = time.perf_counter() - start
-        run.local[i] = (block[y0:y1, x0:x1] if run.frame_px is not None else block, esc, calls, stats)
+        figures = render_tile_bands_into([r.plan for r in group], TileRect(x0, y0, x1, y1), outs)
+        seconds = (time.perf_counter() - start) / len(group)
+        for r, (block, _ox, _oy), (esc, calls, stats) in zip(group, outs, figures):
+            r.pending[i] = seconds
+            r.local[i] = (block[y0:y1, x0:x1] if r.frame_px is not None else block, esc, calls, stats)
         if time.monotonic() - last_commit > COMMIT_INTERVAL_S:
-            run.commit()
+            for r in runs:
+                r.commit()
             last_commit = time.monotonic()
     return None
 
@@ -189,49 +234,61 @@ def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: l
     why, claimed = claim(settings, job_id, frame_index, tile_indices, worker, sent_at)
     if why:
         return why
+    siblings = claim_siblings(settings, job_id, frame_index, claimed, worker, sent_at)
     ACTIVITY["run"] = (job_id, frame_index, claimed, worker)
     ACTIVITY["hard_at"] = started + settings.tile_hard_time_limit_s
     try:
-        return _run_claimed(settings, job_id, frame_index, worker, claimed, started)
+        return _run_claimed(settings, job_id, frame_index, worker, claimed, started, siblings)
     finally:
         ACTIVITY["hard_at"] = ACTIVITY["run"] = None
 
 
 def _run_claimed(settings: Settings, job_id: str, frame_index: int, worker: str, claimed: list[int],
-                 started: float) -> str:
+                 started: float, siblings: dict[int, list[int]] | None = None) -> str:
+    held = [(frame_index, claimed), *sorted((siblings or {}).items())]
     try:
-        fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index, settings.engine)
+        runs = [_new_run(settings, job_id, f, worker, tiles, started) for f, tiles in held]
     except NoResultFound:  # the job was deleted since the claim: its tiles went with it
         return _gone(settings, job_id)
     except BaseException as exc:
         # A frame that cannot be planned: its tiles go back (and after the
         # attempts, fail the job with the reason), never stay "running".
-        release(settings, job_id, frame_index, worker, claimed, resend=True, reason=_reason(exc))
+        for f, tiles in held:
+            release(settings, job_id, f, worker, tiles, resend=True, reason=_reason(exc))
         raise
+    try:
+        stopped = _render_claimed(runs)
+        return [_finish_run(run, stopped) for run in runs][0]
+    except (_Gone, NoResultFound):
+        return _gone(settings, job_id)
+    except BaseException as exc:
+        # An error: keep what is written, give back the rest (after the
+        # attempts, the job fails); a store that refuses writes stops the job.
+        for run in runs:
+            try:
+                run.commit()
+            except Exception:  # the store is what failed: the pending tiles go back too
+                pass
+        if is_store_error(exc):
+            stop_for_store(settings, job_id, worker, exc)
+        else:
+            for run in runs:
+                release(settings, job_id, run.frame_index, worker, run.claimed, resend=True, reason=_reason(exc))
+        raise
+    finally:
+        ACTIVITY["tile"] = None
+
+
+def _new_run(settings: Settings, job_id: str, frame_index: int, worker: str, claimed: list[int],
+             started: float) -> TileRun:
+    fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index, settings.engine)
     run = TileRun(settings, job_id, frame_index, worker, claimed, fplan, rects, total,
                   soft_at=started + settings.tile_soft_time_limit_s)
     # A run that holds the whole frame renders straight into the frame's
     # buffer (the EXR's layout); otherwise each tile gets a block of its own.
     if len(claimed) == total:
         run.frame_px = np.empty((fplan.height, fplan.width, len(INTERLEAVED_CHANNELS)), np.float32)
-    try:
-        return _finish_run(run, _render_claimed(run))
-    except (_Gone, NoResultFound):
-        return _gone(settings, job_id)
-    except BaseException as exc:
-        # An error: keep what is written, give back the rest (after the
-        # attempts, the job fails); a store that refuses writes stops the job.
-        try:
-            run.commit()
-        except Exception:  # the store is what failed: the pending tiles go back too
-            pass
-        if is_store_error(exc):
-            stop_for_store(settings, job_id, worker, exc)
-        else:
-            release(settings, job_id, frame_index, worker, run.claimed, resend=True, reason=_reason(exc))
-        raise
-    finally:
-        ACTIVITY["tile"] = None
+    return run
 
 
 class _Gone(Exception):

@@ -216,6 +216,28 @@ def render_tile_into(frame_plan: Any, rect: TileRect, out: np.ndarray, ox: int =
     return int(esc), int(calls), np.array([*counts, hits], np.int64)
 
 
+def render_tile_bands_into(frame_plans: Sequence[Any], rect: TileRect,
+                           outs: Sequence[tuple[np.ndarray, int, int]]) -> list[tuple[int, int, np.ndarray]]:
+    """render_tile_into for several bands of one tile at once (their plans
+    differ in σ and δ only; _core.render_tile_bands solves the primary roots
+    once): band b's pixels go into outs[b] = (out, ox, oy) as
+    render_tile_into writes them, the same bits. Returns each band's
+    (escalations, root_calls, stats)."""
+    h, w = rect.y1 - rect.y0, rect.x1 - rect.x0
+    planes = [(np.empty((h, w, 4), np.float32),) + tuple(np.empty((h, w), AOV_DTYPES[n]) for n in AOV_CHANNELS)
+              for _ in frame_plans]
+    figures = _core.render_tile_bands(list(frame_plans), rect.x0, rect.y0, rect.x1, rect.y1, planes, 0, 0,
+                                      exact=decide_pixel)
+    out = []
+    for (block, ox, oy), band, (esc, calls, counts, hits, _levels) in zip(outs, planes, figures):
+        target = block[oy:oy + h, ox:ox + w]
+        target[..., :4] = band[0]
+        for k, plane in enumerate(band[1:]):
+            target[..., 4 + k] = plane
+        out.append((int(esc), int(calls), np.array([*counts, hits], np.int64)))
+    return out
+
+
 def render_tile(scene: Any, params: FrameParams, rect: TileRect) -> TileAOVs:
     """(scene, frame params, tile rectangle) -> AOV arrays. ``scene`` is a
     :class:`argand.scene.Scene` or an already converted core dict."""
