@@ -181,9 +181,9 @@ def test_no_function_of_the_farm_api_or_workers_is_long():
 
 
 #: The only modules that read the process's environment: the engine's
-#: options, the farm's settings, the CLI; and the supervisor, which builds a
-#: worker's environment from its own (without ARGAND_* variables).
-ENVIRONMENT_READERS = {"argand.render.options", "argand.farm.settings", "argand.cli", "argand.serve.supervisor"}
+#: options, the farm's settings (which also build a worker's environment
+#: from this process's) and the CLI.
+ENVIRONMENT_READERS = {"argand.render.options", "argand.farm.settings", "argand.cli"}
 
 
 def reads_environment(path: Path) -> bool:

@@ -6,6 +6,7 @@ a child process gets it through :meth:`Settings.environment`."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import ipaddress
@@ -149,6 +150,14 @@ class Settings(BaseSettings):
     @property
     def store_path(self) -> Path:
         return self.data_path / "store"
+
+    def child_environment(self) -> dict[str, str]:
+        """A child process's (a worker's) whole environment: this process's
+        without any ARGAND_* variable (the API token, which a worker never
+        needs, among them), then these settings (:meth:`environment`, which
+        leaves the token out)."""
+        inherited = {k: v for k, v in os.environ.items() if not k.startswith("ARGAND_")}
+        return {**inherited, **self.environment()}
 
     def environment(self) -> dict[str, str]:
         """These settings as ARGAND_* variables, for a child process (the

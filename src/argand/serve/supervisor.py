@@ -71,17 +71,9 @@ def worker_command(name: str) -> list[str]:
 WORKER_NICE = 10
 
 
-def worker_environment(settings: Settings) -> dict[str, str]:
-    """A worker's environment: this process's without any ARGAND_* variable
-    (the API token, which a worker never needs, among them), then the
-    settings a worker reads (Settings.environment leaves the token out)."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ARGAND_")}
-    return {**env, **settings.environment()}
-
-
 def start_worker(settings: Settings, name: str) -> subprocess.Popen:
     """A worker that dies with the supervisor and runs below the API."""
-    return subprocess.Popen(dying_with_parent(worker_command(name), WORKER_NICE), env=worker_environment(settings))
+    return subprocess.Popen(dying_with_parent(worker_command(name), WORKER_NICE), env=settings.child_environment())
 
 
 def slot_names(count: int) -> list[str]:
