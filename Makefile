@@ -17,7 +17,7 @@ setup: $(VENV)/.argand-built
 # test starts its own server from them) and Chromium for the browser tests
 # (Playwright's own browser download does not work offline), and Clang for
 # the libFuzzer targets (make fuzz, make test-fuzz).
-DEB_PACKAGES := mpsolve python3-mpsolve postgresql chromium clang iproute2 nftables
+DEB_PACKAGES := mpsolve python3-mpsolve postgresql chromium clang iproute2 nftables faketime
 $(VENV)/.argand-debs:
 	@mkdir -p $(VENV)
 	@if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \

@@ -44,6 +44,8 @@ ARGAND = str(Path(sys.executable).with_name("argand"))
 PYTHON = sys.executable
 PG_BIN = sorted(glob.glob("/usr/lib/postgresql/*/bin"))
 REDIS_CONF = REPO / "src" / "argand" / "serve" / "redis.conf"
+#: libfaketime (Debian's faketime): a process's wall clock moved, its monotonic clock left alone.
+FAKETIME = sorted(glob.glob("/usr/lib/*/faketime/libfaketimeMT.so.1"))
 PREFIX = "argand-c"
 
 #: The hosts and their last octet in the cluster's /24 (.1 is the test's client veth).
@@ -280,13 +282,19 @@ class Cluster:
         self.spawn("api", "api", [ARGAND, *API_COMMAND])
         self.wait(lambda: self._status("/readyz") == 200, 90, "the API is ready (/readyz)")
 
-    def start_worker(self, host: str, cpu: int | None = None) -> None:
+    def start_worker(self, host: str, cpu: int | None = None, clock_offset_s: int | None = None) -> None:
+        """``argand worker`` on ``host``, started again whenever it ends;
+        ``clock_offset_s``: its wall clock that far off (libfaketime)."""
         name = f"{host}@host-{host}"
         self.worker_names[host] = name
         cpu = WORKER_HOSTS.index(host) % (os.cpu_count() or 1) if cpu is None else cpu
+        env = self.farm_env()
+        if clock_offset_s is not None:
+            assert FAKETIME, "libfaketime is missing (apt-get install faketime)"
+            env.update(LD_PRELOAD=FAKETIME[-1], FAKETIME=f"{clock_offset_s:+d}s", DONT_FAKE_MONOTONIC="1")
         # Started again when it ends, as compose's "restart: unless-stopped" does.
         self.spawn(host, "worker", ["sh", "-c", 'while :; do "$@"; sleep 1; done', "restart", ARGAND, *WORKER_COMMAND,
-                                    "--name", name], cpu=cpu)
+                                    "--name", name], env=env, cpu=cpu)
 
     def worker_healthy(self, host: str) -> bool:
         return self.exec(host, PYTHON, *WORKER_HEALTH[1:]).returncode == 0

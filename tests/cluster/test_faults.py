@@ -159,3 +159,33 @@ def test_a_lossy_worker_link_for_a_whole_job(farm):
     figures = {"loss_percent": 5, "job_s": time.monotonic() - start, "w1_tiles": worker_tiles(farm, job_id, "w1"),
                **check_job(farm, job_id), **probe.check()}
     record("5% packet loss on a worker host's link", figures)
+
+
+def test_a_worker_host_whose_clock_is_30_s_behind(farm):
+    """Heartbeats are written and judged by the database's clock: a worker
+    host whose wall clock is 30 s behind (twice the heartbeat timeout and
+    more) is neither declared dead by a reaper on another host nor has its
+    tiles taken away, and the farm sees it alive."""
+    import redis
+
+    from argand.worker.heartbeat import REAPER_KEY
+
+    farm.stop_proc("w1", "worker", signal.SIGKILL)
+    farm.start_worker("w1", clock_offset_s=-30)
+    try:
+        farm.wait(lambda: farm.worker_healthy("w1"), 60, "the worker on w1 (clock 30 s behind) is healthy")
+        # The reaper runs on w2, the host with the right time, judging w1's heartbeats.
+        with farm.client() as c:
+            (w2,) = [w["name"] for w in c.get("/api/workers").json() if w["host"] == "host-w2" and w["alive"]]
+        redis.Redis.from_url(farm.redis_url, socket_timeout=5).set(REAPER_KEY, w2, px=5000)
+        job_id = submit(farm)
+        with Prober(farm, job_id) as probe:
+            took = wait_done(farm, job_id, 90)
+        figures = {"clock_offset_s": -30, "job_s": took, "w1_tiles": worker_tiles(farm, job_id, "w1"),
+                   **check_job(farm, job_id), **probe.check()}
+        with farm.client() as c:
+            assert [w["alive"] for w in c.get("/api/workers").json() if w["host"] == "host-w1"] == [True]
+        assert figures["claimed_again"] == 0 and figures["w1_tiles"] > 0, figures
+        record("worker host's clock 30 s behind", figures)
+    finally:
+        farm.stop_proc("w1", "worker", signal.SIGKILL)  # the next test starts it with the right time

@@ -19,7 +19,7 @@ import numpy as np
 import OpenImageIO as oiio
 from sqlalchemy import func, select, update
 
-from argand.farm.database import engine_for
+from argand.farm.database import clock, engine_for
 from argand.farm.layout import JobLayout
 from argand.farm.models import Frame, Job, Tile
 from argand.farm.planning import samples_of, tile_rects
@@ -45,10 +45,11 @@ def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler:
     animation and finishes the job. ``frame_px``: the whole frame, rendered
     in place by this process (every tile in ``local``)."""
     with engine_for(settings.sqlalchemy_url).begin() as c:
+        since = clock(c)  # the reaper compares it with its own reading of this clock
         won = c.execute(update(Frame).where(
             Frame.job_id == job_id, Frame.index == frame_index, Frame.status.in_(FRAME.sources("assembling")),
             Frame.tiles_done >= Frame.tiles_total,
-        ).values(status="assembling", assembler=assembler, assembling_since=time.time())).rowcount
+        ).values(status="assembling", assembler=assembler, assembling_since=since)).rowcount
     if not won:
         return False
     assemble_frame(settings, job_id, frame_index, local, frame_px=frame_px)

@@ -4,13 +4,14 @@ are in argand/farm/migrations/versions)."""
 
 from __future__ import annotations
 
+import time
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
 from alembic import command
 from alembic.config import Config
-from sqlalchemy import create_engine, event
+from sqlalchemy import create_engine, event, literal_column, select
 from sqlalchemy.engine import Engine, make_url
 from sqlalchemy.orm import Session, sessionmaker
 
@@ -101,6 +102,26 @@ def in_session(url: str, session: Session | None = None) -> Iterator[Session]:
     else:
         yield session
         session.commit()
+
+
+#: The database server's clock as seconds since the epoch, per dialect.
+_CLOCK = {"postgresql": "extract(epoch from clock_timestamp())",
+          "sqlite": "(julianday('now') - 2440587.5) * 86400.0"}
+
+
+def clock(conn) -> float:
+    """Now, by the database's clock (``conn``: a connection or session).
+
+    Times that one host writes and another compares (heartbeats: is a
+    worker alive?) are read from this one clock, so that hosts whose clocks
+    disagree by more than the heartbeat timeout neither declare a live
+    worker dead nor keep a dead one alive. SQLite runs on the one host
+    anyway; another dialect falls back to this host's clock."""
+    expression = _CLOCK.get(conn.bind.dialect.name if hasattr(conn, "bind") and conn.bind is not None
+                            else conn.dialect.name)
+    if expression is None:
+        return time.time()
+    return float(conn.execute(select(literal_column(expression))).scalar())
 
 
 def alembic_config(url: str) -> Config:

@@ -4,11 +4,10 @@ in the caller's transaction and sent by a drainer."""
 
 from __future__ import annotations
 
-import time
 
 from sqlalchemy import func, select
 
-from argand.farm.database import engine_for
+from argand.farm.database import clock, engine_for
 from argand.farm.models import Frame, Job, Tile, Worker
 from argand.farm.outbox import add_runs, try_drain
 from argand.farm.planning import batch_pixels, plan_runs, tile_rects
@@ -19,7 +18,7 @@ def alive_workers(settings: Settings) -> int:
     """Workers whose last heartbeat is recent."""
     with engine_for(settings.sqlalchemy_url).connect() as c:
         return int(c.execute(select(func.count()).select_from(Worker).where(
-            Worker.heartbeat > time.time() - settings.heartbeat_timeout_s)).scalar() or 0)
+            Worker.heartbeat > clock(c) - settings.heartbeat_timeout_s)).scalar() or 0)
 
 
 def queue_job_tiles(conn, settings: Settings, job_id: str, workers: int, only_status: tuple[str, ...] = ("queued",),

@@ -38,7 +38,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from argand.farm import assembly
-from argand.farm.database import engine_for, session_scope
+from argand.farm.database import clock, engine_for, session_scope
 from argand.farm.dispatch import dispatch_job
 from argand.farm.models import Frame, Job, Outbox, Tile, Worker
 from argand.farm.outbox import drain
@@ -199,9 +199,10 @@ class Reaper:
 
     def round(self) -> int:
         """One round. Returns the number of tiles sent again."""
-        settings, now = self.settings, time.time()
+        settings = self.settings
         requeue: list[str] = []
         with session_scope(settings.sqlalchemy_url) as s:
+            now = clock(s)  # the heartbeats' clock (argand.farm.database.clock)
             dead_workers = [w for w in s.scalars(select(Worker)) if now - w.heartbeat > settings.heartbeat_timeout_s]
             dead = {w.name for w in dead_workers}
             requeued = _requeue_tiles_of(s, settings, dead, now)

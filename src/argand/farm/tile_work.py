@@ -28,7 +28,7 @@ from sqlalchemy import select, update
 from sqlalchemy.exc import NoResultFound
 
 from argand.farm import assembly
-from argand.farm.database import engine_for
+from argand.farm.database import clock, engine_for
 from argand.farm.models import Frame, Job, Tile
 from argand.farm.planning import Rect, core_scene_of, frame_plan, samples_of, tile_rects
 from argand.farm.outbox import add_runs, try_drain
@@ -118,8 +118,8 @@ def claim(settings: Settings, job_id: str, frame_index: int, tile_indices: list[
     """Claims the queued tiles among ``tile_indices`` (compare-and-set) and
     marks the job and frame started. Returns (why nothing was claimed or
     None, the claimed tiles in order)."""
-    now = time.time()
     with engine_for(settings.sqlalchemy_url).begin() as c:
+        now = clock(c)  # the reaper compares a tile's start with its own reading of this clock
         status = c.execute(select(Job.status).where(Job.id == job_id)).scalar()
         if status is None or status in STOPPED:
             return status or "gone", []

@@ -11,12 +11,11 @@ from __future__ import annotations
 
 import re
 import socket
-import time
 import uuid
 
 from sqlalchemy import select, update
 
-from argand.farm.database import session_scope
+from argand.farm.database import clock, session_scope
 from argand.farm.models import Worker
 from argand.farm.settings import Settings
 
@@ -53,14 +52,16 @@ def declare_dead(settings: Settings, pattern: str) -> list[str]:
 
 
 def heartbeat(settings: Settings, name: str, pid: int, current_tile: str | None = None, tiles_done: int = 0) -> None:
-    """Records that worker ``name`` is alive, what it renders and how many tiles it finished."""
+    """Records that worker ``name`` is alive (at the database's clock), what
+    it renders and how many tiles it finished."""
     with session_scope(settings.sqlalchemy_url) as s:
+        now = clock(s)
         w = s.get(Worker, name)
         if w is None:
-            s.add(Worker(name=name, host=socket.gethostname(), pid=pid, heartbeat=time.time(),
+            s.add(Worker(name=name, host=socket.gethostname(), pid=pid, heartbeat=now,
                          current_tile=current_tile, tiles_done=tiles_done))
         else:
-            w.heartbeat = time.time()
+            w.heartbeat = now
             w.pid = pid
             w.current_tile = current_tile
             w.tiles_done = tiles_done
@@ -71,8 +72,8 @@ def is_alive(settings: Settings, worker: Worker, now: float) -> bool:
 
 
 def list_workers(settings: Settings) -> list[dict]:
-    now = time.time()
     with session_scope(settings.sqlalchemy_url) as s:
+        now = clock(s)
         return [
             {"name": w.name, "host": w.host, "pid": w.pid, "heartbeat": w.heartbeat, "alive": is_alive(settings, w, now),
              "current_tile": w.current_tile, "tiles_done": w.tiles_done}
