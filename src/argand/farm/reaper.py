@@ -144,19 +144,19 @@ def _judge_job(census: Census, job_id: str, queued: set[tuple[int, int]], runs: 
 
 
 def take_census(settings: Settings, client, job_id: str | None = None) -> Census:
-    """Reads the tiles first, then the outbox, then the broker: a message
-    moves only forward (outbox, list, worker), so none is missed by the
-    order of the reads; a tile claimed meanwhile may look unsent (it is no
-    longer queued when it would be sent again: nothing is sent for it)."""
+    """Reads the active jobs and the outbox, then the broker, then each
+    job's queued tiles (one job at a time: the memory is one job's tiles).
+    A message moves only forward (outbox, list, worker), so reading the
+    outbox first misses none; reading the tiles last, a tile claimed
+    meanwhile is no longer queued, and a message whose tiles were given
+    back meanwhile does not look idle. A tile given back after the broker
+    was read may look unsent in this census (never in two in a row: its new
+    message is seen in the next)."""
     census = Census()
     eng = engine_for(settings.sqlalchemy_url)
     with eng.connect() as c:
         active = select(Job.id).where(Job.status.in_(ACTIVE), *([Job.id == job_id] if job_id else []))
         jobs = {job: priority for job, priority in c.execute(select(Job.id, Job.priority).where(Job.id.in_(active)))}
-        queued: dict[str, set[tuple[int, int]]] = defaultdict(set)
-        for owner, frame, tile in c.execute(select(Tile.job_id, Tile.frame_index, Tile.tile_index).where(
-                Tile.status == "queued", Tile.job_id.in_(active))):
-            queued[owner].add((frame, tile))
         outbox = _outbox_cover(c)
     by_job: dict[str, list[BrokerRun]] = defaultdict(list)
     # A worker that holds a message longer than a run may last is dead (the
@@ -167,9 +167,11 @@ def take_census(settings: Settings, client, job_id: str | None = None) -> Census
     for owner, runs in by_job.items():
         if owner not in jobs:  # stopped, ended or deleted: nothing to claim
             census.idle += [r for r in runs if r.key is not None]
-    for owner, priority in jobs.items():
-        _judge_job(census, owner, queued.get(owner, set()), by_job.get(owner, []), outbox.get(owner, set()),
-                   priority_level(priority))
+    with eng.connect() as c:
+        for owner, priority in jobs.items():
+            queued = {(f, t) for f, t in c.execute(select(Tile.frame_index, Tile.tile_index).where(
+                Tile.job_id == owner, Tile.status == "queued"))}
+            _judge_job(census, owner, queued, by_job.get(owner, []), outbox.get(owner, set()), priority_level(priority))
     return census
 
 
