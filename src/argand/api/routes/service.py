@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 import tempfile
+import threading
+import time
 from pathlib import Path
 
 from fastapi import APIRouter, HTTPException, Response
@@ -156,10 +158,19 @@ def farm_health(settings) -> tuple[bool, dict]:
 _HEALTH_RESPONSES = {503: {"description": "The farm cannot work: a check failed (the body says which)"}}
 
 
+#: A census is read at most once in this many seconds per farm (GET /healthz
+#: is open: requests in a loop must not each cost one); later callers within
+#: that time get the last one.
+CENSUS_REUSE_S = 2.0
+_census_lock = threading.Lock()
+_censuses: dict[tuple[str, str], tuple[float, dict]] = {}
+
+
 def queue_census(settings) -> dict:
     """The queue against the database (argand.farm.reaper.take_census): the
     queued tiles of active jobs, those that no message carries (work nobody
-    is doing until the reaper sends it again) and the stale messages."""
+    is doing until the reaper sends it again) and the stale messages; at
+    most CENSUS_REUSE_S old."""
 
     def census():
         client = broker_client(settings)
@@ -168,7 +179,13 @@ def queue_census(settings) -> dict:
         return {"queued_tiles": c.queued, "unsent_tiles": c.unsent_tiles, "stale_messages": len(c.stale),
                 "unsent_by_job": {job_id: len(tiles) for job_id, tiles in sorted(c.unsent.items())}}
 
-    return _check("queue", census)
+    key = (settings.sqlalchemy_url, settings.broker_url)
+    with _census_lock:  # one census at a time; the callers meanwhile wait for it and share it
+        at, body = _censuses.get(key, (-float("inf"), {}))
+        if time.monotonic() - at >= CENSUS_REUSE_S:
+            body = _check("queue", census)
+            _censuses[key] = (time.monotonic(), body)
+        return body
 
 
 @router.get("/healthz", responses=_HEALTH_RESPONSES)
