@@ -218,3 +218,23 @@ def test_a_message_that_looked_idle_is_kept_once_its_tiles_are_queued_again(farm
     assert still_idle(settings, census.idle) == []
     assert Reaper(settings.model_copy(update={"queue_check_s": 0.01})).reconcile(client) == 0
     assert queued_messages(redis_server) == sent  # kept
+
+
+def test_healthz_shows_the_lost_work_and_shares_one_census_between_requests(farm_parts, monkeypatch):  # noqa: F811
+    """/healthz is open: requests within CENSUS_REUSE_S of a census share it
+    (a flood costs one census per that time), and the next one sees the repair."""
+    from argand.api.routes import service
+    from tests.api.test_api import _served
+
+    settings, redis_server = farm_parts
+    job_id = submit(settings, "plucker", [0.0, 0.1], 32, 32, 16)
+    broker_client(settings).flushall()
+    monkeypatch.setattr(service, "CENSUS_REUSE_S", 3600.0)
+    with _served(farm_parts) as (c, _, _app):
+        first = c.get("/healthz").json()["queue"]
+        assert first["ok"] and first["unsent_tiles"] == 8 and first["unsent_by_job"] == {job_id: 8}
+        control.set_job_status(settings, job_id, "resume")  # sends them again
+        assert queued_messages(redis_server) >= 1
+        assert all(c.get("/healthz").json()["queue"] == first for _ in range(50))  # the same census
+        monkeypatch.setattr(service, "CENSUS_REUSE_S", 0.0)
+        assert c.get("/healthz").json()["queue"]["unsent_tiles"] == 0
