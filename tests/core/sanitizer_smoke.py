@@ -90,19 +90,27 @@ def main(path: str) -> int:
     # (find_roots_soa's provisional rows, Tracer's settle); rays that miss
     # the clipping sphere skip their roots. The same decisions as the scalar
     # kernel, which takes none of those paths.
-    import os
+    from dataclasses import replace
+
+    from argand.render.options import EngineOptions
 
     endrass = load_scene("endrass-octic")
     eparams = FrameParams(delta=0.0, width=32, height=32)
     batched = render_frame(endrass, eparams, workers=1)
-    os.environ["ARGAND_KERNEL"] = "scalar"
-    try:
-        scalar = render_frame(endrass, eparams, workers=1)
-    finally:
-        del os.environ["ARGAND_KERNEL"]
+    scalar = render_frame(endrass, replace(eparams, engine=EngineOptions(kernel="scalar")), workers=1)
     if not (np.array_equal(batched.aovs["status"], scalar.aovs["status"])
             and np.array_equal(batched.rgba[..., 3] > 0, scalar.rgba[..., 3] > 0)):
         problems.append("endrass: the batched kernel's decisions differ from the scalar kernel's")
+    # Bands rendered together (render_tile_bands: one solve, a tracer per
+    # band, staging tiles of their own): each band the frame rendered alone.
+    from argand.render.frames import render_bands
+
+    bands = [replace(params, sigma=s, delta=d) for s, d in ((0.0, 0.0), (0.0, np.pi / 9), (0.4, 1.1), (0.0, np.pi))]
+    for together, band in zip(render_bands(load_scene("steiner"), bands, tile=10, workers=2), bands):
+        alone = render_frame(load_scene("steiner"), band, tile=10, workers=1)
+        if together.rgba.tobytes() != alone.rgba.tobytes() or any(
+                np.asarray(together.aovs[k]).tobytes() != np.asarray(alone.aovs[k]).tobytes() for k in alone.aovs):
+            problems.append(f"steiner sigma={band.sigma} delta={band.delta}: rendered together differs from alone")
     # More objects than the renderer's old 16-entry stack array held (ASan
     # found the overflow with this scene): rendered in full, or refused with
     # a ValueError by a scene limit below 20; never a memory error.
