@@ -573,7 +573,13 @@ def _farm_settings(data: Optional[Path], host: Optional[str], port: Optional[int
         overrides["port"] = port
     if forwarded is not None:
         overrides["forwarded_allow_ips"] = forwarded
-    return Settings(**overrides)
+    from pydantic import ValidationError
+
+    try:
+        return Settings(**overrides)
+    except ValidationError as exc:  # a setting from the environment or an option, named, with what is allowed
+        fail("; ".join(f"ARGAND_{'_'.join(map(str, e['loc'])).upper()}: {e['msg'].removeprefix('Value error, ')}"
+                       for e in exc.errors()))
 
 
 def _engine_options():
@@ -615,6 +621,7 @@ def serve(
 
 def _refuse_exposure(settings) -> None:
     try:
+        settings.token()  # a token file that is unreadable or blank stops the start, on loopback too
         problem = settings.exposure_problem()
     except ValueError as exc:
         fail(str(exc))

@@ -103,10 +103,14 @@ def test_tiles_per_job_and_jobs_in_flight_are_bounded(api):
     for _ in range(3):
         assert c.post("/api/jobs", json=JOB).status_code == 201
     r = c.post("/api/jobs", json=JOB)
-    assert r.status_code == 429 and "limit is 3" in r.text
+    assert r.status_code == 429 and "limit is 3" in r.text and r.headers["retry-after"] == "30"
     first = c.get("/api/jobs").json()["jobs"][0]["id"]
     assert c.post(f"/api/jobs/{first}/cancel").status_code == 200
     assert c.post("/api/jobs", json=JOB).status_code == 201
+    # Retrying the canceled job would make a fourth active one: refused like a submission.
+    r = c.post(f"/api/jobs/{first}/retry")
+    assert r.status_code == 429 and "limit is 3" in r.text and r.headers["retry-after"] == "30"
+    assert c.get(f"/api/jobs/{first}").json()["status"] == "canceled"
 
 
 def test_a_body_above_the_limit_is_413_before_it_is_parsed(api):

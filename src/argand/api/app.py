@@ -15,6 +15,7 @@ from fastapi.staticfiles import StaticFiles
 from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Histogram, generate_latest
 
 from argand.api.auth import check_access, needs_token
+from argand.api.connections import connection_options
 from argand.api.outages import add_outage_answers
 from argand.api.request_limits import BodyLimit
 from argand.api.routes import bands, frames, jobs, service
@@ -125,10 +126,11 @@ def _document_errors(app: FastAPI, settings: Settings) -> None:
 def uvicorn_options(settings: Settings) -> dict:
     """How uvicorn serves the app: X-Forwarded-* believed only from the
     proxies the settings name (uvicorn's own default trusts 127.0.0.1, and
-    with it any local client's header)."""
+    with it any local client's header); header, keep-alive and connection
+    bounds (argand.api.connections)."""
     trusted = settings.forwarded_allow_ips
     return {"host": settings.host, "port": settings.port, "log_level": "warning",
-            "proxy_headers": trusted is not None, "forwarded_allow_ips": trusted or ""}
+            "proxy_headers": trusted is not None, "forwarded_allow_ips": trusted or "", **connection_options()}
 
 
 def create_app(settings: Settings) -> FastAPI:

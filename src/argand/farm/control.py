@@ -18,8 +18,9 @@ from argand.farm.outbox import PRIORITY_RESEND_S, try_drain
 from argand.farm.queue import broker_client
 from argand.farm.reaper import take_census
 from argand.farm.settings import Settings
-from argand.farm.states import ACTIONS, ACTIVE, JOB, TILE
+from argand.farm.states import ACTIONS, ACTIVE, ENDED, JOB, TILE
 from argand.farm.store import store_for
+from argand.farm.submission import check_in_flight
 
 
 class NoSuchJob(LookupError):
@@ -37,7 +38,8 @@ def set_job_status(settings: Settings, job_id: str, action: str, send: bool = Tr
     sent here with ``send``. A resume of an active job sends again its
     queued tiles that no message carries (resend_unsent). In ``session``
     when given (committed here), else in one of its own. Returns the job's
-    state after."""
+    state after. Raises FarmBusy when the action would make an ended job
+    active while max_active_jobs are (the limit of a new submission)."""
     if action not in ACTIONS:
         raise ValueError(f"action must be one of {', '.join(ACTIONS)}, not {action!r}")
     applies_to, target = ACTIONS[action]
@@ -50,6 +52,8 @@ def set_job_status(settings: Settings, job_id: str, action: str, send: bool = Tr
             status, resend = job.status, False
             lost = action == "resume" and status in ACTIVE
         else:
+            if job.status in ENDED and target in ACTIVE:
+                check_in_flight(settings, s)
             status, resend, lost = _apply(s, settings, job, target, workers), target in ACTIVE, False
     if lost:
         resend_unsent(settings, job_id, send)

@@ -90,6 +90,25 @@ class Settings(BaseSettings):
     #: row is sent again, so lost messages are repaired within twice this.
     queue_check_s: float = Field(10.0, gt=0)
 
+    @field_validator("host")
+    @classmethod
+    def _bare_host(cls, v: str) -> str:
+        """An IPv6 address as a URL writes it ([::1]) is the address (::1)."""
+        return v.strip().removeprefix("[").removesuffix("]") if v.strip().startswith("[") else v.strip()
+
+    @field_validator("api_token")
+    @classmethod
+    def _real_token(cls, v: SecretStr | None) -> SecretStr | None:
+        """A token is what a client sends after "Bearer ": surrounding blanks
+        are no part of it, and a blank token is refused (it would let the farm
+        start beyond loopback with every write then refused)."""
+        if v is None:
+            return None
+        token = v.get_secret_value().strip()
+        if not token:
+            raise ValueError("ARGAND_API_TOKEN is blank: set a token (any non-blank string), or unset it on loopback")
+        return SecretStr(token)
+
     @field_validator("exr_compression")
     @classmethod
     def _compression(cls, v: str) -> str:

@@ -26,6 +26,8 @@ from argand.scene import Scene, SceneError, load_scene, scene_from_dict
 from argand.scene.presets import PRESETS
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+#: Seconds a client is told to wait when max_active_jobs are in flight (jobs end in seconds to minutes).
+BUSY_RETRY_AFTER_S = 30
 
 
 def resolve_scene(spec: str | dict) -> tuple[str, Scene]:
@@ -60,7 +62,7 @@ def submit(req: JobRequest, settings: SettingsDep, s: SessionDep, request: Reque
                        req.method)
         job_id = create_job(settings, spec, send=False, session=s)
     except FarmBusy as exc:
-        raise HTTPException(429, detail=str(exc)) from None
+        raise HTTPException(429, detail=str(exc), headers={"Retry-After": str(BUSY_RETRY_AFTER_S)}) from None
     except StoreFull as exc:
         raise HTTPException(507, detail=str(exc)) from None
     except JobRefused as exc:
@@ -114,10 +116,13 @@ def get_job(job_id: str, s: SessionDep) -> JobOut:
     return _job(s, job_id)
 
 
-@router.post("/{job_id}/{action}")
+@router.post("/{job_id}/{action}", responses={429: {"description": "A retry while max_active_jobs are in flight"}})
 def control(job_id: str, action: Literal[tuple(ACTIONS)], settings: SettingsDep, s: SessionDep,
             request: Request) -> JobOut:
-    set_job_status(settings, job_id, action, send=False, session=s)
+    try:
+        set_job_status(settings, job_id, action, send=False, session=s)
+    except FarmBusy as exc:  # a retry of an ended job counts against max_active_jobs, as a submission does
+        raise HTTPException(429, detail=str(exc), headers={"Retry-After": str(BUSY_RETRY_AFTER_S)}) from None
     wake_drainer(request)
     return _job(s, job_id)
 

@@ -149,8 +149,12 @@ def farm_health(settings) -> tuple[bool, dict]:
             raise RuntimeError(f"{n} messages wait in the outbox, the oldest for {oldest:.0f} s: nothing sends them")
         return {"pending": n, "oldest_s": None if oldest is None else round(oldest, 1)}
 
-    checks = [_check("database", database), _check("redis", broker), _check("workers", workers),
-              _check("outbox", outbox)]
+    checks = [_check("database", database), _check("redis", broker)]
+    if checks[0]["ok"]:
+        checks += [_check("workers", workers), _check("outbox", outbox)]
+    else:  # each would wait out the database's connect timeout again
+        checks += [{"name": name, "ok": False, "error": "not checked: the database does not answer"}
+                   for name in ("workers", "outbox")]
     ok = all(c["ok"] for c in checks)
     return ok, {"status": "ok" if ok else "unavailable", "checks": checks}
 
@@ -197,7 +201,9 @@ def healthz(settings: SettingsDep, response: Response) -> dict:
     ok, body = farm_health(settings)
     if not ok:
         response.status_code = 503
-    body["queue"] = queue_census(settings)
+    database_ok = body["checks"][0]["ok"]
+    body["queue"] = queue_census(settings) if database_ok else {
+        "name": "queue", "ok": False, "error": "not read: the database does not answer"}
     return body
 
 
