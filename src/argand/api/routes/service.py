@@ -24,6 +24,7 @@ from argand.farm.previews import EMPTY, PREVIEW_CHANNELS, STATUS_COLOURS
 from argand.farm.queue import PRIORITIES, broker_client
 from argand.farm.reaper import take_census
 from argand.farm.states import ACTIONS, ENDED, FRAME_SHOWN, JOB
+from argand.farm.submission import check_disk
 from argand.farm.workers import list_workers
 from argand.render import MAX_OBJECTS, FrameParams, render_frame
 from argand.render.frames import MAX_SAMPLES, STATUS_NAMES
@@ -125,8 +126,9 @@ OUTBOX_STALE_S = 120.0
 
 def farm_health(settings) -> tuple[bool, dict]:
     """(can the farm work, what each part says): the database answers, the
-    broker answers, at least one worker sent a heartbeat in time, and the
-    outbox (messages not sent yet: a broker outage shows here) is drained."""
+    broker answers, the store has its free-space floor (min_free_bytes), at
+    least one worker sent a heartbeat in time, and the outbox (messages not
+    sent yet: a broker outage shows here) is drained."""
 
     def database():
         with session_scope(settings.sqlalchemy_url) as s:
@@ -149,7 +151,7 @@ def farm_health(settings) -> tuple[bool, dict]:
             raise RuntimeError(f"{n} messages wait in the outbox, the oldest for {oldest:.0f} s: nothing sends them")
         return {"pending": n, "oldest_s": None if oldest is None else round(oldest, 1)}
 
-    checks = [_check("database", database), _check("redis", broker)]
+    checks = [_check("database", database), _check("redis", broker), _check("store", lambda: check_disk(settings))]
     if checks[0]["ok"]:
         checks += [_check("workers", workers), _check("outbox", outbox)]
     else:  # each would wait out the database's connect timeout again
