@@ -58,7 +58,7 @@ def test_a_killed_worker_and_a_killed_redis_are_started_again(farm1):
     farm = farm1
     health = httpx.get(farm.url + "/healthz", timeout=10)
     assert health.status_code == 200 and {c["name"]: c["ok"] for c in health.json()["checks"]} == {
-        "database": True, "redis": True, "workers": True, "outbox": True}
+        "database": True, "redis": True, "store": True, "workers": True, "outbox": True}
     [w] = farm.get("/api/workers")
     os.kill(w["pid"], signal.SIGKILL)
     # A new worker in the slot's next name (w1 -> w1.2), each process with a
@@ -103,5 +103,21 @@ def test_healthz_is_503_without_a_live_worker_and_readyz_is_200(tmp_path):
         workers = next(c for c in r.json()["checks"] if c["name"] == "workers")
         assert not workers["ok"] and "no worker sent a heartbeat" in workers["error"]
         assert httpx.get(farm.url + "/readyz", timeout=10).status_code == 200
+    finally:
+        farm.stop()
+
+
+def test_a_killed_worker_is_counted_dead_at_once_not_after_the_heartbeat_timeout(tmp_path):
+    farm = Farm(tmp_path / "data", workers=1)
+    farm.env["ARGAND_HEARTBEAT_TIMEOUT_S"] = "15"
+    farm.start()
+    try:
+        [w] = farm.get("/api/workers")
+        os.kill(w["pid"], signal.SIGKILL)
+        killed = time.monotonic()
+        # The supervisor saw it end: neither /api/workers nor /healthz counts it, well before 15 s.
+        farm.wait_for(lambda: not any(x["alive"] for x in farm.get("/api/workers") if x["name"] == w["name"]), 5)
+        assert time.monotonic() - killed < 5
+        _submit_and_finish(farm)
     finally:
         farm.stop()

@@ -30,6 +30,13 @@ def unique_name(name: str) -> str:
     return f"{base}{BOOT_MARK}{uuid.uuid4().hex[:8]}{at}{host}"
 
 
+def identities_of(name: str) -> str:
+    """A regular expression (for declare_dead) of every identity
+    :func:`unique_name` gives ``name``: w1@host -> w1+<boot id>@host."""
+    base, at, host = name.partition("@")
+    return f"{re.escape(base)}{re.escape(BOOT_MARK)}[0-9a-f]+{re.escape(at + host)}"
+
+
 def given_name(identity: str) -> str:
     """The name a worker was given, without its boot id (w1+3fa9c2d1@host -> w1@host)."""
     base, at, host = identity.partition("@")

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from argand.farm.database import upgrade
 from argand.farm.settings import Settings
-from argand.farm.workers import BOOT_MARK, declare_dead
+from argand.farm.workers import BOOT_MARK, declare_dead, identities_of
 from argand.serve.embedded_redis import EmbeddedRedis, dying_with_parent
 from argand.serve.job_log import JobLog
 from argand.serve.ports import listen_on
@@ -134,6 +134,7 @@ class Supervisor(threading.Thread):
         self.stop = threading.Event()
         self._redis = _Restarts()
         self._workers = [_Restarts() for _ in procs]
+        self._declared: set[int] = set()  # pids of the workers already declared dead
 
     def run(self) -> None:
         while not self.stop.wait(0.5):
@@ -147,6 +148,8 @@ class Supervisor(threading.Thread):
                         self.announce(f"Redis did not start again: {exc}")
                     self._redis.restarted(time.monotonic())
             for i, p in enumerate(self.procs):
+                if p.poll() is not None and p.pid not in self._declared:
+                    self._declare_dead(p, self.names[i])
                 if p.poll() is not None and self._workers[i].dead(now) and not self.stop.is_set():
                     # A new name: the dead one's tiles stay claimed under its old
                     # name until the reaper sees its heartbeats stop, which a
@@ -155,6 +158,17 @@ class Supervisor(threading.Thread):
                     self.procs[i] = start_worker(self.settings, self.names[i])
                     self._workers[i].restarted(time.monotonic())
                     self.announce(f"worker {old} exited with {p.returncode}; started {self.names[i]} in its place")
+
+
+    def _declare_dead(self, proc: subprocess.Popen, name: str) -> None:
+        """A worker process that ended beats no more: counted dead at once
+        (/healthz, /api/workers, and its tiles given back by the reaper's
+        next round), not after heartbeat_timeout_s."""
+        try:
+            declare_dead(self.settings, identities_of(name))
+            self._declared.add(proc.pid)
+        except Exception as exc:  # the database is busy or away: the next round tries again
+            self.announce(f"worker {name} exited; could not mark it dead yet: {type(exc).__name__}")
 
 
 def serve(settings: Settings, workers: int, announce=print) -> None:
