@@ -138,3 +138,18 @@ def test_scrubbers_held_is_the_last_step_whose_bands_kept_p95_with_no_error():
     text = " ".join(band_lines(steps([(20, 0), (40, 0), (90, 0), (150, 0)])))
     assert "holds 10 users" in text and "20 users 150 ms" in text
     assert band_lines([{"users": 1, "band_p95_ms": None}]) == []  # no band asked: no line
+
+
+def test_a_lists_summary_is_checked_as_a_summary_and_keeps_what_was_seen_of_the_job():
+    from argand.bench.load_users import Shared
+
+    summary = {"id": "j", "status": "done", "progress": 1.0, "tiles_done": 4, "tiles_total": 4, "priority": 5,
+               "frames_total": 2, "frames_url": "/api/jobs/j/frames"}
+    assert check_job_view(summary, summary=True) is None
+    assert "frames" in check_job_view(summary)  # a job's own view lists its frames
+    assert "frames_total" in check_job_view({k: v for k, v in summary.items() if k != "frames_total"}, summary=True)
+    assert "carries" in check_job_view(dict(summary, frames=[]), summary=True)
+    shared = Shared({"seed": 1, "presets": ["bicube"]})
+    shared.see({**summary, "status": "running", "frames": [{"index": 0, "status": "rendering", "png_url": None}]})
+    shared.see(summary)  # the list says done; the frames seen earlier stay
+    assert shared.jobs["j"]["status"] == "done" and shared.jobs["j"]["frames"][0]["index"] == 0

@@ -45,7 +45,13 @@ class Shared:
         self.stopping = False
 
     def see(self, view: dict) -> None:
-        self.jobs[view["id"]] = view
+        """A job's own view (with its frames), or a list's summary (without):
+        a summary updates what is known of a job, keeping its frames."""
+        known = self.jobs.get(view["id"])
+        if "frames" in view or known is None:
+            self.jobs[view["id"]] = view
+        else:
+            self.jobs[view["id"]] = {**known, **view}
 
     def done_jobs(self) -> list[dict]:
         return [v for v in self.jobs.values() if v["status"] == "done"]
@@ -72,23 +78,28 @@ def _json(response) -> Any:
         return None
 
 
-def check_job_view(view: Any) -> str | None:
-    """None if the job view has what the front end reads, else what is wrong."""
+def check_job_view(view: Any, summary: bool = False) -> str | None:
+    """None if the job view (or, with ``summary``, a list's summary: no
+    frames, their count and a link instead) has what the front end reads,
+    else what is wrong."""
     if not isinstance(view, dict):
         return "not a JSON object"
-    for key in ("id", "status", "progress", "tiles_done", "tiles_total", "frames", "priority"):
+    keys = ("frames_total", "frames_url") if summary else ("frames",)
+    for key in ("id", "status", "progress", "tiles_done", "tiles_total", "priority", *keys):
         if key not in view:
-            return f"no {key!r} in the job view"
+            return f"no {key!r} in the job {'summary' if summary else 'view'}"
+    if summary and "frames" in view:
+        return "a list's summary carries the job's frames"
     if view["status"] not in JOB_STATES:
         return f"unknown status {view['status']!r}"
     if not (0.0 <= view["progress"] <= 1.0):
         return f"progress {view['progress']} outside [0, 1]"
     if not (0 <= view["tiles_done"] <= view["tiles_total"]):
         return f"tiles_done {view['tiles_done']} outside [0, {view['tiles_total']}]"
-    for f in view["frames"]:
+    for f in view.get("frames", []):
         if f["status"] == "done" and not (f.get("png_url") and f.get("thumbnail_url")):
             return f"frame {f['index']} is done without png_url/thumbnail_url"
-    if view["status"] == "done" and any(f["status"] != "done" for f in view["frames"]):
+    if view["status"] == "done" and any(f["status"] != "done" for f in view.get("frames", [])):
         return "the job is done but a frame is not"
     return None
 
@@ -154,7 +165,7 @@ def make_user_class(shared: Shared):
                     r.failure("the list has no jobs/total")
                     return
                 for view in body["jobs"]:
-                    problem = check_job_view(view)
+                    problem = check_job_view(view, summary=True)
                     if problem:
                         r.failure(f"job {view.get('id')}: {problem}")
                         return
@@ -207,16 +218,16 @@ def make_user_class(shared: Shared):
         @task(6)
         def frame_png(self) -> None:
             job = self._done_frame_job()
-            if job:
-                frame = shared.rng.choice(job["frames"])
-                self._download(frame["png_url"], "GET frame.png", b"\x89PNG", "image/png")
+            frames = [f for f in (job or {}).get("frames", []) if f.get("png_url")]
+            if frames:
+                self._download(shared.rng.choice(frames)["png_url"], "GET frame.png", b"\x89PNG", "image/png")
 
         @task(6)
         def thumbnail(self) -> None:
             job = self._done_frame_job()
-            if job:
-                frame = shared.rng.choice(job["frames"])
-                self._download(frame["thumbnail_url"], "GET thumbnail.png", b"\x89PNG", "image/png")
+            frames = [f for f in (job or {}).get("frames", []) if f.get("thumbnail_url")]
+            if frames:
+                self._download(shared.rng.choice(frames)["thumbnail_url"], "GET thumbnail.png", b"\x89PNG", "image/png")
 
         @task(2)
         def animation(self) -> None:
@@ -237,7 +248,9 @@ def make_user_class(shared: Shared):
                                b"\x89PNG", "image/png")
 
         def _done_frame_job(self) -> dict | None:
-            done = shared.done_jobs()
+            # (Seen in full, not only in a list; a view seen while the job
+            # ran may still list frames then not done: their URLs are None.)
+            done = [j for j in shared.done_jobs() if j.get("frames")]
             return shared.rng.choice(done) if done else None
 
         # -- submitting and steering -----------------------------------
