@@ -55,7 +55,13 @@ def wait_done(cluster, job_id: str, timeout: float) -> float:
         assert status not in ("failed", "canceled"), f"job {job_id} {status}\n{cluster.logs()}"
         return status == "done"
 
-    return cluster.wait(ended, timeout, f"job {job_id} is done")
+    try:
+        return cluster.wait(ended, timeout, f"job {job_id} is done")
+    except AssertionError as exc:
+        tiles = cluster.sql("select status, worker, count(*) from tiles where job_id = :j and status <> 'done' "
+                            "group by status, worker", j=job_id)
+        workers = cluster.sql("select name, heartbeat, extract(epoch from clock_timestamp()) - heartbeat from workers")
+        raise AssertionError(f"{exc}; tiles not done: {tiles}; workers (name, heartbeat, age): {workers}") from None
 
 
 def check_job(cluster, job_id: str, scene: str = "whitney") -> dict:

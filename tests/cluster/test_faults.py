@@ -189,3 +189,66 @@ def test_a_worker_host_whose_clock_is_30_s_behind(farm):
         record("worker host's clock 30 s behind", figures)
     finally:
         farm.stop_proc("w1", "worker", signal.SIGKILL)  # the next test starts it with the right time
+
+
+def test_a_worker_host_frozen_past_the_heartbeat_timeout(farm):
+    """Every process of a worker host stopped (SIGSTOP) while it renders,
+    until the job is done without it, then continued: the stale worker
+    writes nothing into the finished job (check_job: no tile file left, every
+    tile counted once) and takes work again."""
+    job_id = submit(farm)
+    wait_tiles(farm, job_id, TILES // 5)
+    held = 0
+    for _ in range(50):  # frozen while it holds a tile (not between two messages)
+        farm.signal_host("w1", signal.SIGSTOP)
+        held = farm.sql("select count(*) from tiles where job_id = :j and status = 'running' and worker like 'w1+%'",
+                        j=job_id)[0][0]
+        if held:
+            break
+        farm.signal_host("w1", signal.SIGCONT)
+        time.sleep(0.02)
+    assert held, "the worker on w1 never held a tile when frozen"
+    try:
+        with Prober(farm, job_id) as probe:
+            took = wait_done(farm, job_id, 60)
+            time.sleep(max(0.0, 8 - took))  # past twice the heartbeat timeout
+    finally:
+        farm.signal_host("w1", signal.SIGCONT)
+    time.sleep(2)  # the stale run's next look at its job
+    figures = {"frozen_s": max(8.0, took), "job_s": took, "tiles_held_when_frozen": held, **check_job(farm, job_id),
+               **probe.check()}
+    assert figures["claimed_again"] >= held  # what it held was given to the other host
+    figures["back_after_continue_s"] = both_workers_render(farm)
+    record("worker host frozen (SIGSTOP) past the heartbeat timeout", figures)
+
+
+def test_the_same_job_on_one_worker_host_and_on_two(farm):
+    """Scaling across hosts, each worker host pinned to a core of its own:
+    the same job on w1 alone, then on both. What the farm and the network
+    add per tile is the one-host time less a local render of the same
+    frames, over the tiles."""
+    from tests.cluster.checks import local_frame
+
+    farm.stop_proc("w2", "worker", signal.SIGKILL)
+    start = time.monotonic()
+    one = submit(farm)
+    wait_done(farm, one, 120)
+    one_s = time.monotonic() - start
+    check_job(farm, one)
+    farm.start_worker("w2")
+    farm.wait(lambda: farm.worker_healthy("w2"), 60, "the worker on w2 is healthy")
+    start = time.monotonic()
+    two = submit(farm)
+    wait_done(farm, two, 120)
+    two_s = time.monotonic() - start
+    check_job(farm, two)
+    frames = farm.sql("select sigma, delta from frames where job_id = :j", j=two)
+    local_frame.cache_clear()
+    start = time.monotonic()
+    for f in frames:
+        local_frame("whitney", f.sigma, f.delta, JOB["width"], JOB["height"])
+    local_s = time.monotonic() - start
+    figures = {"one_host_s": one_s, "two_hosts_s": two_s, "speed_up": one_s / two_s, "local_render_s": local_s,
+               "added_per_tile_ms": 1000 * (one_s - local_s) / TILES}
+    record("one worker host against two", figures)
+    assert figures["speed_up"] > 1.2, figures

@@ -46,7 +46,7 @@ COMMIT_INTERVAL_S = 0.5
 #: What this worker process is doing; its heartbeat thread reports it (so a
 #: tile costs no extra database writes for bookkeeping), and its watchdog
 #: (argand.worker.watchdog) reads the run's hard deadline (time.monotonic()).
-ACTIVITY: dict[str, Any] = {"tile": None, "done": 0, "hard_at": None, "run": None}
+ACTIVITY: dict[str, Any] = {"tile": None, "done": 0, "hard_at": None, "run": None, "writing": False}
 
 #: Why a run stopped before its end because of its soft time limit.
 SOFT_LIMIT = "soft time limit"
@@ -369,15 +369,19 @@ def _complete(run: TileRun) -> tuple[int, int]:
     run.pending = {i: s for i, s in run.pending.items() if i in held}
     store = store_for(run.settings)
     chunk = f"{min(run.pending):05d}-{uuid.uuid4().hex[:10]}" if run.pending else None
-    if chunk:
-        store.write_chunk(run.job_id, run.frame_index, chunk, {i: _tile_arrays(run.local[i]) for i in run.pending})
-    with engine_for(run.settings.sqlalchemy_url).begin() as c:
-        won = _mark_done(c, run, chunk) if chunk else []
-        q = update(Frame).where(Frame.job_id == run.job_id, Frame.index == run.frame_index)
-        row = c.execute(q.values(tiles_done=Frame.tiles_done + len(won))
-                        .returning(Frame.tiles_done, Frame.tiles_total)).one_or_none()
-    if chunk and not won:
-        store.discard_chunk(run.job_id, run.frame_index, chunk)
+    ACTIVITY["writing"] = True  # the watchdog does not end the process between the write and its outcome
+    try:
+        if chunk:
+            store.write_chunk(run.job_id, run.frame_index, chunk, {i: _tile_arrays(run.local[i]) for i in run.pending})
+        with engine_for(run.settings.sqlalchemy_url).begin() as c:
+            won = _mark_done(c, run, chunk) if chunk else []
+            q = update(Frame).where(Frame.job_id == run.job_id, Frame.index == run.frame_index)
+            row = c.execute(q.values(tiles_done=Frame.tiles_done + len(won))
+                            .returning(Frame.tiles_done, Frame.tiles_total)).one_or_none()
+        if chunk and not won:
+            store.discard_chunk(run.job_id, run.frame_index, chunk)
+    finally:
+        ACTIVITY["writing"] = False
     if row is None:
         raise _Gone(run.job_id)
     ACTIVITY["done"] += len(won)

@@ -7,7 +7,8 @@ second worker while it still rendered.
   tile after it and gives the rest of the run back (argand.farm.tile_work.run_tiles).
 * Hard limit (``tile_hard_time_limit_s``): this thread ends the worker's
   process with SIGKILL once the run is past it, after writing on the run's
-  tiles why (their ``error``). The tiles stay claimed by the dead worker's
+  tiles why (their ``error``), and not in the middle of writing a chunk and
+  committing it (argand.farm.tile_work._complete). The tiles stay claimed by the dead worker's
   name; the reaper gives them back once its heartbeats are older than
   ``heartbeat_timeout_s`` (after the attempts, the job fails with that
   reason), and `argand serve` starts a worker in its place.
@@ -75,5 +76,10 @@ class Watchdog(threading.Thread):
             writer = threading.Thread(target=note, daemon=True)
             writer.start()
             writer.join(min(NOTE_S, self.settings.tile_hard_time_limit_s / 2))  # killed before 2 x the hard limit
+            # A chunk being written and committed is let through (a second at most), so that a
+            # process killed here does not leave a chunk that no tile points at in the store.
+            deadline = time.monotonic() + NOTE_S
+            while ACTIVITY.get("writing") and time.monotonic() < deadline:
+                time.sleep(0.01)
             self.kill()
             return
