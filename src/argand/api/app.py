@@ -9,6 +9,8 @@ from contextlib import asynccontextmanager
 from pathlib import Path
 
 from fastapi import Depends, FastAPI, Request
+from fastapi.exception_handlers import request_validation_exception_handler
+from fastapi.exceptions import RequestValidationError
 from fastapi.openapi.docs import get_swagger_ui_html
 from fastapi.responses import FileResponse, JSONResponse, PlainTextResponse, Response
 from fastapi.staticfiles import StaticFiles
@@ -113,6 +115,7 @@ def _document_errors(app: FastAPI, settings: Settings) -> None:
                 if "{" in path:
                     answers.setdefault("404", _answer("No such job, preset or file (yet)"))
                 if "requestBody" in op:
+                    answers.setdefault("400", _answer("The body is not JSON"))
                     answers.setdefault("413", _answer("The body is above max_body_bytes"))
                 if secured and needs_token(settings, method.upper(), path):
                     op["security"] = [{"bearer": []}]
@@ -131,6 +134,19 @@ def uvicorn_options(settings: Settings) -> dict:
     trusted = settings.forwarded_allow_ips
     return {"host": settings.host, "port": settings.port, "log_level": "warning",
             "proxy_headers": trusted is not None, "forwarded_allow_ips": trusted or "", **connection_options()}
+
+
+def _answer_unparsable_bodies(app: FastAPI) -> None:
+    """A body that is not JSON is a 400 (a client's mistake in the request
+    itself); a JSON body that does not fit the route stays a 422."""
+
+    @app.exception_handler(RequestValidationError)
+    async def invalid(request: Request, exc: RequestValidationError):
+        broken = [e for e in exc.errors() if e.get("type") == "json_invalid"]
+        if broken:
+            where = broken[0].get("ctx", {}).get("error", "")
+            return JSONResponse({"detail": f"the request body is not valid JSON ({where})"}, status_code=400)
+        return await request_validation_exception_handler(request, exc)
 
 
 def create_app(settings: Settings) -> FastAPI:
@@ -166,5 +182,6 @@ def create_app(settings: Settings) -> FastAPI:
     _add_api_page(app)
     _document_errors(app, settings)
     add_outage_answers(app)
+    _answer_unparsable_bodies(app)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     return app

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, Strict, StringConstraints, field_validator, model_validator
 
 from argand.core import METHODS
 from argand.farm.models import Job
@@ -20,6 +20,10 @@ from argand.scene.model import check_samples
 from argand.frames.frame_set import DEFAULT_HEIGHT, DEFAULT_WIDTH, FrameSet, FramePoint, angle_text
 
 Priority = Field(5, ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
+#: A JSON integer and nothing else: not true (pydantic would read 1), not "512".
+StrictInt = Annotated[int, Strict()]
+#: A preset's name: not empty, not blank.
+PresetName = Annotated[str, StringConstraints(min_length=1, strip_whitespace=True)]
 
 
 def _angle(v: Any) -> float:
@@ -34,7 +38,7 @@ class AngleRange(BaseModel):
     model_config = ConfigDict(extra="forbid")
     start: float | str
     stop: float | str
-    count: int = Field(ge=1, le=MAX_FRAMES, description="Values in the sweep (the farm's max_frames may be lower)")
+    count: StrictInt = Field(ge=1, le=MAX_FRAMES, description="Values in the sweep (the farm's max_frames may be lower)")
 
     @field_validator("start", "stop", mode="before")
     @classmethod
@@ -66,22 +70,22 @@ class JobRequest(BaseModel):
     σ ≥ 0, σ + δ ≤ π; FrameSet.from_axes builds them, as for `argand
     render`. Every pair must keep the band rule."""
     model_config = ConfigDict(extra="forbid")
-    scene: str | dict = Field(description="A preset name or a scene object")
+    scene: PresetName | dict = Field(description="A preset name or a scene object")
     sigma: float | str | None = Field(None, description="One σ (the default, 0); or give sigmas")
     sigmas: float | str | list[float | str] | AngleRange | None = Field(
         None, description="σ values: a number, a list or {start, stop, count}; with several deltas, a grid")
     delta: float | str | None = Field(None, description="One δ (the default, 0); or give deltas")
     deltas: float | str | list[float | str] | AngleRange | None = Field(
         None, description="δ values: a number, a list or {start, stop, count}")
-    atlas: int | None = Field(None, ge=1, le=MAX_ATLAS_STEPS, description=(
+    atlas: StrictInt | None = Field(None, ge=1, le=MAX_ATLAS_STEPS, description=(
         "N: the whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of N rows and columns, step π/N "
         "(N(N+1)/2 frames); instead of sigma(s) and delta(s)"))
-    width: int = Field(DEFAULT_WIDTH, ge=1, le=MAX_FRAME_SIDE)
-    height: int = Field(DEFAULT_HEIGHT, ge=1, le=MAX_FRAME_SIDE)
-    tile: int | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
-    priority: int = Priority
+    width: StrictInt = Field(DEFAULT_WIDTH, ge=1, le=MAX_FRAME_SIDE)
+    height: StrictInt = Field(DEFAULT_HEIGHT, ge=1, le=MAX_FRAME_SIDE)
+    tile: StrictInt | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
+    priority: StrictInt = Priority
     method: Literal[METHODS] = "auto"
-    samples: int | None = Field(None, ge=1, le=MAX_SAMPLES,
+    samples: StrictInt | None = Field(None, ge=1, le=MAX_SAMPLES,
                                 description="Samples per pixel, a square (1, 4, 9, ..., MAX_SAMPLES; default: the "
                                 "scene's): the colour is their mean, the status the worst of theirs")
 
@@ -121,7 +125,7 @@ class JobRequest(BaseModel):
 
 class PriorityPatch(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    priority: int = Field(ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
+    priority: StrictInt = Field(ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
 
 
 class FrameBrief(BaseModel):

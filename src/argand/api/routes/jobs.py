@@ -74,15 +74,13 @@ def submit(req: JobRequest, settings: SettingsDep, s: SessionDep, request: Reque
 @router.get("")
 def list_jobs(
     s: SessionDep,
-    status: str | None = Query(None, description="|".join(JOB.states)),
+    status: Literal[tuple(JOB.states)] | None = Query(None, description="Only the jobs in this state"),
     page: int = Query(1, ge=1, le=MAX_PAGE),
     per_page: int = Query(20, ge=1, le=200),
 ) -> JobPage:
     """Summaries, newest first: a job's frames are not listed (GET
     /api/jobs/{id}/frames pages through them), so a page's size and time do
     not grow with its jobs' frames."""
-    if status is not None and status not in JOB.states:
-        raise HTTPException(422, detail=f"status must be one of {', '.join(JOB.states)}")
     # A fixed number of queries whatever the page holds: the jobs (their scene
     # JSON deferred), their progress in one aggregate, their frames' counts in another.
     q = select(Job).options(defer(Job.scene)).order_by(Job.created.desc())
