@@ -48,9 +48,13 @@ def test_a_taken_port_is_refused_before_anything_starts(taken_port, tmp_path):
 
 
 def test_make_run_passes_port():
-    r = subprocess.run(["make", "-n", "run", "PORT=8001"], capture_output=True, text=True, cwd=REPO, timeout=60)
+    # (Under `make test` the outer make's MAKEFLAGS reach this one, which then
+    # prints its directory: the command is the last line that is not that.)
+    r = subprocess.run(["make", "--no-print-directory", "-n", "run", "PORT=8001"], capture_output=True, text=True,
+                       cwd=REPO, timeout=60)
     assert r.returncode == 0, r.stderr
-    assert "argand serve --workers 2 --port 8001" in r.stdout.splitlines()[-1]
+    lines = [line for line in r.stdout.splitlines() if not line.startswith("make[")]
+    assert "argand serve --workers 2 --port 8001" in lines[-1], r.stdout
 
 
 def _log_lines(farm: Farm) -> list[str]:
