@@ -32,3 +32,17 @@ def test_an_unparsable_body_is_a_400_and_the_status_filter_is_an_enum(api):  # n
     enum = status["schema"]["anyOf"][0]["enum"]
     assert "done" in enum and "" not in enum
     assert "400" in schema["paths"]["/api/jobs"]["post"]["responses"]
+
+
+def test_an_undeclared_method_is_a_405_that_lists_every_allowed_one(api):  # noqa: F811
+    c, _settings, _ = api
+    job_id = c.post("/api/jobs", json=JOB).json()["id"]
+    r = c.post(f"/api/jobs/{job_id}/animation.gif")
+    assert r.status_code == 405 and r.headers["allow"] == "GET, HEAD", (r.status_code, r.headers, r.text)
+    r = c.options(f"/api/jobs/{job_id}")
+    assert r.status_code == 405 and r.headers["allow"] == "DELETE, GET, HEAD, PATCH", r.headers
+    assert c.put(f"/api/jobs/{job_id}/cancel").headers["allow"] == "POST"
+    assert c.post(f"/api/jobs/{job_id}/explode").status_code == 422  # no such action (the actions named)
+    assert c.post(f"/api/jobs/{job_id}/cancel").json()["status"] == "canceled"
+    paths = c.get("/openapi.json").json()["paths"]
+    assert {f"/api/jobs/{{job_id}}/{a}" for a in ("cancel", "pause", "resume", "retry")} <= set(paths)

@@ -9,15 +9,17 @@ from contextlib import asynccontextmanager
 from pathlib import Path
 
 from fastapi import Depends, FastAPI, Request
-from fastapi.exception_handlers import request_validation_exception_handler
+from fastapi.exception_handlers import http_exception_handler, request_validation_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.openapi.docs import get_swagger_ui_html
 from fastapi.responses import FileResponse, JSONResponse, PlainTextResponse, Response
 from fastapi.staticfiles import StaticFiles
+from starlette.exceptions import HTTPException as StarletteHTTPException
 from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Histogram, generate_latest
 
 from argand.api.auth import check_access, needs_token
 from argand.api.connections import connection_options
+from argand.api.methods import allowed_methods
 from argand.api.outages import add_outage_answers
 from argand.api.request_limits import BodyLimit
 from argand.api.routes import bands, frames, jobs, service
@@ -149,6 +151,21 @@ def _answer_unparsable_bodies(app: FastAPI) -> None:
         return await request_validation_exception_handler(request, exc)
 
 
+def _answer_wrong_methods(app: FastAPI) -> None:
+    """A 405's Allow lists every method the path has (Starlette names only
+    those of the first route that matches the path)."""
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, exc: StarletteHTTPException):
+        if exc.status_code != 405:
+            return await http_exception_handler(request, exc)
+        allowed = allowed_methods(request.app, request.url.path)
+        allowed |= {m.strip() for m in (exc.headers or {}).get("Allow", "").split(",") if m.strip()}
+        allow = ", ".join(sorted(allowed))
+        return JSONResponse({"detail": f"{request.method} is not allowed here; allowed: {allow}"}, status_code=405,
+                            headers={"Allow": allow})
+
+
 def create_app(settings: Settings) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -183,5 +200,6 @@ def create_app(settings: Settings) -> FastAPI:
     _document_errors(app, settings)
     add_outage_answers(app)
     _answer_unparsable_bodies(app)
+    _answer_wrong_methods(app)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     return app

@@ -12,6 +12,7 @@ from fastapi.responses import StreamingResponse
 from sqlalchemy import case, func, select
 from sqlalchemy.orm import Session, defer
 
+from argand.api.methods import allowed_methods
 from argand.api.deps import JobIdDep, SessionDep, SettingsDep, job_or_404, wake_drainer
 from argand.api.request_limits import StreamSlots, client_key
 from argand.api.schemas import FrameCounts, JobOut, JobPage, JobRequest, PriorityPatch, job_out, job_summary
@@ -114,15 +115,35 @@ def get_job(job_id: str, s: SessionDep) -> JobOut:
     return _job(s, job_id)
 
 
-@router.post("/{job_id}/{action}", responses={429: {"description": "A retry while max_active_jobs are in flight"}})
-def control(job_id: str, action: Literal[tuple(ACTIONS)], settings: SettingsDep, s: SessionDep,
-            request: Request) -> JobOut:
-    try:
-        set_job_status(settings, job_id, action, send=False, session=s)
-    except FarmBusy as exc:  # a retry of an ended job counts against max_active_jobs, as a submission does
-        raise HTTPException(429, detail=str(exc), headers={"Retry-After": str(BUSY_RETRY_AFTER_S)}) from None
-    wake_drainer(request)
-    return _job(s, job_id)
+def _control(action: str):
+    """The route of one action (one path each, so that another method or an
+    unknown name on a job's sub-path is a 404 or a 405, not a 422)."""
+
+    def control(job_id: str, settings: SettingsDep, s: SessionDep, request: Request) -> JobOut:
+        try:
+            set_job_status(settings, job_id, action, send=False, session=s)
+        except FarmBusy as exc:  # a retry of an ended job counts against max_active_jobs, as a submission does
+            raise HTTPException(429, detail=str(exc), headers={"Retry-After": str(BUSY_RETRY_AFTER_S)}) from None
+        wake_drainer(request)
+        return _job(s, job_id)
+
+    control.__name__ = f"{action}_job"
+    control.__doc__ = f"{action.capitalize()} the job (states it applies to: {', '.join(ACTIONS[action][0])})."
+    return control
+
+
+for _action in ACTIONS:
+    router.add_api_route(f"/{{job_id}}/{_action}", _control(_action), methods=["POST"],
+                         responses={429: {"description": "A retry while max_active_jobs are in flight"}})
+
+
+@router.post("/{job_id}/{action}", include_in_schema=False)
+def unknown_action(job_id: str, action: str, request: Request) -> None:
+    """A POST to a job's sub-path that is no action: a 405 where the path
+    exists with other methods (animation.gif), else a 422 naming the actions."""
+    if allowed_methods(request.app, request.url.path):
+        raise HTTPException(405)  # its Allow: argand.api.app
+    raise HTTPException(422, detail=f"action must be one of {', '.join(ACTIONS)}, not {action!r}")
 
 
 @router.patch("/{job_id}")
