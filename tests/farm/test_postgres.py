@@ -64,3 +64,33 @@ def test_job_on_postgresql(tmp_path, postgres):
         assert not (farm.data / "argand.db").exists()  # the state lives in PostgreSQL
     finally:
         farm.stop()
+
+
+def test_a_transaction_left_open_by_a_frozen_client_is_ended_and_its_locks_released(postgres, monkeypatch):
+    """A worker frozen (SIGSTOP, a paused VM) or cut off inside a transaction
+    would hold its rows locked for as long, and the reaper that gives its
+    tiles back would wait on them: the server ends such a session after
+    IDLE_IN_TRANSACTION_S (argand.farm.database)."""
+    from sqlalchemy import create_engine, text
+
+    from argand.farm import database
+
+    monkeypatch.setattr(database, "IDLE_IN_TRANSACTION_S", 1)
+    engine = database.engine_for(postgres)
+    with engine.begin() as c:
+        c.execute(text("create table held (id int primary key, v int)"))
+        c.execute(text("insert into held values (1, 0)"))
+    frozen = engine.connect()
+    frozen.begin()
+    frozen.execute(text("update held set v = 1 where id = 1"))  # the row is locked; then the client stops
+    other = create_engine(postgres, connect_args={"options": "-c lock_timeout=10000"})
+    try:
+        start = time.monotonic()
+        with other.begin() as c:
+            c.execute(text("update held set v = 2 where id = 1"))
+        assert time.monotonic() - start < 5
+    finally:
+        other.dispose()
+        frozen.invalidate()
+        database._engines.pop(postgres, None)
+        engine.dispose()

@@ -27,6 +27,11 @@ MIGRATIONS = Path(__file__).with_name("migrations")
 CONNECT_TIMEOUT_S = 3
 SEND_TIMEOUT_S = 4
 STATEMENT_TIMEOUT_S = 60
+#: A session left idle inside a transaction this long is ended by the server,
+#: its locks released: a worker frozen (SIGSTOP, a VM paused) or cut off in
+#: the middle of a transaction would otherwise hold its rows locked, and the
+#: reaper that gives its tiles back would wait on them for as long.
+IDLE_IN_TRANSACTION_S = 20
 #: Seconds a request waits for a free connection of the pool.
 POOL_TIMEOUT_S = 10
 
@@ -63,7 +68,8 @@ def _server_engine(url: str) -> Engine:
             "connect_timeout": CONNECT_TIMEOUT_S,
             "tcp_user_timeout": SEND_TIMEOUT_S * 1000,
             "keepalives": 1, "keepalives_idle": SEND_TIMEOUT_S, "keepalives_interval": 1, "keepalives_count": 3,
-            "options": f"-c statement_timeout={STATEMENT_TIMEOUT_S * 1000}",
+            "options": f"-c statement_timeout={STATEMENT_TIMEOUT_S * 1000} "
+                       f"-c idle_in_transaction_session_timeout={IDLE_IN_TRANSACTION_S * 1000}",
         }
     return create_engine(url, pool_pre_ping=True, pool_timeout=POOL_TIMEOUT_S, connect_args=connect_args)
 
