@@ -153,8 +153,8 @@ def claim_siblings(settings: Settings, job_id: str, frame_index: int, tiles: lis
     (a job's messages are sent together). Returns {frame: claimed tiles}."""
     if settings.bands_per_run <= 1 or not tiles:
         return {}
-    now = time.time()
     with engine_for(settings.sqlalchemy_url).begin() as c:
+        now = clock(c)  # the reaper compares a tile's start with its own reading of this clock
         frames = c.execute(select(Frame.index).where(Frame.job_id == job_id, Frame.index > frame_index)
                            .order_by(Frame.index).limit(settings.bands_per_run - 1)).scalars().all()
         if not frames:
