@@ -460,6 +460,33 @@ struct PythonExactSolver {
     }
 };
 
+/// Refuses a tile [x0, x1) x [y0, y1) that is empty or not inside the W x H frame.
+void check_tile_in_frame(int W, int H, int x0, int y0, int x1, int y1) {
+    if (!(0 <= x0 && x0 < x1 && x1 <= W && 0 <= y0 && y0 < y1 && y1 <= H))
+        throw py::value_error("tile [" + std::to_string(x0) + ", " + std::to_string(x1) + ") x [" +
+                              std::to_string(y0) + ", " + std::to_string(y1) + ") is not inside the " +
+                              std::to_string(W) + "x" + std::to_string(H) + " frame");
+}
+
+/// A TileView onto nine planes (render_tile_frame's layout) whose rows are
+/// `stride` pixels apart, starting at pixel `at`.
+template <class F, class I, class U>
+TileView view_of_planes(F& rgba, F& z, F& arg, F& re, F& im, I& count, U& status, U& escalation, F& share,
+                        std::ptrdiff_t stride, std::size_t at) {
+    TileView v;
+    v.stride = stride;
+    v.rgba = rgba.mutable_data() + 4 * at;
+    v.modulus = z.mutable_data() + at;
+    v.argument = arg.mutable_data() + at;
+    v.re = re.mutable_data() + at;
+    v.im = im.mutable_data() + at;
+    v.count = count.mutable_data() + at;
+    v.status = status.mutable_data() + at;
+    v.escalation = escalation.mutable_data() + at;
+    v.certified_share = share.mutable_data() + at;
+    return v;
+}
+
 /// Holds a PythonExactSolver for one binding call (created and destroyed
 /// under the GIL; render_tile only calls it).
 struct ExactHook {
@@ -589,10 +616,7 @@ void init_render(py::module_& m) {
             // conversion: a converted copy would take the pixels and be
             // thrown away.
             const int W = plan.params.width, H = plan.params.height;
-            if (!(0 <= x0 && x0 < x1 && x1 <= W && 0 <= y0 && y0 < y1 && y1 <= H))
-                throw py::value_error("tile [" + std::to_string(x0) + ", " + std::to_string(x1) + ") x [" +
-                                      std::to_string(y0) + ", " + std::to_string(y1) + ") is not inside the " +
-                                      std::to_string(W) + "x" + std::to_string(H) + " frame");
+            check_tile_in_frame(W, H, x0, y0, x1, y1);
             auto check = [H, W](const py::array& a, const char* name, int channels) {
                 const bool ok = channels == 1 ? a.ndim() == 2 && a.shape(0) == H && a.shape(1) == W
                                               : a.ndim() == 3 && a.shape(0) == H && a.shape(1) == W &&
@@ -610,18 +634,8 @@ void init_render(py::module_& m) {
             check(status, "status", 1);
             check(escalation, "escalation", 1);
             check(share, "certified_share", 1);
-            const std::size_t at = static_cast<std::size_t>(y0) * W + x0;
-            TileView v;
-            v.stride = W;
-            v.rgba = rgba.mutable_data() + 4 * at;
-            v.modulus = z.mutable_data() + at;
-            v.argument = arg.mutable_data() + at;
-            v.re = re.mutable_data() + at;
-            v.im = im.mutable_data() + at;
-            v.count = count.mutable_data() + at;
-            v.status = status.mutable_data() + at;
-            v.escalation = escalation.mutable_data() + at;
-            v.certified_share = share.mutable_data() + at;
+            TileView v = view_of_planes(rgba, z, arg, re, im, count, status, escalation, share, W,
+                                        static_cast<std::size_t>(y0) * W + x0);
             ExactHook hook(exact);
             {
                 py::gil_scoped_release release;
@@ -651,10 +665,7 @@ void init_render(py::module_& m) {
             if (static_cast<std::size_t>(py::len(outs)) != plans.size())
                 throw py::value_error("outs must hold one tuple of planes per plan");
             const int W = plans[0]->params.width, H = plans[0]->params.height;
-            if (!(0 <= x0 && x0 < x1 && x1 <= W && 0 <= y0 && y0 < y1 && y1 <= H))
-                throw py::value_error("tile [" + std::to_string(x0) + ", " + std::to_string(x1) + ") x [" +
-                                      std::to_string(y0) + ", " + std::to_string(y1) + ") is not inside the " +
-                                      std::to_string(W) + "x" + std::to_string(H) + " frame");
+            check_tile_in_frame(W, H, x0, y0, x1, y1);
             if (ox < 0) ox = x0;
             if (oy < 0) oy = y0;
             std::vector<TileView> views(plans.size());
@@ -662,31 +673,26 @@ void init_render(py::module_& m) {
             for (std::size_t b = 0; b < plans.size(); ++b) {
                 const py::tuple planes = outs[b].cast<py::tuple>();
                 if (planes.size() != 9) throw py::value_error("outs[" + std::to_string(b) + "] must hold 9 planes");
+                // Plane k (the rgba plane first): of its type, C-contiguous,
+                // holding the tile at (ox, oy), as wide as the rgba plane.
+                std::ptrdiff_t width = -1;
                 auto plane = [&](int k, const char* name, int channels, auto tag) {
                     using T = decltype(tag);
                     auto a = py::array_t<T, py::array::c_style>::ensure(planes[k]);
                     const bool typed = a && py::isinstance<py::array_t<T>>(planes[k]) &&
                                        (planes[k].cast<py::array>().flags() & py::array::c_style);
                     const bool shaped = typed && (channels == 1 ? a.ndim() == 2 : a.ndim() == 3 && a.shape(2) == channels) &&
-                                        oy + (y1 - y0) <= a.shape(0) && ox + (x1 - x0) <= a.shape(1);
+                                        oy + (y1 - y0) <= a.shape(0) && ox + (x1 - x0) <= a.shape(1) &&
+                                        (width < 0 || a.shape(1) == width);
                     if (!shaped)
                         throw py::value_error(std::string("outs[") + std::to_string(b) + "]." + name +
-                                              ": a C-contiguous array of the right type that holds the tile at (" +
-                                              std::to_string(ox) + ", " + std::to_string(oy) + ")");
+                                              ": a C-contiguous array of the right type, as wide as rgba, that holds "
+                                              "the tile at (" + std::to_string(ox) + ", " + std::to_string(oy) + ")");
                     keep.push_back(a);
                     return a;
                 };
                 auto rgba = plane(0, "rgba", 4, float{});
-                const std::ptrdiff_t stride = rgba.shape(1);
-                const std::size_t at = static_cast<std::size_t>(oy) * stride + ox;
-                TileView& v = views[b];
-                v.stride = stride;
-                v.rgba = rgba.mutable_data() + 4 * at;
-                auto check_stride = [&](const py::array& a, const char* name) {
-                    if (a.shape(1) != stride)
-                        throw py::value_error(std::string("outs[") + std::to_string(b) + "]." + name +
-                                              " must have the rgba plane's width");
-                };
+                width = rgba.shape(1);
                 auto z = plane(1, "Z", 1, float{});
                 auto arg = plane(2, "arg", 1, float{});
                 auto re = plane(3, "re", 1, float{});
@@ -695,17 +701,8 @@ void init_render(py::module_& m) {
                 auto status = plane(6, "status", 1, std::uint8_t{});
                 auto escalation = plane(7, "escalation", 1, std::uint8_t{});
                 auto share = plane(8, "certified_share", 1, float{});
-                for (auto* a : {(py::array*)&z, (py::array*)&arg, (py::array*)&re, (py::array*)&im, (py::array*)&count,
-                                (py::array*)&status, (py::array*)&escalation, (py::array*)&share})
-                    check_stride(*a, "plane");
-                v.modulus = z.mutable_data() + at;
-                v.argument = arg.mutable_data() + at;
-                v.re = re.mutable_data() + at;
-                v.im = im.mutable_data() + at;
-                v.count = count.mutable_data() + at;
-                v.status = status.mutable_data() + at;
-                v.escalation = escalation.mutable_data() + at;
-                v.certified_share = share.mutable_data() + at;
+                views[b] = view_of_planes(rgba, z, arg, re, im, count, status, escalation, share, width,
+                                          static_cast<std::size_t>(oy) * width + ox);
             }
             std::vector<TileView*> ptrs;
             for (TileView& v : views) ptrs.push_back(&v);
@@ -742,10 +739,7 @@ void init_render(py::module_& m) {
             // `out` is taken without conversion: a converted copy would take
             // the pixels and be thrown away.
             const int W = plan.params.width, H = plan.params.height;
-            if (!(0 <= x0 && x0 < x1 && x1 <= W && 0 <= y0 && y0 < y1 && y1 <= H))
-                throw py::value_error("tile [" + std::to_string(x0) + ", " + std::to_string(x1) + ") x [" +
-                                      std::to_string(y0) + ", " + std::to_string(y1) + ") is not inside the " +
-                                      std::to_string(W) + "x" + std::to_string(H) + " frame");
+            check_tile_in_frame(W, H, x0, y0, x1, y1);
             if (out.ndim() != 3 || out.shape(2) != kInterleavedChannels)
                 throw py::value_error("out must be a C-contiguous (h, w, " + std::to_string(kInterleavedChannels) +
                                       ") float32 array");

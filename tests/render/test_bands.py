@@ -111,6 +111,11 @@ def test_frames_that_differ_in_more_than_the_band_are_refused():
     with pytest.raises(ValueError, match="outs\\[1\\].Z"):
         bad = [planes[0], (planes[1][0], np.empty((8, 8), np.float64)) + planes[1][2:]]
         _core.render_tile_bands([a, a], 0, 0, 8, 8, bad)
+    with pytest.raises(ValueError, match="outs\\[0\\].status: .*as wide as rgba"):
+        narrow = planes[0][:6] + (np.empty((8, 12), np.uint8),) + planes[0][7:]
+        _core.render_tile_bands([a], 0, 0, 8, 8, [narrow])
+    with pytest.raises(ValueError, match="is not inside the 8x8 frame"):
+        _core.render_tile_bands([a], 0, 0, 9, 8, [planes[0]])
 
 
 def test_render_frames_groups_what_it_can_and_keeps_the_order():
