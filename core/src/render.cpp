@@ -1983,6 +1983,7 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
         bounces.push_back(!s.complex_space && 0 < fp.max_depth &&
                           (s.material.reflectivity > 0 || s.material.transparency > 0));
     ShadeMemo memo[PrimaryBatch::kCells];
+    const bool share_colours = bands.size() > 1;  // (a lone frame has no other band to share with)
     detail::SampleRowInput row_in;
     for (int a = 0; a < 3; ++a) {
         row_in.forward[a] = plan.forward[a];
@@ -2032,14 +2033,15 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                             // chose the root an earlier band of this sample
                             // chose takes that band's colour, the same bits.
                             ShadeMemo& m = memo[c];
-                            if (sample.hit.hit && m.valid && m.same(sample.hit)) {
+                            if (share_colours && sample.hit.hit && m.valid && m.same(sample.hit)) {
                                 for (int a = 0; a < 3; ++a) sample.rgb[a] = m.rgb[a];
                             } else {
                                 double rgb[3];
                                 if (sample.hit.hit) tracer.shade(plan.eye, dir, sample.hit, 0, rgb);
                                 else for (int a = 0; a < 3; ++a) rgb[a] = plan.scene.background[a];
                                 for (int a = 0; a < 3; ++a) sample.rgb[a] = static_cast<float>(rgb[a]);
-                                if (sample.hit.hit && !bounces[sample.hit.object]) m.keep(sample.hit, sample.rgb);
+                                if (share_colours && sample.hit.hit && !bounces[sample.hit.object])
+                                    m.keep(sample.hit, sample.rgb);
                             }
                         } else {
                             sample = trace_sample(band->plan, tracer, sx, sy, side, band->seeds.data(), nullptr,
