@@ -657,7 +657,7 @@ void init_render(py::module_& m) {
     m.def(
         "render_tile_bands",
         [](const std::vector<const FramePlan*>& plans, int x0, int y0, int x1, int y1, const py::list& outs, int ox,
-           int oy, const py::object& exact) {
+           int oy, const py::object& exact, bool record, const py::object& field) -> py::object {
             // Several bands of one tile, its primary roots solved once
             // (render_tile_bands): band b's pixels go into outs[b], a tuple
             // of the nine planes render_tile_frame takes, at [oy.., ox..].
@@ -707,9 +707,19 @@ void init_render(py::module_& m) {
             std::vector<TileView*> ptrs;
             for (TileView& v : views) ptrs.push_back(&v);
             ExactHook hook(exact);
+            RootField recorded, replayed;
+            if (!field.is_none()) {
+                if (record) throw py::value_error("record a root field or replay one (field), not both");
+                const py::buffer_info info = py::buffer(field).request();
+                if (info.itemsize != 1 || info.ndim != 1)
+                    throw py::value_error("field must be bytes (a root field render_tile_bands recorded)");
+                const auto* p = static_cast<const std::uint8_t*>(info.ptr);
+                replayed.bytes.assign(p, p + info.size);
+            }
             try {
                 py::gil_scoped_release release;
-                render_tile_bands(plans, TileRect{x0, y0, x1, y1}, ptrs, hook.get());
+                render_tile_bands(plans, TileRect{x0, y0, x1, y1}, ptrs, hook.get(), record ? &recorded : nullptr,
+                                  field.is_none() ? nullptr : &replayed);
             } catch (const std::invalid_argument& e) {
                 throw py::value_error(e.what());
             }
@@ -720,16 +730,26 @@ void init_render(py::module_& m) {
                 figures.append(py::make_tuple(v.escalations, v.root_calls, py::make_tuple(st[0], st[1], st[2], st[3]),
                                               v.hits, py::make_tuple(lv[0], lv[1], lv[2], lv[3], lv[4], lv[5], lv[6], lv[7])));
             }
-            return figures;
+            if (record)
+                return py::make_tuple(figures, py::bytes(reinterpret_cast<const char*>(recorded.bytes.data()),
+                                                         recorded.bytes.size()));
+            return std::move(figures);
         },
         "Renders the tile [x0, x1) x [y0, y1) of every band of `plans` (FramePlans of one scene and camera that "
         "differ in sigma and delta only), the primary roots solved once: band b into outs[b], a tuple of planes "
         "(rgba (h, w, 4) float32; Z, arg, re, im (h, w) float32; count (h, w) int32; status, escalation (h, w) "
         "uint8; certified_share (h, w) float32; C-contiguous), the tile at (ox, oy) (default (x0, y0): frame-sized "
         "planes). Each band's pixels are the bits render_tile gives for its plan alone. Returns, per band, "
-        "(escalations, root_calls, pixels per status code 0..3, pixels that hit, pixels per ladder level 0..7).",
+        "(escalations, root_calls, pixels per status code 0..3, pixels that hit, pixels per ladder level 0..7). "
+        "With record=True, returns (that list, the tile's root field as bytes); with field=bytes (a root field "
+        "recorded for the same rays and tile), the primary roots are read from it instead of solved, the same bits.",
         py::arg("plans"), py::arg("x0"), py::arg("y0"), py::arg("x1"), py::arg("y1"), py::arg("outs"), py::arg("ox") = -1,
-        py::arg("oy") = -1, py::arg("exact") = py::none());
+        py::arg("oy") = -1, py::arg("exact") = py::none(), py::kw_only(), py::arg("record") = false,
+        py::arg("field") = py::none());
+    m.def("rays_fingerprint", [](const FramePlan& plan) { return rays_fingerprint(plan); },
+          "A fingerprint of the plan's rays (scene, camera, parameters; sigma and delta aside): a root field "
+          "recorded for one plan replays for another only if their fingerprints agree.",
+          py::arg("plan"));
     m.def(
         "render_tile_into",
         [](const FramePlan& plan, int x0, int y0, int x1, int y1, py::array_t<float, py::array::c_style> out, int ox,

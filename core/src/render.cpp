@@ -614,20 +614,8 @@ public:
         for (int obj = 0; obj < n_obj; ++obj) {
             Object& o = objects_[obj];
             if (!o.batched) continue;
-            const SurfaceSpec& s = plan_.scene.objects[obj];
-            const int n = s.degree;
-            detail::primary_ray_polynomial_run(s, plan_.objects[obj], dx, dy, dz, cells, o.run, isa_);
-            // A cell whose ray provably misses the clipping sphere is not
-            // solved either (intersect's test, on the same balls).
-            if (o.clipped && cull_) {
-                detail::ObjectRay ray;
-                for (int a = 0; a < 3; ++a) ray.origin[a] = plan_.objects[obj].origin[a];
-                for (int c = 0; c < cells; ++c) {
-                    for (int a = 0; a < 3; ++a) ray.direction[a] = Ball(o.run.dir[a][c], o.run.dir_rad[a][c]);
-                    o.outside[c] = detail::ray_misses_sphere(ray, s.clip_radius) ? 1 : 0;
-                }
-            }
-            for (int c = 0; c < cells; ++c) o.skip[c] = o.run.finite[c] == 0 || o.outside[c] != 0;
+            const int n = plan_.scene.objects[obj].degree;
+            prepare(obj, dx, dy, dz, cells);
             // The seeds are the above arrays themselves (structure of
             // arrays along the tile's row of samples; a NaN in root 0 marks
             // a cell without seeds, which find_roots_soa starts on the
@@ -685,6 +673,103 @@ public:
                         }
                 }
                 if (m != n) o.above_re[a] = kNaN;
+            }
+        }
+    }
+
+    /// solve's answers for its last cells (0..cells-1), appended to a root
+    /// field's tape: per batched object and cell that was solved (not
+    /// skipped: skip is recomputed on replay from the same polynomials),
+    /// status, flags, the discs' header and discs, and for a provisional
+    /// cell the lane's approximations settle starts from.
+    void record(std::vector<std::uint8_t>& tape, int cells) const {
+        for (std::size_t obj = 0; obj < objects_.size(); ++obj) {
+            const Object& o = objects_[obj];
+            if (!o.batched) continue;
+            const int n = plan_.scene.objects[obj].degree;
+            for (int c = 0; c < cells; ++c) {
+                if (o.skip[c]) continue;
+                const RootsResult& res = o.res[c];
+                const std::uint8_t head[5] = {static_cast<std::uint8_t>(o.status[c]),
+                                              static_cast<std::uint8_t>((o.provisional[c] ? 1 : 0) |
+                                                                        (res.wants_exact ? 2 : 0)),
+                                              static_cast<std::uint8_t>(res.n_discs),
+                                              static_cast<std::uint8_t>(res.n_infinite),
+                                              static_cast<std::uint8_t>(res.escalation)};
+                tape.insert(tape.end(), head, head + 5);
+                for (int i = 0; i < res.n_discs; ++i) {
+                    const RootDisc& d = res.discs[i];
+                    put(tape, d.re);
+                    put(tape, d.im);
+                    put(tape, d.radius);
+                    tape.push_back(static_cast<std::uint8_t>(d.count));
+                    tape.push_back(static_cast<std::uint8_t>((d.verified ? 1 : 0) | (d.real ? 2 : 0)));
+                }
+                if (o.provisional[c])
+                    for (int m = 0; m < n; ++m) {
+                        put(tape, o.lane_re[c * n + m]);
+                        put(tape, o.lane_im[c * n + m]);
+                    }
+            }
+        }
+    }
+
+    /// solve without solving: the cells' ray polynomials, clip tests and
+    /// skips as solve computes them (the same bits), their answers read from
+    /// a root field's tape at `at` (record's layout), which `at` then
+    /// passes. What fill and settle read afterwards is what they read after
+    /// the solve that recorded the tape, so every decision is that solve's.
+    /// Throws std::invalid_argument where the tape does not hold what the
+    /// cells need (a tape of other rays, cut short or damaged).
+    void replay(const double* dx, const double* dy, const double* dz, int cells, const std::uint8_t* tape,
+                std::size_t size, std::size_t& at) {
+        for (std::size_t k = 0; k < objects_.size(); ++k) {
+            const int obj = static_cast<int>(k);
+            Object& o = objects_[obj];
+            if (!o.batched) continue;
+            const int n = plan_.scene.objects[obj].degree;
+            prepare(obj, dx, dy, dz, cells);
+            for (int c = 0; c < cells; ++c) {
+                o.provisional[c] = 0;
+                o.complete[c] = 0;
+                if (o.skip[c]) continue;
+                need(size, at, 5);
+                const std::uint8_t* h = tape + at;
+                at += 5;
+                const int n_discs = h[2], n_inf = h[3];
+                if (h[0] > static_cast<int>(Status::TooLarge) || (h[1] & ~3) != 0 || n_discs > n || n_inf > n)
+                    throw std::invalid_argument("root field: a damaged entry");
+                RootsResult& res = o.res[c];
+                o.status[c] = static_cast<Status>(h[0]);
+                o.provisional[c] = (h[1] & 1) ? 1 : 0;
+                res.wants_exact = (h[1] & 2) != 0;
+                res.n_discs = n_discs;
+                res.n_infinite = n_inf;
+                res.escalation = h[4];
+                bool complete = o.status[c] == Status::Ok;
+                for (int i = 0; i < n_discs; ++i) {
+                    need(size, at, 26);
+                    RootDisc& d = res.discs[i];
+                    std::memcpy(&d.re, tape + at, 8);
+                    std::memcpy(&d.im, tape + at + 8, 8);
+                    std::memcpy(&d.radius, tape + at + 16, 8);
+                    d.count = tape[at + 24];
+                    if ((tape[at + 25] & ~3) != 0 || d.count < 0 || d.count > n)
+                        throw std::invalid_argument("root field: a damaged disc");
+                    d.verified = (tape[at + 25] & 1) != 0;
+                    d.real = (tape[at + 25] & 2) != 0;
+                    at += 26;
+                    complete = complete && d.verified;
+                }
+                o.complete[c] = complete ? 1 : 0;
+                if (o.provisional[c]) {
+                    need(size, at, static_cast<std::size_t>(16) * n);
+                    for (int m = 0; m < n; ++m) {
+                        std::memcpy(&o.lane_re[c * n + m], tape + at, 8);
+                        std::memcpy(&o.lane_im[c * n + m], tape + at + 8, 8);
+                        at += 16;
+                    }
+                }
             }
         }
     }
@@ -758,6 +843,36 @@ public:
     }
 
 private:
+    /// The cells' ray polynomials of object obj (structure of arrays), its
+    /// clip test and which cells are not solved (coefficients not finite,
+    /// or the ray provably misses the clipping sphere).
+    void prepare(int obj, const double* dx, const double* dy, const double* dz, int cells) {
+        Object& o = objects_[obj];
+        const SurfaceSpec& s = plan_.scene.objects[obj];
+        detail::primary_ray_polynomial_run(s, plan_.objects[obj], dx, dy, dz, cells, o.run, isa_);
+        // A cell whose ray provably misses the clipping sphere is not
+        // solved either (intersect's test, on the same balls).
+        if (o.clipped && cull_) {
+            detail::ObjectRay ray;
+            for (int a = 0; a < 3; ++a) ray.origin[a] = plan_.objects[obj].origin[a];
+            for (int c = 0; c < cells; ++c) {
+                for (int a = 0; a < 3; ++a) ray.direction[a] = Ball(o.run.dir[a][c], o.run.dir_rad[a][c]);
+                o.outside[c] = detail::ray_misses_sphere(ray, s.clip_radius) ? 1 : 0;
+            }
+        }
+        for (int c = 0; c < cells; ++c) o.skip[c] = o.run.finite[c] == 0 || o.outside[c] != 0;
+    }
+
+    static void put(std::vector<std::uint8_t>& tape, double v) {
+        std::uint8_t b[8];
+        std::memcpy(b, &v, 8);
+        tape.insert(tape.end(), b, b + 8);
+    }
+
+    static void need(std::size_t size, std::size_t at, std::size_t bytes) {
+        if (at > size || size - at < bytes) throw std::invalid_argument("root field: the tape ends early");
+    }
+
     struct Object {
         // (User-provided: objects_ is not zeroed first, some 70 KB per
         // object per tile; res, status and complete are written by solve
@@ -1937,6 +2052,27 @@ struct ShadeMemo {
     }
 };
 
+/// FNV-1a over the bytes of v.
+template <class T>
+void mix(std::uint64_t& h, const T& v) {
+    unsigned char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    for (unsigned char c : b) h = (h ^ c) * 1099511628211ull;
+}
+
+/// A root field's header: its format, the rays it belongs to
+/// (rays_fingerprint) and the tile (clamped) it holds.
+void field_header(const FramePlan& plan, const TileRect& r, std::vector<std::uint8_t>& out) {
+    const char magic[8] = {'A', 'R', 'G', 'F', 'I', 'E', 'L', '1'};
+    out.insert(out.end(), magic, magic + 8);
+    const std::uint64_t f = rays_fingerprint(plan);
+    const std::int32_t rect[4] = {r.x0, r.y0, r.x1, r.y1};
+    unsigned char b[8 + sizeof rect];
+    std::memcpy(b, &f, 8);
+    std::memcpy(b + 8, rect, sizeof rect);
+    out.insert(out.end(), b, b + sizeof b);
+}
+
 void reset_figures(TileView& out, int w, int h) {
     out.width = w;
     out.height = h;
@@ -1956,7 +2092,8 @@ void reset_figures(TileView& out, int w, int h) {
 /// a tile of that band alone is traced. So each band's pixels are the bits
 /// render_tile gives for its plan alone, by construction.
 void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRect& r,
-                       const std::vector<TileView*>& outs, const ExactSolver* exact) {
+                       const std::vector<TileView*>& outs, const ExactSolver* exact, RootField* record,
+                       const RootField* replay) {
     const FramePlan& plan = *plans[0];
     const FrameParams& fp = plan.params;
     const int w = std::max(0, r.x1 - r.x0), h = std::max(0, r.y1 - r.y0);
@@ -1970,6 +2107,17 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
     }
     PrimaryBatch batch(plan, resolved_kernel(plan.params.engine), plan.params.engine.cull);
     batch.begin_tile(side * w);
+    // The root field: recorded as the batch solves, or replayed instead of
+    // solving (its header names the rays and the tile it holds).
+    std::size_t at = 0;
+    if (record) field_header(plan, r, record->bytes);
+    if (replay) {
+        std::vector<std::uint8_t> want;
+        field_header(plan, r, want);
+        if (replay->bytes.size() < want.size() || std::memcmp(replay->bytes.data(), want.data(), want.size()) != 0)
+            throw std::invalid_argument("root field: it holds another tile, scene, camera or set of parameters");
+        at = want.size();
+    }
     // Every object solved in the batch: a certified sample may take
     // Tracer::intersect_batched (intersect's result, the ladder unneeded).
     bool all_batched = batch.any();
@@ -2012,7 +2160,12 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                 if (batch.any()) {
                     row_in.sy = (1.0 - 2.0 * (sy + 0.5) / rows_total) * plan.tan_half_fov;
                     detail::sample_direction_run(row_in, b0, cells, dx, dy, dz, batch.isa());
-                    batch.solve(dx, dy, dz, cells, b0 - c0);
+                    if (replay) {
+                        batch.replay(dx, dy, dz, cells, replay->bytes.data(), replay->bytes.size(), at);
+                    } else {
+                        batch.solve(dx, dy, dz, cells, b0 - c0);
+                        if (record) batch.record(record->bytes, cells);
+                    }
                 }
                 for (int c = 0; c < cells; ++c) memo[c].valid = false;
                 for (auto& band : bands) {
@@ -2064,12 +2217,36 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
             }
     }
     for (auto& band : bands) band->out.root_calls = band->tracer.root_calls;
+    if (replay && at != replay->bytes.size())
+        throw std::invalid_argument("root field: it holds more than the tile's samples");
 }
 
 void render_tile_view(const FramePlan& plan, const TileRect& rect_in, TileView& out, const ExactSolver* exact) {
-    render_tile_views({&plan}, clamp_rect(plan, rect_in), {&out}, exact);
+    render_tile_views({&plan}, clamp_rect(plan, rect_in), {&out}, exact, nullptr, nullptr);
 }
 }  // namespace
+
+std::uint64_t rays_fingerprint(const FramePlan& a) {
+    // The fields same_rays compares, in its order.
+    std::uint64_t h = 1469598103934665603ull;
+    const FrameParams& p = a.params;
+    mix(h, p.width), mix(h, p.height), mix(h, static_cast<int>(p.method)), mix(h, p.max_depth);
+    mix(h, p.hue_by_argument), mix(h, p.seed_from_neighbour), mix(h, p.samples), mix(h, p.exact_pixels_per_tile);
+    mix(h, p.exact_max_bits), mix(h, static_cast<int>(p.engine.kernel)), mix(h, p.engine.cull);
+    mix(h, static_cast<int>(p.engine.decide)), mix(h, static_cast<int>(p.engine.shade));
+    mix(h, a.tan_half_fov), mix(h, a.scene_distance);
+    for (int k = 0; k < 3; ++k) mix(h, a.eye[k]), mix(h, a.forward[k]), mix(h, a.right[k]), mix(h, a.up[k]);
+    const SceneSpec& s = a.scene;
+    mix(h, s.objects.size()), mix(h, s.lights.size());
+    for (int k = 0; k < 3; ++k) mix(h, s.background[k]);
+    for (std::size_t i = 0; i < s.objects.size(); ++i) {
+        const SurfaceSpec& u = s.objects[i];
+        mix(h, u.degree), mix(h, u.terms.size()), mix(h, u.complex_space), mix(h, u.clip_radius);
+        mix(h, a.objects[i].origin);
+        for (const Term& t : u.terms) mix(h, t.coeff), mix(h, t.ex), mix(h, t.ey), mix(h, t.ez);
+    }
+    return h;
+}
 
 bool same_rays(const FramePlan& a, const FramePlan& b) {
     const FrameParams &p = a.params, &q = b.params;
@@ -2102,7 +2279,10 @@ bool same_rays(const FramePlan& a, const FramePlan& b) {
 }
 
 void render_tile_bands(const std::vector<const FramePlan*>& plans, const TileRect& rect_in,
-                       const std::vector<TileView*>& outs, const ExactSolver* exact) {
+                       const std::vector<TileView*>& outs, const ExactSolver* exact, RootField* record,
+                       const RootField* replay) {
+    if (record && replay) throw std::invalid_argument("render_tile_bands: record a root field or replay one, not both");
+    if (record) record->bytes.clear();
     if (plans.empty() || plans.size() != outs.size())
         throw std::invalid_argument("render_tile_bands needs one output per plan, and at least one plan");
     for (std::size_t b = 1; b < plans.size(); ++b)
@@ -2127,7 +2307,7 @@ void render_tile_bands(const std::vector<const FramePlan*>& plans, const TileRec
         staged[b] = used;
         views[b] = &staging[used++]->view(w, h);
     }
-    render_tile_views(plans, r, views, exact);
+    render_tile_views(plans, r, views, exact, record, replay);
     for (std::size_t b = 0; b < outs.size(); ++b) {
         if (staged[b] < 0) continue;
         staging[staged[b]]->flush(*outs[b]);

@@ -356,6 +356,17 @@ void render_tile(const FramePlan& plan, const TileRect& rect, TileAOVs& out, con
 /// width).
 void render_tile(const FramePlan& plan, const TileRect& rect, TileView& out, const ExactSolver* exact = nullptr);
 
+/// The root field of one tile (render_tile_bands' record and replay): the
+/// primary rays' roots of its samples as the batched kernel solved them,
+/// run by run, per batched object (status, discs with their counts and
+/// proofs, the lane approximations of a provisional cell), after a header
+/// naming the rays (rays_fingerprint) and the tile. Objects the batch does
+/// not solve (degree above the kernel's, method "paper", the scalar kernel)
+/// hold nothing and are solved per band as before.
+struct RootField {
+    std::vector<std::uint8_t> bytes;
+};
+
 /// True iff two plans trace the same rays and solve the same polynomials:
 /// the same scene (objects, their terms and places, lights, background),
 /// camera and parameters, sigma and delta aside.
@@ -367,8 +378,23 @@ bool same_rays(const FramePlan& a, const FramePlan& b);
 /// escalated and shaded on its own, so outs[b] holds exactly the bits
 /// render_tile(*plans[b], rect, *outs[b], exact) writes (the single-band
 /// render_tile is this function with one band).
+///
+/// A tile's root field: with `record`, the primary roots the tile's samples
+/// were solved to are kept in *record (its bytes replaced); with `replay`
+/// (a field recorded for the same rays and tile), they are read from it
+/// instead of solved. Either way every band's pixels are the bits
+/// render_tile gives: a field replays the very answers of the solve that
+/// recorded it, and everything else (polynomials, clip tests, decisions,
+/// the ladder, shading) is computed as without one. Throws
+/// std::invalid_argument for a field of other rays or another tile (its
+/// header), or one cut short or damaged.
 void render_tile_bands(const std::vector<const FramePlan*>& plans, const TileRect& rect,
-                       const std::vector<TileView*>& outs, const ExactSolver* exact = nullptr);
+                       const std::vector<TileView*>& outs, const ExactSolver* exact = nullptr,
+                       RootField* record = nullptr, const RootField* replay = nullptr);
+
+/// A fingerprint of everything same_rays compares (sigma and delta aside):
+/// plans whose fingerprints differ do not trace the same rays.
+std::uint64_t rays_fingerprint(const FramePlan& plan);
 
 /// The primary ray of sample `sample` (0..samples - 1) of pixel (x, y):
 /// the very doubles render_tile uses.

@@ -21,6 +21,7 @@ import numpy as np
 
 from argand.core import _core
 from argand.render.exact import decide_pixel
+from argand.render.field import RootField
 from argand.render.options import EngineOptions
 
 #: AOV names, in the order they are stored in EXR files after R, G, B, A
@@ -309,13 +310,20 @@ def render_bands(
     tile: int = 64,
     workers: int | None = None,
     on_tile: Callable[[TileAOVs], None] | None = None,
+    field: RootField | None = None,
+    record: RootField | None = None,
 ) -> list[FrameResult]:
     """Renders frames that differ only in their band (σ, δ) together: each
     tile's primary roots are solved once for all of them (the roots do not
     depend on the band), then every band is decided, escalated and shaded
     on its own. Each frame is, to the bit, what render_frame gives for its
     parameters alone. Raises ValueError if the frames differ in anything but
-    σ and δ. A frame's seconds are the bands' shared time, divided evenly."""
+    σ and δ. A frame's seconds are the bands' shared time, divided evenly.
+
+    ``field``: a root field recorded for these rays with this tile size
+    (RootField.covers): the roots are read from it, not solved (the same
+    bits). ``record``: an empty RootField(fingerprint=0, ...) that receives
+    the tiles' fields as they are solved (its fingerprint and size set)."""
     from argand.render.convert import to_core_scene
 
     if not params:
@@ -330,10 +338,22 @@ def render_bands(
     frames = [_FramePlanes(p) for p in params]
     rects = tiles(first.width, first.height, tile)
     n_workers = max(1, workers or os.cpu_count() or 1)
+    if field is not None and not field.covers(plans[0], tile):
+        raise ValueError("render_bands: the root field was recorded for other rays or another tile size")
+    if record is not None:
+        record.fingerprint = int(_core.rays_fingerprint(plans[0]))
+        record.width, record.height, record.tile = first.width, first.height, tile
+        record.tiles.clear()
 
     def render(r: TileRect) -> tuple:
-        return r, _core.render_tile_bands(plans, r.x0, r.y0, r.x1, r.y1, [f.planes for f in frames],
-                                          exact=decide_pixel)
+        outs = [f.planes for f in frames]
+        if record is not None:
+            figures, tape = _core.render_tile_bands(plans, r.x0, r.y0, r.x1, r.y1, outs, exact=decide_pixel,
+                                                    record=True)
+            record.tiles[(r.x0, r.y0, r.x1, r.y1)] = tape
+            return r, figures
+        tape = field.tiles[(r.x0, r.y0, r.x1, r.y1)] if field is not None else None
+        return r, _core.render_tile_bands(plans, r.x0, r.y0, r.x1, r.y1, outs, exact=decide_pixel, field=tape)
 
     def place(done: tuple) -> None:
         r, figures = done
