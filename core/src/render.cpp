@@ -30,6 +30,7 @@
 #include "argand/arith.h"
 #include "argand/roots_batch.h"
 #include "pixel_decision.h"
+#include "polish.h"
 #include "ray_polynomial.h"
 #include "root_kernels.h"
 
@@ -821,6 +822,13 @@ public:
         r.settled = false;
     }
 
+    /// Cell c's ray polynomial coefficients for object obj (batched(obj)),
+    /// c[0..degree]: the doubles its discs were proven for.
+    void coefficients(int obj, int c, double* out) const {
+        const detail::PrimaryRun& p = objects_[obj].run;
+        for (int k = 0; k <= p.n; ++k) out[k] = p.c[k][c];
+    }
+
     /// Replaces the provisional (merged) discs of cell c of object obj in
     /// r with find_roots' answer from the lane's approximations: what
     /// find_roots_soa answers without SoaRows::provisional, to the bit.
@@ -1028,6 +1036,13 @@ public:
                 if (trace) trace->exact = std::move(answer);
             }
         }
+        if (h.hit && detail::wants_polish(h.disc)) {
+            double c[kMaxDegree + 1];
+            const int n = plan_.scene.objects[h.object].degree;
+            if (primary && pre != nullptr && pre->batch->batched(h.object)) pre->batch->coefficients(h.object, pre->cell, c);
+            else std::copy(roots[h.object].poly.c, roots[h.object].poly.c + n + 1, c);
+            polish(h, c, n);
+        }
         h.level = level;
         if (seeds && seed_objects_) {
             // Only for the objects whose seeds a later sample may read: the
@@ -1091,8 +1106,25 @@ public:
         filled = true;
         if (!(n_obj == 1 ? decide_one(roots, h) : decide_fast(roots, h))) return false;
         root_calls += calls;
+        if (h.hit && detail::wants_polish(h.disc)) {
+            double c[kMaxDegree + 1];
+            pre.batch->coefficients(h.object, pre.cell, c);
+            polish(h, c, plan_.scene.objects[h.object].degree);
+        }
         h.level = level;
         return true;
+    }
+
+    /// The hit's value (its disc's centre, which the AOVs and the shading
+    /// read) replaced by the disc's one root to double accuracy
+    /// (polish_root), where it settles; the disc's proof and the decision
+    /// stay. So a wide disc writes its root, not the solver's approximation.
+    static void polish(HitInfo& h, const double* c, int n) {
+        double re, im;
+        if (!detail::polish_root(c, n, h.disc, re, im)) return;
+        h.disc.re = re;
+        h.disc.im = im;
+        h.modulus = im == 0.0 && !std::isnan(re) ? std::fabs(re) : std::hypot(re, im);
     }
 
     /// Colour seen along a ray (recursion for real reflective / transparent
@@ -2148,6 +2180,10 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
     // neighbour seeds flowing along each row of samples. With a batched
     // kernel, each run of PrimaryBatch::kCells samples of a row of samples
     // has its primary roots solved together first.
+    // Seeds flow within blocks of kSeedBlock x kSeedBlock samples aligned
+    // on the frame's grid of samples (FrameParams::seed_from_neighbour):
+    // the batch's seeds from above restart at each block's first row of
+    // samples, the scalar path's from the left at each block's first column.
     for (int y = r.y0; y < r.y1; ++y) {
         if (side > 1)
             for (auto& band : bands) std::fill(band->row.begin(), band->row.end(), PixelAccumulator{});
@@ -2155,6 +2191,7 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
             for (auto& band : bands)
                 for (Seeds& s : band->seeds) s.valid = false;
             const int c0 = side * r.x0, c1 = side * r.x1, sy = side * y + j;
+            if (sy != side * r.y0 && sy % kSeedBlock == 0 && batch.any()) batch.begin_tile(side * w);
             for (int b0 = c0; b0 < c1; b0 += PrimaryBatch::kCells) {
                 const int cells = std::min(PrimaryBatch::kCells, c1 - b0);
                 if (batch.any()) {
@@ -2174,6 +2211,8 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                     for (int c = 0; c < cells; ++c) {
                         const BatchedCell pre{&batch, c};
                         const int sx = b0 + c;
+                        if (sx % kSeedBlock == 0)
+                            for (Seeds& s : band->seeds) s.valid = false;
                         // (The run's directions are sample_direction's, to the bit.)
                         const double dir[3] = {dx[c], dy[c], dz[c]};
                         SampleResult sample;
@@ -2326,10 +2365,13 @@ PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_star
     if (column_start < 0 || column_start > y) throw std::invalid_argument("column_start must be in 0..y");
     if (sample < 0 || sample >= fp.samples)
         throw std::invalid_argument("sample must be in 0.." + std::to_string(fp.samples - 1));
-    // Replay the tile's row of samples from its first sample (the neighbour
-    // seeds render_tile would have), then trace the sample.
+    // Replay the tile's row of samples from its first sample, or from the
+    // first of the pixel's seed block (the neighbour seeds render_tile
+    // would have), then trace the sample.
     const int side = sample_side(fp.samples);
     const int sx_cell = side * x + sample % side, sy_cell = side * y + sample / side;
+    const int first_cell = std::max(side * row_start, sx_cell - sx_cell % kSeedBlock);
+    const int first_row = std::max(side * column_start, sy_cell - sy_cell % kSeedBlock);
     const bool cull = plan.params.engine.cull;
     Tracer tracer(plan, exact, cull);
     tracer.explaining_ = true;
@@ -2343,11 +2385,11 @@ PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_star
     batch.begin_tile(1);
     double dir[3];
     if (batch.any())
-        for (int sy = side * column_start; sy < sy_cell; ++sy) {
+        for (int sy = first_row; sy < sy_cell; ++sy) {
             sample_direction(plan, sx_cell, sy, side, dir);
             batch.solve(dir, dir + 1, dir + 2, 1, 0);
         }
-    for (int c = side * row_start; c <= sx_cell; ++c) {
+    for (int c = first_cell; c <= sx_cell; ++c) {
         const BatchedCell pre{&batch, 0};
         const bool batched = batch.any() && c == sx_cell;
         if (batched) {

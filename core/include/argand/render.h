@@ -117,6 +117,10 @@ const char* shade_mode_name(ShadeMode mode);
 bool decide_mode_from_name(const std::string& name, DecideMode& out);
 bool shade_mode_from_name(const std::string& name, ShadeMode& out);
 
+/// The side, in samples, of the frame-aligned blocks the neighbour seeds
+/// flow in (see FrameParams::seed_from_neighbour).
+constexpr int kSeedBlock = 8;
+
 struct FrameParams {
     double sigma = 0.0;
     double delta = 0.0;
@@ -125,6 +129,12 @@ struct FrameParams {
     Method method = Method::Auto;
     int max_depth = 3;           // reflection / refraction bounces
     bool hue_by_argument = false;
+    // Neighbour seeds flow within blocks of kSeedBlock x kSeedBlock samples
+    // aligned on the frame's grid of samples (and within a tile): every row
+    // and column of samples that is a multiple of kSeedBlock starts
+    // unseeded, so a frame cut into tiles whose sides are multiples of
+    // kSeedBlock is the same bits whatever the tile size (and a frame of k x k
+    // samples per pixel has the seeds of the frame k times its size).
     bool seed_from_neighbour = true;
     int samples = 1;             // per pixel: a square (1, 4, 9, ..., kMaxSamples), see sample_side
     // The exact tier (ladder level 4, an ExactSolver given to render_tile):
@@ -456,7 +466,8 @@ struct PixelExplanation {
 /// Runs render_tile's code path for sample `sample` of pixel (x, y), as part
 /// of a tile whose rows start at column row_start and whose first row is
 /// column_start (the neighbour seeds of that row of samples, and the batched
-/// kernel's seeds from the samples above, are replayed), and records every
+/// kernel's seeds from the samples above, are replayed from there or from
+/// the start of the pixel's seed block, whichever is later), and records every
 /// decision. The exact tier (when given) runs for that sample only, whatever
 /// the tile's budget.
 PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_start, int sample = 0,

@@ -1,0 +1,82 @@
+// polish.cpp: see polish.h.
+#include "polish.h"
+
+#include <cmath>
+
+#include "argand/arith.h"
+
+namespace argand::detail {
+
+namespace {
+constexpr int kMaxSteps = 8;
+// A step this small (relative) ends the iteration: Newton's next error is
+// of its square, far below a double's last place (the double-double
+// evaluation's own error, some 2^-100 times the root's condition number,
+// may keep the steps from ever getting much smaller).
+constexpr double kSettled = 0x1p-64;
+}  // namespace
+
+bool wants_polish(const RootDisc& d) {
+    return d.verified && d.count == 1 && d.radius > kPolishRelativeRadius * std::hypot(d.re, d.im);
+}
+
+bool polish_root(const double* c, int n, const RootDisc& d, double& re, double& im) {
+    using DD = DoubleDouble;
+    if (n < 1 || !d.verified || d.count != 1) return false;
+    {
+        // Newton's step in double from the centre: where it is below
+        // kPolishRelativeRadius of the root, the centre is as good as a
+        // float32 AOV can show (most discs are wide from their coefficients'
+        // radii, not from their centres), and is kept.
+        const Complex<double> z(d.re, d.real ? 0.0 : d.im);
+        Complex<double> p(c[n], 0.0), dp(0.0, 0.0);
+        for (int k = n - 1; k >= 0; --k) {
+            dp = dp * z + p;
+            p = add_real(p * z, c[k]);
+        }
+        const double step = std::hypot(p.re, p.im), slope = std::hypot(dp.re, dp.im);
+        if (std::isfinite(step) && std::isfinite(slope) && step <= kPolishRelativeRadius * slope * std::hypot(z.re, z.im))
+            return false;
+    }
+    if (d.real) {
+        DD x(d.re);
+        for (int step = 0; step < kMaxSteps; ++step) {
+            DD p(c[n]), dp(0.0);
+            for (int k = n - 1; k >= 0; --k) {
+                dp = dp * x + p;
+                p = p * x + DD(c[k]);
+            }
+            if (dp.hi == 0.0 || !is_finite(p) || !is_finite(dp)) return false;
+            const DD dx = p / dp;
+            x = x - dx;
+            if (!is_finite(x) || !(std::fabs(x.hi - d.re) <= d.radius)) return false;
+            if (std::fabs(dx.hi) <= kSettled * std::fabs(x.hi)) {
+                re = x.hi + x.lo;  // (normalised: x.hi, the nearest double)
+                im = 0.0;
+                return true;
+            }
+        }
+        return false;
+    }
+    using C = Complex<DD>;
+    C z(DD(d.re), DD(d.im));
+    for (int step = 0; step < kMaxSteps; ++step) {
+        C p(DD(c[n]), DD(0.0)), dp(DD(0.0), DD(0.0));
+        for (int k = n - 1; k >= 0; --k) {
+            dp = dp * z + p;
+            p = add_real(p * z, DD(c[k]));
+        }
+        if ((dp.re.hi == 0.0 && dp.im.hi == 0.0) || !is_finite(p) || !is_finite(dp)) return false;
+        const C dz = p / dp;
+        z = z - dz;
+        if (!is_finite(z) || !(std::hypot(z.re.hi - d.re, z.im.hi - d.im) <= d.radius)) return false;
+        if (std::hypot(dz.re.hi, dz.im.hi) <= kSettled * std::hypot(z.re.hi, z.im.hi)) {
+            re = z.re.hi + z.re.lo;
+            im = z.im.hi + z.im.lo;
+            return true;
+        }
+    }
+    return false;
+}
+
+}  // namespace argand::detail

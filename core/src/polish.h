@@ -1,0 +1,37 @@
+// polish.h: a proven simple root's value, refined to what a double holds.
+//
+// A verified disc with count 1 proves that one root lies in it; its centre
+// is only the solver's approximation, as good as the iteration that found
+// it (a batched lane may stop with a disc of radius 1e-2 around a centre
+// 1e-3 off). The renderer writes the root's value into the AOVs (Z, re,
+// im, arg) and shades at it, so a wide disc is polished first: Newton's
+// iteration in double-double on the double coefficients the disc was
+// proven for, from the centre, kept only where it settles inside the disc
+// (then it is that disc's one root, to about 2^-100 relative, rounded to
+// double). Nothing proven changes: the disc, its count and every decision
+// made from it stay as they are.
+#pragma once
+
+#include "argand/roots.h"
+
+namespace argand::detail {
+
+/// Relative distance below which a simple root's value is left as it is:
+/// a centre that close to its root (or a disc that narrow) is closer than
+/// a float32 AOV (Z, re, im: 24 bits) can tell.
+constexpr double kPolishRelativeRadius = 0x1p-26;
+
+/// True iff a verified disc of one root may be worth polishing: its radius
+/// exceeds kPolishRelativeRadius times its centre's modulus.
+bool wants_polish(const RootDisc& d);
+
+/// The root of p(t) = c[0] + c[1] t + ... + c[n] t^n in the verified,
+/// count-1 disc d, by Newton's iteration in double-double from d's centre
+/// (real iteration when d.real: the root is real), rounded to double into
+/// (re, im). Returns false (re, im untouched) where the centre is already
+/// within kPolishRelativeRadius of the root by Newton's step in double, or
+/// the iteration does not converge, leaves the disc, or meets a zero
+/// derivative.
+bool polish_root(const double* c, int n, const RootDisc& d, double& re, double& im);
+
+}  // namespace argand::detail

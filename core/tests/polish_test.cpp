@@ -1,0 +1,76 @@
+// polish_test.cpp: polish_root (polish.h) against roots known exactly or
+// correctly rounded, from starts all over their discs: the same double
+// whatever the start, false where the disc does not hold the root.
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "check.h"
+#include "polish.h"
+
+using namespace argand;
+using argand::detail::polish_root;
+using argand::detail::wants_polish;
+
+namespace {
+RootDisc disc(double re, double im, double radius, bool real, int count = 1, bool verified = true) {
+    return RootDisc{re, im, radius, count, verified, real};
+}
+}  // namespace
+
+int main() {
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+
+    // t^2 - 2: the positive root is sqrt(2) correctly rounded, from any start
+    // in a disc of radius 1e-2 (real iteration).
+    {
+        const double c[] = {-2.0, 0.0, 1.0};
+        for (int i = 0; i < 200; ++i) {
+            double re = NAN, im = NAN;
+            const RootDisc d = disc(std::sqrt(2.0) + 0.009 * u(rng), 0.0, 0.02, true);
+            CHECK(polish_root(c, 2, d, re, im));
+            CHECK(re == std::sqrt(2.0) && im == 0.0);
+        }
+    }
+    // (t - 1.5)(t + 2.25)(t^2 - 1.5 t + 2.125): roots 1.5, -2.25, 0.75 +- 1.25 i,
+    // every coefficient exact; complex iteration for the pair.
+    {
+        // (t^2 + 0.75 t - 3.375)(t^2 - 1.5 t + 2.125)
+        const double c[] = {-3.375 * 2.125, 0.75 * 2.125 + 3.375 * 1.5, 2.125 - 1.125 - 3.375, 0.75 - 1.5, 1.0};
+        for (int i = 0; i < 200; ++i) {
+            double re = NAN, im = NAN;
+            const RootDisc d = disc(0.75 + 0.004 * u(rng), 1.25 + 0.004 * u(rng), 0.01, false);
+            CHECK(polish_root(c, 4, d, re, im));
+            CHECK(re == 0.75 && im == 1.25);
+            CHECK(polish_root(c, 4, disc(-2.25 + 0.01 * u(rng), 0.0, 0.03, true), re, im));
+            CHECK(re == -2.25 && im == 0.0);
+        }
+    }
+    // t^2 - 2 t + 3: 1 +- i sqrt(2).
+    {
+        const double c[] = {3.0, -2.0, 1.0};
+        double re = NAN, im = NAN;
+        CHECK(polish_root(c, 2, disc(1.0003, -1.4139, 0.01, false), re, im));
+        CHECK(re == 1.0 && im == -std::sqrt(2.0));
+    }
+    // Refusals: a disc not verified, one of two roots, one that holds no
+    // root (the iteration leaves it), a start at a zero derivative.
+    {
+        const double c[] = {-2.0, 0.0, 1.0};
+        double re = 7.0, im = 7.0;
+        CHECK(!polish_root(c, 2, disc(1.41, 0.0, 0.01, true, 1, false), re, im));
+        CHECK(!polish_root(c, 2, disc(1.41, 0.0, 0.01, true, 2), re, im));
+        CHECK(!polish_root(c, 2, disc(3.0, 0.0, 0.5, true), re, im));
+        CHECK(!polish_root(c, 2, disc(0.0, 0.0, 0.1, true), re, im));
+        CHECK(re == 7.0 && im == 7.0);  // untouched
+        const double cubed[] = {-1.0, 3.0, -3.0, 1.0};  // (t - 1)^3: no simple root to polish
+        CHECK(!polish_root(cubed, 3, disc(1.0, 0.0, 0.0, true), re, im));
+    }
+    // wants_polish: wide discs of one verified root only.
+    CHECK(wants_polish(disc(4.2, 0.0, 0.05, true)));
+    CHECK(!wants_polish(disc(4.2, 0.0, 1e-9, true)));
+    CHECK(!wants_polish(disc(4.2, 0.0, 0.05, true, 2)));
+    CHECK(!wants_polish(disc(4.2, 0.0, 0.05, true, 1, false)));
+    return check_summary("polish_test");
+}
