@@ -207,33 +207,42 @@ async function jobPage(id) {
     <div class="controls" id="actions" aria-label="Job actions"></div>
     <div class="bar" role="progressbar" aria-label="Progress" id="progress"><span style="width:${pct(job.progress)}"></span></div>
     <p class="muted" id="progress-text"></p>
-    <div class="player"><div>
-      <canvas id="canvas" width="${job.width}" height="${job.height}" aria-label="Frame"></canvas>
-      <video id="video" width="${job.width}" height="${job.height}" controls loop muted playsinline hidden aria-label="Animation (MP4)"></video>
-      <div class="controls">
-        <button id="play" aria-label="Play or pause (space)">▶ play</button>
-        <button id="prev" aria-label="Previous frame (left arrow)">◀</button>
-        <button id="next" aria-label="Next frame (right arrow)">▶</button>
+    <div class="player"><div class="stage-column">
+      <div class="stage" id="stage">
+        <canvas id="canvas" width="${job.width}" height="${job.height}" aria-label="Frame"></canvas>
+        <video id="video" width="${job.width}" height="${job.height}" controls loop muted playsinline hidden aria-label="Animation (MP4)"></video>
+      </div>
+      <div class="transport" id="transport">
+        <div class="controls">
+          <button id="play" aria-label="Play or pause (space)">▶ play</button>
+          <button id="prev" aria-label="Previous frame (left arrow)">◀</button>
+          <button id="next" aria-label="Next frame (right arrow)">▶</button>
+          <label class="slider">δ <input id="scrub" type="range" min="0" max="0" value="0" aria-label="Frame along δ (left and right arrows)"></label>
+        </div>
+        <label class="slider">σ <input id="scrub-sigma" type="range" min="0" max="0" value="0" aria-label="Frame along σ (up and down arrows)"></label>
+        <div id="scrub-label" class="muted" aria-live="off"></div>
+      </div>
+    </div><aside>
+      <div class="controls settings" aria-label="Player settings">
         <label>along <select id="play-axis" aria-label="Play along"><option value="delta">δ</option><option value="sigma">σ</option></select></label>
         <label>mode <select id="mode"><option value="loop">loop</option><option value="pingpong">ping-pong</option></select></label>
         <label>fps <input id="fps" type="number" min="1" max="60" value="8" style="width:4rem"></label>
         <label>channel <select id="channel" aria-label="Channel">${meta.channels.map((c) => `<option>${c}</option>`).join("")}</select></label>
         <button id="show-mp4" hidden aria-pressed="false">MP4</button>
       </div>
-      <label class="slider">δ <input id="scrub" type="range" min="0" max="0" value="0" aria-label="Frame along δ (left and right arrows)"></label>
-      <label class="slider">σ <input id="scrub-sigma" type="range" min="0" max="0" value="0" aria-label="Frame along σ (up and down arrows)"></label>
-      <div id="scrub-label" class="muted"></div>
       <div id="legend" class="legend muted" hidden>status:${meta.pixel_statuses.map((p) => `<span style="background:${p.colour}"></span>${p.name}`).join("")}
         <span style="background:${meta.status_empty.colour};outline:1px solid var(--line)"></span>dark: ${esc(meta.status_empty.meaning)}</div>
-    </div><aside><h2 style="font-size:1rem">Frame</h2><dl id="figures"></dl>
+      <h2 style="font-size:1rem">Frame</h2><dl id="figures"></dl>
       <h2 style="font-size:1rem">Downloads</h2><div id="downloads" class="muted">No frame is done yet.</div></aside></div>
     <h2 id="atlas-title" style="font-size:1rem">Frames</h2>
     <div class="frames" id="grid"></div>`));
   const canvas = view.querySelector("#canvas"), ctx = canvas.getContext("2d"), video = view.querySelector("#video");
   const scrub = view.querySelector("#scrub"), scrubSigma = view.querySelector("#scrub-sigma"), channel = view.querySelector("#channel");
-  const axisSelect = view.querySelector("#play-axis");
+  const axisSelect = view.querySelector("#play-axis"), playButton = view.querySelector("#play");
+  const stage = view.querySelector("#stage"), transport = view.querySelector("#transport");
   const images = new Map();  // `${channel}/${index}` -> HTMLImageElement (preloaded)
   let current = 0, playing = false, dir = 1, timer = null, gridKey = "";
+  let live = true;  // false once the user has left the page (a late answer changes nothing)
   const isGrid = () => job.sigmas.length > 1 && job.deltas.length > 1;
   // The frames through the current one along an axis, in order.
   const line = (axis) => {
@@ -247,8 +256,11 @@ async function jobPage(id) {
     if (!images.has(key) && f.status === "done") { const img = new Image(); img.src = url(f, ch); images.set(key, img); }
     return images.get(key);
   }
-  function show(i) {
+  // Shows frame i: the label, sliders, figures and atlas follow; in MP4
+  // mode the video is sought to it too, unless the video is what moved.
+  function show(i, fromVideo = false) {
     current = i;
+    if (!video.hidden && !fromVideo && video.readyState >= 1 && videoFrame(video.currentTime) !== i) video.currentTime = (i + 0.5) / mp4Fps();
     const f = job.frames[i];
     const row = line("delta"), col = line("sigma");
     scrub.max = row.length - 1; scrub.value = row.findIndex((g) => g.index === i);
@@ -278,11 +290,48 @@ async function jobPage(id) {
     } else k = (at + d + n) % n;
     show(frames[k].index);
   }
+  // Play or pause: the flipbook on the canvas, or in MP4 mode the video.
   function setPlaying(p) {
-    playing = p; clearInterval(timer);
-    view.querySelector("#play").textContent = p ? "❚❚ pause" : "▶ play";
-    if (p) timer = setInterval(() => step(1), 1000 / Math.max(1, Number(view.querySelector("#fps").value) || 8));
+    playing = p; clearInterval(timer); timer = null;
+    playButton.textContent = p ? "❚❚ pause" : "▶ play";
+    if (!video.hidden) { if (p) video.play().catch(() => {}); else video.pause(); }
+    else if (p) timer = setInterval(() => step(1), 1000 / Math.max(1, Number(view.querySelector("#fps").value) || 8));
   }
+  // The picture's displayed size, the same for the canvas and the video: the
+  // frame at the largest integer zoom (in device pixels) that fits the room
+  // the page leaves it, above the transport and within the viewport's
+  // height, with crisp pixels; a frame larger than that room is scaled down
+  // to fit. Never a fractional stretch.
+  function fit() {
+    if (!live) return;
+    const dpr = window.devicePixelRatio || 1;
+    const top = stage.getBoundingClientRect().top + window.scrollY;
+    const gap = parseFloat(getComputedStyle(transport).marginTop) || 0;
+    const roomW = stage.clientWidth;
+    const roomH = Math.max(96, window.innerHeight - top - gap - transport.offsetHeight - 12);
+    const s = Math.min(roomW / job.width, roomH / job.height) * dpr;
+    const zoom = s >= 1 ? Math.floor(s) : s;  // device pixels per frame pixel
+    for (const el of [canvas, video]) {
+      el.style.width = `${(job.width * zoom) / dpr}px`; el.style.height = `${(job.height * zoom) / dpr}px`;
+      el.classList.toggle("zoomed", zoom > 1);
+    }
+    stage.dataset.zoom = String(+zoom.toFixed(4));
+    transport.style.maxWidth = `${Math.max(360, (job.width * zoom) / dpr)}px`;  // the slider under the picture
+  }
+  // The MP4's frame rate: the job's when the API gives it, else the farm's
+  // (animation.mp4 is encoded at 8 fps, every frame once, in index order).
+  const mp4Fps = () => Number(job.fps) || 8;
+  const videoFrame = (t) => Math.min(job.frames.length - 1, Math.max(0, Math.floor(t * mp4Fps() + 1e-3)));
+  // While the MP4 plays (or is sought), the label, sliders and figures follow
+  // its frame: each frame presented (requestVideoFrameCallback, where there
+  // is one) and each timeupdate.
+  const followVideo = (t) => { if (live && !video.hidden && job.frames.length) { const i = videoFrame(t); if (i !== current) show(i, true); } };
+  let frameCallback = null;
+  const onVideoFrame = (_now, m) => { followVideo(m.mediaTime); if (live) frameCallback = video.requestVideoFrameCallback(onVideoFrame); };
+  if ("requestVideoFrameCallback" in video) frameCallback = video.requestVideoFrameCallback(onVideoFrame);
+  ["timeupdate", "seeked"].forEach((e) => video.addEventListener(e, () => followVideo(video.currentTime)));
+  video.addEventListener("play", () => { if (!video.hidden) { playing = true; playButton.textContent = "❚❚ pause"; } });
+  video.addEventListener("pause", () => { if (!video.hidden) { playing = false; playButton.textContent = "▶ play"; } });
   // The frames as a contact sheet: one row per σ, one column per δ (an
   // atlas); a sweep along one axis is a strip of thumbnails.
   function cells(j) {
@@ -295,7 +344,6 @@ async function jobPage(id) {
       + j.sigma_labels.map((s, r) => `<span class="axis" style="grid-row:${r + 2};grid-column:1">${esc(s)}</span>`).join("")
       + j.frames.map(cell).join("");
   }
-  let live = true;  // false once the user has left the page (a late answer changes nothing)
   // Any band of the job once it is done (bands.js): σ and δ sliders over the whole band rule.
   let bands = null;
   const bandsFollow = (j) => {
@@ -333,15 +381,18 @@ async function jobPage(id) {
         <details id="frame-files"${j.status === "done" ? "" : " open"}><summary>${finished.length} of ${j.frames.length} frames</summary>${finished.map((f) => `<div>${f.index} (σ ${sigmaOf(j, f)}, δ ${deltaOf(j, f)}): <a href="${f.png_url}" download>PNG</a> <a href="${f.exr_url}" download>EXR</a></div>`).join("")}</details>`
       : `No frame is done yet.`));
     show(Math.min(current, j.frames.length - 1));
+    fit();  // what is above the picture, or the σ slider, may have changed
   }
   refresh(job);
+  window.addEventListener("resize", fit);
   // The MP4 in place of the canvas (the browser's own player), and back.
   view.querySelector("#show-mp4").addEventListener("click", (ev) => {
     const on = video.hidden;
     setPlaying(false);
     if (on && !video.src) video.src = job.mp4_url;
     video.hidden = !on; canvas.hidden = on; ev.target.setAttribute("aria-pressed", String(on));
-    if (on) video.play().catch(() => {}); else video.pause();
+    if (on) { video.currentTime = (current + 0.5) / mp4Fps(); setPlaying(true); }  // from the frame shown
+    else show(current);  // the canvas at the frame the video was at
   });
   view.querySelector("#play").addEventListener("click", () => setPlaying(!playing));
   view.querySelector("#prev").addEventListener("click", () => { setPlaying(false); step(-1); });
@@ -352,7 +403,7 @@ async function jobPage(id) {
   channel.addEventListener("change", () => { view.querySelector("#legend").hidden = channel.value !== "status"; job.frames.forEach((f) => image(f, channel.value)); show(current); });
   view.querySelector("#grid").addEventListener("click", (ev) => { const c = ev.target.closest(".cell"); if (c) { setPlaying(false); show(Number(c.dataset.index)); } });
   const keys = (ev) => {
-    if (ev.target.matches("input, select, textarea")) return;
+    if (ev.target.matches("input, select, textarea, video")) return;  // (a focused video has its own keys)
     const moves = { ArrowRight: [1, "delta"], ArrowLeft: [-1, "delta"], ArrowDown: [1, "sigma"], ArrowUp: [-1, "sigma"] };
     if (ev.key === " ") { ev.preventDefault(); setPlaying(!playing); }
     else if (moves[ev.key]) { ev.preventDefault(); setPlaying(false); step(...moves[ev.key]); }
@@ -375,7 +426,8 @@ async function jobPage(id) {
     if (after === null) { location.hash = "#/jobs"; return; }
     if (after) { refresh(after); follow(); }
   });
-  cleanup = () => { live = false; bands?.detach(); clearInterval(timer); document.removeEventListener("keydown", keys); source?.close(); video.pause(); };
+  cleanup = () => { live = false; bands?.detach(); clearInterval(timer); document.removeEventListener("keydown", keys); source?.close(); video.pause();
+    window.removeEventListener("resize", fit); if (frameCallback !== null) video.cancelVideoFrameCallback(frameCallback); };
 }
 
 // ---------------------------------------------------------------- workers
