@@ -47,14 +47,16 @@ def test_a_farm_killed_whole_and_restarted_finishes_within_the_heartbeat_timeout
     The job finishes within the heartbeat timeout plus a run's time, not
     after twice the hard time limit (here 2 x 60 s); every tile is counted
     once and the frames equal a local render."""
-    limits = {"ARGAND_TILE_SOFT_TIME_LIMIT_S": "50", "ARGAND_TILE_HARD_TIME_LIMIT_S": "60"}
+    # One frame per run and a job of some seconds: a job rendered 8 bands a
+    # run at 64x64 can finish between two polls, before any tile is seen running.
+    limits = {"ARGAND_TILE_SOFT_TIME_LIMIT_S": "50", "ARGAND_TILE_HARD_TIME_LIMIT_S": "60", "ARGAND_BANDS_PER_RUN": "1"}
     data = tmp_path / "data"
     farm = Farm(data, workers=2, **limits).start()
     try:
         names = {w["name"] for w in farm.get("/api/workers")}
         assert all(re.fullmatch(r"w\d\+[0-9a-f]{8}@.+", n) for n in names), names
-        r = farm.post("/api/jobs", {"scene": "whitney-in-sphere", "deltas": {"start": 0, "stop": "pi/9", "count": 8},
-                                    "width": 64, "height": 64, "tile": 16})
+        r = farm.post("/api/jobs", {"scene": "whitney-in-sphere", "deltas": {"start": 0, "stop": "pi/9", "count": 24},
+                                    "width": 128, "height": 128, "tile": 16})
         assert r.status_code == 201, r.text
         job_id = r.json()["id"]
         _wait(lambda: _db(data, "select count(*) from tiles where job_id = :j and status = 'running'", j=job_id)[0][0]
