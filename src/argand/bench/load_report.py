@@ -241,11 +241,14 @@ def causes(report: dict) -> list[str]:
         others = (loaded["machine"] - ours) if loaded.get("machine") is not None else None
         others_idle = (idle["machine"] - sum(v for k, v in idle.items() if k != "machine")) \
             if idle.get("machine") is not None else None
-        per_frame = tp["worker_cpu_s_per_frame_loaded"] / tp["worker_cpu_s_per_frame_unloaded"] - 1
+        # (A smoke run's idle replay can be too short for the workers' CPU
+        # clock to move: no ratio then.)
+        unloaded = tp["worker_cpu_s_per_frame_unloaded"]
+        per_frame = tp["worker_cpu_s_per_frame_loaded"] / unloaded - 1 if unloaded > 0 else float("nan")
         out.append(
             f"**Rendering under load: {100 * tp['share']:.0f}% of the idle farm's rate.** The workers had "
             f"{loaded['workers']:.2f} cores under load against {idle['workers']:.2f} in the idle replay, and a frame "
-            f"took {100 * per_frame:+.0f}% worker CPU. The API and the users' process took {loaded['api']:.2f} and "
+            f"took {'an unmeasured' if per_frame != per_frame else f'{100 * per_frame:+.0f}%'} worker CPU. The API and the users' process took {loaded['api']:.2f} and "
             f"{loaded['users (locust)']:.2f} cores"
             + (f"; other work on this shared machine {others:.2f} cores under load and {others_idle:.2f} during the "
                "replay. Here the farm's own cost cannot be told apart from its neighbours'; on a machine of its "
