@@ -410,3 +410,40 @@ def test_what_runs_write_by_default_is_ignored_by_git():
         r = subprocess.run(["git", "check-ignore", "-q", path], cwd=repo, timeout=30)
         assert r.returncode == 0, f"{path} is not ignored by .gitignore"
     assert not str(SHOTS.relative_to(repo)).startswith("docs")
+
+
+def test_render_writes_the_root_field_and_later_groups_decide_from_it(tmp_path):
+    """An atlas of 45 frames (two groups of bands: the second decided from
+    the first's root field) with --root-field: every frame is the frame
+    rendered alone, and the field file decides a band the run never
+    rendered, the same bits as rendering it from scratch."""
+    from argand.media.frame_files import read_exr
+    from argand.render import FrameParams, render_frame
+    from argand.render.field import RootField
+    from argand.render.frames import render_bands
+    from argand.frames.frame_set import atlas_grid
+    from argand.scene import load_scene
+
+    out, field_path = tmp_path / "atlas", tmp_path / "steiner.arf"
+    r = run("render", "steiner", "--atlas", "9", "--size", "20x16", "--tile", "8", "--workers", "1", "--out", str(out),
+            "--root-field", str(field_path))
+    assert r.returncode == 0, r.stderr
+    assert "root field" in r.stdout and field_path.exists()
+    scene = load_scene("steiner")
+    points = atlas_grid(9).points
+    assert len(points) == 45
+    for i in (0, 31, 32, 40, 44):  # both groups
+        p = FrameParams(sigma=points[i].sigma, delta=points[i].delta, width=20, height=16)
+        alone = render_frame(scene, p, tile=8, workers=1)
+        names, px = read_exr(out / f"frame_{i:04d}.exr")
+        want = np.concatenate([alone.rgba] + [alone.aovs[n].astype(np.float32)[..., None] for n in names[4:]], axis=-1)
+        assert names[:4] == ["R", "G", "B", "A"] and px.tobytes() == want.tobytes(), i
+    field = RootField.load(field_path)
+    p = FrameParams(sigma=0.77, delta=1.1, width=20, height=16)
+    (derived,) = render_bands(scene, [p], tile=8, workers=1, field=field)
+    scratch = render_frame(scene, p, tile=8, workers=1)
+    assert derived.rgba.tobytes() == scratch.rgba.tobytes()
+    assert all(derived.aovs[n].tobytes() == scratch.aovs[n].tobytes() for n in scratch.aovs)
+    r = run("render", "steiner", "--size", "20x16", "--out", str(tmp_path / "one"), "--root-field",
+            str(tmp_path / "no-such-dir" / "f.arf"))
+    assert r.returncode == 2 and "does not exist" in r.stderr and not (tmp_path / "one").exists()

@@ -137,6 +137,9 @@ def render(
         None, "--samples", metavar="N", help="Samples per pixel, a square (1, 4, 9, ..., 64; default: the scene's, else 1): the "
         "colour is their mean, the status the worst of theirs (the certified_share AOV counts them)."),
     fps: float = typer.Option(8.0, "--fps", metavar="FPS", help="Frames per second of the animation."),
+    root_field: Optional[Path] = typer.Option(
+        None, "--root-field", metavar="FILE", help="Also write the run's root field (every sample's proven primary "
+        "roots, per tile; argand.render.field) to FILE, for other tools and for deciding other bands."),
     exr_compression: str = typer.Option("zip", "--exr-compression", metavar="NAME[:LEVEL]",
                                         help=EXR_COMPRESSION_HELP),
     explain: Optional[str] = typer.Option(
@@ -188,6 +191,8 @@ def render(
     if explain is not None:
         _explain(loaded, params[0], explain, tile)
         return
+    if root_field is not None and not root_field.parent.is_dir():
+        fail(f"--root-field {root_field}: the folder {root_field.parent} does not exist")
     _clear_out(out, overwrite)
     tiles_per_frame = math.ceil(width / tile) * math.ceil(height / tile)
     with Progress(
@@ -200,7 +205,7 @@ def render(
                 loaded, params, out, tile=tile, workers=workers or None, compression=exr_compression, fps=fps,
                 on_frame=lambda i, p: progress.update(
                     task, description=f"frame {i + 1}/{len(params)} (σ = {angle_text(p.sigma)}, δ = {angle_text(p.delta)})"),
-                on_tile=lambda t: progress.advance(task), grid=grid)
+                on_tile=lambda t: progress.advance(task), grid=grid, root_field=root_field)
         except ValueError as exc:
             fail(str(exc))
     for f in summary:
@@ -213,6 +218,8 @@ def render(
         )
     extras = (["animation.gif", "animation.mp4"] if len(params) > 1 else []) + (["atlas.png"] if grid.is_grid else [])
     console.print(f"wrote {len(params)} frame(s) to {out}/" + (f" and {', '.join(extras)}" if extras else ""))
+    if root_field is not None:
+        console.print(f"wrote the root field to {root_field} ({root_field.stat().st_size / 1e6:.1f} MB)")
 
 
 #: The files a run writes into its --out folder (argand.render.sweep.render_sweep).
@@ -523,8 +530,12 @@ def bench_bands_cmd(
     console.print(f"argand render: sweep of {cli['frames']} {cli['sweep_over_one']:.1f}x one frame, "
                   f"atlas of {cli['atlas_frames']} {cli['atlas_over_one']:.1f}x one frame (whole process)")
     for r in report["band_route"]:
-        console.print(f"band route {r['scene']} {r['size']}x{r['size']}: p50 {1000 * r['p50_s']:.0f} ms, "
-                      f"p95 {1000 * r['p95_s']:.0f} ms")
+        console.print(f"band route {r['scene']} {r['size']}x{r['size']} from the root field: p50 "
+                      f"{1000 * r['p50_s']:.0f} ms, p95 {1000 * r['p95_s']:.0f} ms (solved: p50 "
+                      f"{1000 * r['solved_p50_s']:.0f} ms, {r['p50_speedup']:.2f}x; same bits: {r['bit_identical']})")
+    farm = report["farm"]
+    console.print(f"farm: {farm['frames']}-frame job {farm['exr_on_request']['over_one']:.1f}x a 1-frame job "
+                  f"(EXR written by the assembler: {farm['exr_written']['over_one']:.1f}x)")
     console.print(f"wrote {out / 'bands.json'}, {out / 'bands.md'} and {out / 'bands.png'}")
 
 

@@ -1,7 +1,9 @@
 """GET /api/jobs/{id}/band.png and band.exr: any band (σ, δ) of a done job,
-bands the job never rendered included, equal pixel for pixel to the frame
-`argand render --sigma S --delta D` makes of the job's scene and size; the
-figures in headers; clear refusals. A real SQLite farm store, an embedded
+bands the job never rendered included, decided from the root field the
+workers stored, equal pixel for pixel to the frame `argand render --sigma S
+--delta D --tile T` makes of the job's scene, size and tiling; a field that
+is missing or damaged is solved again, never read; the figures in headers;
+clear refusals. A real SQLite farm store, an embedded
 Redis, uvicorn on a loopback port; the job's tiles rendered by the
 worker's own task body (tile_work.run_tiles)."""
 
@@ -54,9 +56,11 @@ def test_any_band_of_a_done_job_equals_the_local_render(farm_parts, tmp_path):  
         scene = load_scene("whitney")
         for sigma, delta in pairs:
             local = render_frame(scene, FrameParams(sigma=parse_angle(sigma), delta=parse_angle(delta), width=W,
-                                                    height=H))
+                                                    height=H), tile=TILE)
             r = c.get(f"/api/jobs/{job_id}/band.png", params={"sigma": sigma, "delta": delta})
             assert r.status_code == 200, r.text
+            # The first band read the field the workers stored; the rest, the API's copy.
+            assert r.headers["X-Argand-Root-Field"] == ("store" if (sigma, delta) == pairs[0] else "memory")
             assert r.headers["content-type"] == "image/png"
             assert np.array_equal(_png_pixels(r.content), to_srgb8(local.rgba)), (sigma, delta)
             assert float(r.headers["X-Argand-Certified-Share"]) == local.certified_share
@@ -69,7 +73,7 @@ def test_any_band_of_a_done_job_equals_the_local_render(farm_parts, tmp_path):  
         assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"
         path = tmp_path / "band.exr"
         path.write_bytes(r.content)
-        local = render_frame(scene, FrameParams(sigma=math.pi / 7, delta=math.pi / 5, width=W, height=H))
+        local = render_frame(scene, FrameParams(sigma=math.pi / 7, delta=math.pi / 5, width=W, height=H), tile=TILE)
         names, got = read_exr(path)
         assert sorted(names) == sorted(EXR_CHANNELS)
         for i, name in enumerate(names):
@@ -86,7 +90,7 @@ def test_the_band_png_is_the_png_argand_render_writes(farm_parts, tmp_path):  # 
         assert r.status_code == 200
     out = tmp_path / "cli"
     run = subprocess.run([sys.executable, "-m", "argand.cli", "render", "steiner", "--sigma", "0.2", "--delta", "pi/6",
-                          "--size", f"{W}x{H}", "--out", str(out)], capture_output=True, text=True)
+                          "--size", f"{W}x{H}", "--tile", str(TILE), "--out", str(out)], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
     (png,) = out.glob("*.png")
     assert np.array_equal(_png_pixels(r.content), _png_pixels(png.read_bytes()))
@@ -129,3 +133,38 @@ def test_the_root_arguments_show_where_the_picture_can_change(farm_parts):  # no
         assert json.loads(above.headers["X-Argand-Status-Shares"])["certified"] == 1.0
         assert np.all(_png_pixels(above.content) == _png_pixels(above.content)[0, 0])  # background only
         assert c.get("/api/jobs/nosuchjob/arguments").status_code == 404
+
+
+@pytest.mark.parametrize("damage", ["missing", "flipped", "truncated", "other rays"])
+def test_a_missing_or_damaged_field_is_solved_again_never_read(farm_parts, damage):  # noqa: F811
+    """A tile's stored field that is gone, has a flipped bit, is cut short or
+    was recorded for other rays: the band is solved from scratch (and the
+    answer is still the local render's), never decided from those bytes."""
+    from argand.farm import bands
+    from argand.farm.store import store_for
+    from argand.render.field import stored_tape, tape_of_stored
+
+    settings, _redis = farm_parts
+    with _served(farm_parts) as (c, _redis_server, _app):
+        job_id = _finish(settings, c, "chmutov-octic", [0])
+        other = _finish(settings, c, "bicube", [0])
+        layout = store_for(settings).job(job_id)
+        path = layout.field_tile(2)
+        data = path.read_bytes()
+        if damage == "missing":
+            path.unlink()
+        elif damage == "flipped":
+            path.write_bytes(data[:60] + bytes([data[60] ^ 0x04]) + data[61:])
+        elif damage == "truncated":
+            path.write_bytes(data[: len(data) // 2])
+        else:  # a valid tape of another scene's same tile
+            path.write_bytes(stored_tape(tape_of_stored(store_for(settings).job(other).field_tile(2).read_bytes())))
+        with bands._lock:
+            bands._fields.clear()
+        r = c.get(f"/api/jobs/{job_id}/band.png", params={"sigma": "0.1", "delta": "0.7"})
+        assert r.status_code == 200, r.text
+        assert r.headers["X-Argand-Root-Field"] == "solved"
+        local = render_frame(load_scene("chmutov-octic"), FrameParams(sigma=0.1, delta=0.7, width=W, height=H),
+                             tile=TILE)
+        assert np.array_equal(_png_pixels(r.content), to_srgb8(local.rgba))
+        assert float(r.headers["X-Argand-Certified-Share"]) == local.certified_share

@@ -18,8 +18,10 @@ if REASON:
 #: The farm's knobs in the cluster: heartbeats and time limits short enough
 #: that the faults play out in seconds (the visibility timeout is twice the
 #: hard time limit: 16 s), and one tile per message so that a job is many
-#: messages on the network.
+#: messages on the network. The assemblers write every frame's EXR (the
+#: checks read what the workers' tiles made).
 CLUSTER_ENV = {
+    "ARGAND_EXR_ON_REQUEST": "false",
     "ARGAND_HEARTBEAT_INTERVAL_S": "0.5",
     "ARGAND_HEARTBEAT_TIMEOUT_S": "4",
     "ARGAND_TILE_SOFT_TIME_LIMIT_S": "6",

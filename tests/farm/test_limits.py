@@ -312,9 +312,9 @@ def test_the_soft_time_limit_gives_back_the_tiles_a_run_did_not_start(farm_parts
     job_id = submit(settings, "plucker", [0.0], 64, 64, 16)
     real = tile_work.render_tile_bands_into
 
-    def slow(*args):
+    def slow(*args, **kwargs):
         time.sleep(0.4)
-        return real(*args)
+        return real(*args, **kwargs)
 
     monkeypatch.setattr(tile_work, "render_tile_bands_into", slow)
     sent = queued_messages(redis_server)

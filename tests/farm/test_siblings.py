@@ -86,11 +86,11 @@ def test_an_error_or_a_pause_gives_back_every_frames_unrendered_tiles(farm_parts
     real = tile_work.render_tile_bands_into
     calls = []
 
-    def failing(plans, rect, outs):
+    def failing(plans, rect, outs, record=None):
         calls.append(len(plans))
         if len(calls) == 4:
             raise RuntimeError("the renderer broke")
-        return real(plans, rect, outs)
+        return real(plans, rect, outs, record)
 
     monkeypatch.setattr(tile_work, "render_tile_bands_into", failing)
     monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)  # one commit, on the error
@@ -103,11 +103,11 @@ def test_an_error_or_a_pause_gives_back_every_frames_unrendered_tiles(farm_parts
     # A pause during the next run: what it did not render goes back, on every frame.
     monkeypatch.setattr(tile_work, "render_tile_bands_into", real)
 
-    def pausing(plans, rect, outs):
+    def pausing(plans, rect, outs, record=None):
         if rect.x0 == 0 and rect.y0 == 16:  # the fourth tile
             control.set_job_status(settings, job_id, "pause")
             time.sleep(2 * tile_work.STOP_CHECK_S)
-        return real(plans, rect, outs)
+        return real(plans, rect, outs, record)
 
     monkeypatch.setattr(tile_work, "render_tile_bands_into", pausing)
     assert tile_work.run_tiles(settings, job_id, 0, list(range(3, 9)), "w1") == "paused"

@@ -32,7 +32,7 @@ def test_a_worker_frozen_past_reassignment_writes_nothing_into_the_finished_job(
     real = tile_work.render_tile_bands_into
     calls = []
 
-    def freeze_on_the_third_tile(plans, rect, outs):
+    def freeze_on_the_third_tile(plans, rect, outs, record=None):
         calls.append(rect)
         if len(calls) == 3:
             # Frozen: its heartbeats stop, the reaper gives its tiles to
@@ -43,7 +43,7 @@ def test_a_worker_frozen_past_reassignment_writes_nothing_into_the_finished_job(
             assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "fresh") == "rendered"
             time.sleep(2 * tile_work.STOP_CHECK_S)
             monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze_on_the_third_tile)
-        return real(plans, rect, outs)
+        return real(plans, rect, outs, record)
 
     heartbeat(settings, "stale", 1)
     monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze_on_the_third_tile)
@@ -68,12 +68,12 @@ def test_deleting_a_running_job_leaves_nothing_in_the_store_and_the_worker_stops
     real = tile_work.render_tile_bands_into
     calls = []
 
-    def delete_on_the_third_tile(plans, rect, outs):
+    def delete_on_the_third_tile(plans, rect, outs, record=None):
         calls.append(rect)
         if len(calls) == 3:
             control.delete_job(settings, job_id)  # what DELETE /api/jobs/{id} does
             time.sleep(2 * tile_work.STOP_CHECK_S)
-        return real(plans, rect, outs)
+        return real(plans, rect, outs, record)
 
     monkeypatch.setattr(tile_work, "render_tile_bands_into", delete_on_the_third_tile)
     monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)

@@ -145,7 +145,8 @@ def farm_parts(tmp_path, monkeypatch):
     redis_server = EmbeddedRedis(tmp_path / "redis" / "redis.sock").start()
     # One frame a run: these tests follow a frame's tiles run by run (tests/farm/test_siblings.py
     # runs the same tiles of several frames at once, as the farm does by default).
-    settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, max_tile_attempts=2, bands_per_run=1)
+    settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, max_tile_attempts=2, bands_per_run=1,
+                        exr_on_request=False)
     upgrade(settings.sqlalchemy_url)
     yield settings, redis_server
     redis_server.stop()
@@ -171,11 +172,11 @@ def test_an_error_mid_run_keeps_what_is_done_and_gives_the_rest_back(farm_parts,
     real = tile_work.render_tile_bands_into
     calls = []
 
-    def failing(plans, rect, outs):
+    def failing(plans, rect, outs, record=None):
         calls.append(rect)
         if len(calls) == 6:
             raise RuntimeError("the renderer broke")
-        return real(plans, rect, outs)
+        return real(plans, rect, outs, record)
 
     monkeypatch.setattr(tile_work, "render_tile_bands_into", failing)
     monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)  # one commit, at the end or on the error
@@ -264,12 +265,12 @@ def test_a_pause_stops_a_run_between_tiles_and_resume_sends_the_rest(farm_parts,
     real = tile_work.render_tile_bands_into
     calls = []
 
-    def pausing(plans, rect, outs):
+    def pausing(plans, rect, outs, record=None):
         calls.append(rect)
         if len(calls) == 3:  # someone pauses the job while the third tile renders
             control.set_job_status(settings, job_id, "pause")
             time.sleep(2 * tile_work.STOP_CHECK_S)
-        return real(plans, rect, outs)
+        return real(plans, rect, outs, record)
 
     monkeypatch.setattr(tile_work, "render_tile_bands_into", pausing)
     assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "w-test") == "paused"

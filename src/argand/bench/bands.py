@@ -8,8 +8,9 @@ Three measurements, each against its alternative in the same run:
   every frame is the same bits;
 * CLI: `argand render` of the sweep (every file written) against one frame,
   whole process, wall and CPU time, one thread (--workers 1);
-* band on demand: the band route's work (render the band, encode its PNG:
-  argand.farm.bands) over random (σ, δ) pairs, p50 and p95.
+* band on demand: the band route's work (decide the band from the job's
+  root field, encode its PNG: argand.farm.bands) over random (σ, δ) pairs,
+  p50 and p95, against solving the band from scratch on the same pairs.
 
 Writes bands.json, bands.md and bands.png under the output folder.
 """
@@ -96,26 +97,72 @@ def bench_cli(size: int, frames: int, atlas: int, atlas_size: int, repeat: int) 
             "atlas_over_one": atlas_run["wall_s"] / one_small["wall_s"]}
 
 
-def bench_band_route(scene_name: str, size: int, pairs: int) -> dict:
-    """The band route's work per request (argand.farm.bands: render_frame on
-    every core, then the PNG), over random pairs of the band rule."""
+def bench_band_route(scene_name: str, size: int, pairs: int, tile: int = 64) -> dict:
+    """The band route's work per request (argand.farm.bands: the band on
+    every core, then its PNG) over random pairs of the band rule, two ways
+    on the same pairs, interleaved: decided from the job's root field
+    (recorded once, as the farm's workers do) and solved from scratch. Every
+    derived frame is compared with the scratch frame, every channel."""
     from argand.farm.bands import _png_bytes
     from argand.render import FrameParams, render_frame
+    from argand.render.field import RootField
+    from argand.render.frames import AOV_CHANNELS, render_bands
     from argand.scene import load_scene
 
     scene = load_scene(scene_name)
+    field = RootField(0, 0, 0, 0)
+    record_start = time.perf_counter()
+    render_bands(scene, [FrameParams(width=size, height=size)], tile=tile, record=field)
+    record_s = time.perf_counter() - record_start
     rng = random.Random(7)
-    times = []
+    solved, derived, same = [], [], True
     for _ in range(pairs):
         sigma = rng.uniform(0, math.pi)
-        delta = rng.uniform(0, math.pi - sigma)
+        p = FrameParams(sigma=sigma, delta=rng.uniform(0, math.pi - sigma), width=size, height=size)
         start = time.perf_counter()
-        _png_bytes(render_frame(scene, FrameParams(sigma=sigma, delta=delta, width=size, height=size)))
-        times.append(time.perf_counter() - start)
-    times.sort()
-    pick = lambda q: times[min(len(times) - 1, int(q * len(times)))]  # noqa: E731
-    return {"scene": scene_name, "size": size, "pairs": pairs, "p50_s": pick(0.5), "p95_s": pick(0.95),
-            "max_s": times[-1]}
+        a = render_bands(scene, [p], tile=tile, field=field)[0]
+        _png_bytes(a)
+        derived.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        b = render_frame(scene, p, tile=tile)
+        _png_bytes(b)
+        solved.append(time.perf_counter() - start)
+        same = same and a.rgba.tobytes() == b.rgba.tobytes() and all(
+            a.aovs[n].tobytes() == b.aovs[n].tobytes() for n in AOV_CHANNELS)
+
+    def pick(times: list, q: float) -> float:
+        times = sorted(times)
+        return times[min(len(times) - 1, int(q * len(times)))]
+
+    return {"scene": scene_name, "size": size, "pairs": pairs, "field_mb": field.nbytes / 1e6, "record_s": record_s,
+            "p50_s": pick(derived, 0.5), "p95_s": pick(derived, 0.95), "max_s": max(derived),
+            "solved_p50_s": pick(solved, 0.5), "solved_p95_s": pick(solved, 0.95),
+            "p50_speedup": pick(solved, 0.5) / pick(derived, 0.5), "bit_identical": same}
+
+
+def bench_farm_frames(size: int, frames: int, rounds: int) -> dict:
+    """The farm (`argand serve --workers 2`): a job of `frames` frames of the
+    Bicube against a 1-frame job, submit to done (the server's clock), the
+    jobs interleaved on one farm, medians; frames' EXRs written on request
+    (the default) and by the assembler (ARGAND_EXR_ON_REQUEST=false)."""
+    import tempfile
+
+    from argand.bench.farm import LocalFarm
+
+    out: dict = {"size": size, "frames": frames, "rounds": rounds}
+    for mode, env in (("exr_on_request", {}), ("exr_written", {"ARGAND_EXR_ON_REQUEST": "false"})):
+        with tempfile.TemporaryDirectory(prefix="argand-bench-bands-") as tmp, \
+                LocalFarm(Path(tmp) / "farm", 2, env) as farm:
+            one, many = [], []
+            for _ in range(rounds):
+                body = {"scene": "bicube", "width": size, "height": size}
+                one.append(farm.run_job({**body, "deltas": [0]})["wall_s"])
+                many.append(farm.run_job({**body, "deltas": {"start": 0, "stop": "pi/9", "count": frames}})["wall_s"])
+            one.sort()
+            many.sort()
+            out[mode] = {"one_frame_s": one[len(one) // 2], "job_s": many[len(many) // 2],
+                         "over_one": many[len(many) // 2] / one[len(one) // 2]}
+    return out
 
 
 def bench_bands(out_dir: Path = Path("docs/bench"), smoke: bool = False,
@@ -129,7 +176,10 @@ def bench_bands(out_dir: Path = Path("docs/bench"), smoke: bool = False,
     progress("bands: argand render, a sweep and an atlas against one frame (whole process)")
     report["cli"] = bench_cli(size, frames, 3 if smoke else 12, 48 if smoke else 256, 1 if smoke else 3)
     progress("bands: the band route's work over random pairs")
-    report["band_route"] = [bench_band_route(name, size, 4 if smoke else 40) for name in ("bicube", "whitney")]
+    report["band_route"] = [bench_band_route(name, size, 4 if smoke else 40)
+                            for name in ("bicube", "whitney", "chmutov-octic")]
+    progress(f"bands: the farm, a {frames}-frame job against a 1-frame job")
+    report["farm"] = bench_farm_frames(size, frames, 1 if smoke else 3)
     (out_dir / "bands.json").write_text(json.dumps(report, indent=2) + "\n")
     (out_dir / "bands.md").write_text("\n".join(markdown(report)) + "\n")
     chart(report, out_dir / "bands.png")
@@ -161,11 +211,28 @@ def markdown(report: dict, image: str = "bands.png") -> list[str]:
               f"{cli['one_frame_atlas_size']['cpu_s']:.2f} s | 1 |",
               f"| atlas of {cli['atlas']} ({cli['atlas_frames']} frames), {cli['atlas_size']}² | {cli['atlas_run']['wall_s']:.2f} s "
               f"| {cli['atlas_run']['cpu_s']:.2f} s | {cli['atlas_over_one']:.1f}× |", "",
-              "The band route's work per request (render the band on every core, encode its PNG), random pairs:", "",
-              "| scene | size | pairs | p50 | p95 | max |", "|---|---:|---:|---:|---:|---:|"]
+              "The band route's work per request (the band on every core, then its PNG), random pairs, decided "
+              "from the job's root field against solved from scratch (same pairs, interleaved; every channel "
+              "compared):", "",
+              "| scene | size | field | pairs | from the field p50 / p95 | solved p50 / p95 | speed-up (p50) | same bits |",
+              "|---|---:|---:|---:|---:|---:|---:|:---:|"]
     for r in report["band_route"]:
-        lines.append(f"| {r['scene']} | {r['size']}² | {r['pairs']} | {1000 * r['p50_s']:.0f} ms | "
-                     f"{1000 * r['p95_s']:.0f} ms | {1000 * r['max_s']:.0f} ms |")
+        if "solved_p50_s" not in r:  # (a report from before the root field: the band solved per request)
+            lines.append(f"| {r['scene']} | {r['size']}² | none | {r['pairs']} | — | "
+                         f"{1000 * r['p50_s']:.0f} / {1000 * r['p95_s']:.0f} ms | — | — |")
+            continue
+        lines.append(f"| {r['scene']} | {r['size']}² | {r['field_mb']:.1f} MB | {r['pairs']} | "
+                     f"{1000 * r['p50_s']:.0f} / {1000 * r['p95_s']:.0f} ms | "
+                     f"{1000 * r['solved_p50_s']:.0f} / {1000 * r['solved_p95_s']:.0f} ms | {r['p50_speedup']:.2f}× | "
+                     f"{'yes' if r['bit_identical'] else '**no**'} |")
+    farm = report.get("farm")
+    if farm:
+        lines += ["", f"The farm (`argand serve --workers 2`), a {farm['frames']}-frame job of the Bicube at "
+                  f"{farm['size']}² against a 1-frame job, submit to done (median of {farm['rounds']}):", "",
+                  "| frames' EXR | 1-frame job | " + f"{farm['frames']}-frame job | over one |", "|---|---:|---:|---:|"]
+        for mode, label in (("exr_on_request", "on request (default)"), ("exr_written", "written by the assembler")):
+            r = farm[mode]
+            lines.append(f"| {label} | {r['one_frame_s']:.2f} s | {r['job_s']:.2f} s | {r['over_one']:.1f}× |")
     lines += ["", f"![bands: together against one by one]({image})"]
     return lines
 

@@ -264,6 +264,10 @@ def render_tile_frame(
     certified_share: npt.NDArray[np.float32],
     exact: ExactSolver | None = None,
 ) -> tuple[int, int, tuple[int, int, int, int], int, tuple[int, int, int, int, int, int, int, int]]: ...
+#: A band's figures from render_tile_bands: escalations, root calls, pixels
+#: per status 0..3, pixels that hit, pixels per ladder level 0..7.
+BandFigures = tuple[int, int, tuple[int, int, int, int], int, tuple[int, int, int, int, int, int, int, int]]
+
 def render_tile_bands(
     plans: Sequence[FramePlan],
     x0: int,
@@ -274,7 +278,11 @@ def render_tile_bands(
     ox: int = -1,
     oy: int = -1,
     exact: ExactSolver | None = None,
-) -> list[tuple[int, int, tuple[int, int, int, int], int, tuple[int, int, int, int, int, int, int, int]]]: ...
+    *,
+    record: bool = False,
+    field: bytes | None = None,
+) -> list[BandFigures] | tuple[list[BandFigures], bytes]: ...
+def rays_fingerprint(plan: FramePlan) -> int: ...
 def render_tile_into(
     plan: FramePlan,
     x0: int,

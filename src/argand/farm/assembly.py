@@ -97,9 +97,11 @@ def _gather(store: FrameStore, job_id: str, frame_index: int, rects, local: dict
 
 def _write_files(settings: Settings, store: FrameStore, layout: JobLayout, index: int, result: FrameResult,
                  px: np.ndarray) -> None:
-    """The frame's EXR, PNG, figures, thumbnail and GIF fragment."""
+    """The frame's PNG, figures, thumbnail and GIF fragment, and its EXR
+    unless it is written on request (Settings.exr_on_request)."""
     srgb = to_srgb8(result.rgba)
-    write_exr(result, store.prepare(layout.frame(index, "exr")), px, settings.exr_compression)
+    if not settings.exr_on_request:
+        write_exr(result, store.prepare(layout.frame(index, "exr")), px, settings.exr_compression)
     write_png(srgb, layout.frame(index, "png"))
     store.write_atomic(layout.frame(index, "json"), (json.dumps(dict(result.figures, index=index), indent=2) + "\n").encode())
     h, w = srgb.shape[:2]

@@ -1,15 +1,20 @@
 """Any band (σ, δ) of a finished job, on demand: GET
 /api/jobs/{id}/band.png and band.exr.
 
-The band is rendered from the job's own scene, size, method and samples
-with the farm's engine options, by the same renderer as every frame
-(argand.render.frames.render_frame), so its pixels are those `argand
-render --sigma S --delta D` writes for that scene and size: certified
-decisions, escalated where a band needs it. Any pair within the band rule
-is answered (nothing limits it to the bands the job rendered: the roots of
-every pixel are solved again for the request, in the API's process, on
-all its cores). The last BAND_CACHE answers are kept (PNG bytes and
-figures), so going back to a band is free.
+A band is decided from the job's root field (argand.render.field): the
+primary roots of every sample, which the farm's workers recorded per tile
+while rendering the job's frames (JobLayout.field_tile; the roots do not
+depend on the band). The band is rendered from the job's own scene, size,
+method, samples and tiling with the farm's engine options, the roots read
+from the field instead of solved, so its pixels are the bits `argand render
+--sigma S --delta D --tile T` writes for that scene and size: certified
+decisions, escalated where a band needs it. Any pair within the band rule is
+answered (the field holds every root, not only those of the rendered
+bands). Where the store holds no field (a job rendered before fields, a
+tile whose file was lost or damaged), the first band request solves the
+roots and records them. The last fields (FIELD_CACHE_BYTES in all) stay in
+memory, and the last BAND_CACHE answers (PNG bytes and figures), so going
+back to a band is free.
 """
 
 from __future__ import annotations
@@ -27,13 +32,15 @@ from sqlalchemy import select
 
 from argand.core import _core, find_roots
 from argand.farm.database import engine_for
-from argand.farm.models import Job
+from argand.farm.models import Frame, Job
 from argand.farm.planning import samples_of
 from argand.farm.settings import Settings
 from argand.frames.angles import parse_angle
 from argand.media.frame_files import to_srgb8, write_exr, write_png
 from argand.render.convert import to_core_scene
-from argand.render.frames import FrameParams, FrameResult, plan, render_frame
+from argand.farm.store import store_for
+from argand.render.field import RootField, tape_of_stored
+from argand.render.frames import FrameParams, FrameResult, plan, render_bands, tiles
 from argand.scene import scene_from_dict
 
 #: Bands kept (PNG bytes and figures, some 100-400 KB each at 512x512).
@@ -65,11 +72,12 @@ _lock = threading.Lock()
 
 
 def band_params(settings: Settings, job_id: str, sigma_text: str, delta_text: str) -> tuple:
-    """(scene, FrameParams) of the band of a done job. Raises NoJob,
-    JobNotDone, or ValueError naming what is wrong with σ or δ (the band
-    rule, an angle that does not parse)."""
+    """(scene, FrameParams, tile size) of the band of a done job. Raises
+    NoJob, JobNotDone, or ValueError naming what is wrong with σ or δ (the
+    band rule, an angle that does not parse)."""
     with engine_for(settings.sqlalchemy_url).connect() as c:
-        job = c.execute(select(Job.status, Job.scene, Job.width, Job.height, Job.method).where(Job.id == job_id)).first()
+        job = c.execute(select(Job.status, Job.scene, Job.width, Job.height, Job.method, Job.tile)
+                        .where(Job.id == job_id)).first()
     if job is None:
         raise NoJob(job_id)
     if job.status != "done":
@@ -78,7 +86,7 @@ def band_params(settings: Settings, job_id: str, sigma_text: str, delta_text: st
     delta = _angle("delta", delta_text)
     params = FrameParams(sigma=sigma, delta=delta, width=job.width, height=job.height, method=job.method,
                          samples=samples_of(job.scene), engine=settings.engine)
-    return scene_from_dict(job.scene), params
+    return scene_from_dict(job.scene), params, job.tile
 
 
 def _angle(name: str, text: str) -> float:
@@ -89,10 +97,76 @@ def _angle(name: str, text: str) -> float:
         raise ValueError(f"{symbol} ({name}={text!r}): {exc}") from None
 
 
+#: Root fields kept in memory, in bytes (a 512x512 job's field is some 10-40 MB).
+FIELD_CACHE_BYTES = 384 << 20
+
+_fields: OrderedDict[tuple, RootField] = OrderedDict()
+_field_locks: dict[tuple, threading.Lock] = {}
+
+
+def stored_field(settings: Settings, job_id: str, frame_plan, width: int, height: int, tile: int) -> RootField | None:
+    """The job's root field as its workers stored it, or None where a tile's
+    file is missing or does not match its checksum (or was recorded for
+    other rays: the farm's engine options changed since)."""
+    layout = store_for(settings).job(job_id)
+    field = RootField(int(_core.rays_fingerprint(frame_plan)), width, height, tile)
+    for i, r in enumerate(tiles(width, height, tile)):
+        try:
+            field.tiles[(r.x0, r.y0, r.x1, r.y1)] = tape_of_stored(layout.field_tile(i).read_bytes())
+        except (OSError, ValueError):
+            return None
+    return field
+
+
+def _job_field(settings: Settings, job_id: str, scene, params: FrameParams, tile: int) -> tuple[RootField | None, str]:
+    """The job's field from memory or the store, or (None, "solved") when
+    the caller must record one (then _keep_field)."""
+    key = (settings.sqlalchemy_url, job_id, params.engine)
+    with _lock:
+        hit = _fields.get(key)
+        if hit is not None:
+            _fields.move_to_end(key)
+            return hit, "memory"
+    frame_plan = plan(to_core_scene(scene), params)
+    field = stored_field(settings, job_id, frame_plan, params.width, params.height, tile)
+    if field is None:
+        return None, "solved"
+    _keep_field(key, field)
+    return field, "store"
+
+
+def _keep_field(key: tuple, field: RootField) -> None:
+    with _lock:
+        _fields[key] = field
+        _fields.move_to_end(key)
+        while len(_fields) > 1 and sum(f.nbytes for f in _fields.values()) > FIELD_CACHE_BYTES:
+            _fields.popitem(last=False)
+
+
+def render_band(settings: Settings, job_id: str, scene, params: FrameParams, tile: int) -> tuple[FrameResult, str]:
+    """The band's frame, from the job's root field (recorded now if there
+    is none yet), and where the field came from: memory, store or solved."""
+    key = (settings.sqlalchemy_url, job_id, params.engine)
+    with _lock:
+        job_lock = _field_locks.setdefault(key, threading.Lock())
+    with job_lock:  # (one solve per job when its first requests come together)
+        field, source = _job_field(settings, job_id, scene, params, tile)
+        if field is not None:
+            try:
+                return render_bands(scene, [params], tile=tile, field=field)[0], source
+            except ValueError:  # a field of other rays: solve again below
+                with _lock:
+                    _fields.pop(key, None)
+        recorded = RootField(0, 0, 0, 0)
+        result = render_bands(scene, [params], tile=tile, record=recorded)[0]
+        _keep_field(key, recorded)
+        return result, "solved"
+
+
 def band(settings: Settings, job_id: str, sigma_text: str, delta_text: str, keep_result: bool = False) -> Band:
     """The band's PNG and figures, from the cache or rendered now. With
     keep_result, the whole FrameResult too (for the EXR; never cached)."""
-    scene, params = band_params(settings, job_id, sigma_text, delta_text)
+    scene, params, tile = band_params(settings, job_id, sigma_text, delta_text)
     key = (settings.sqlalchemy_url, job_id, params.sigma, params.delta, params.engine)
     if not keep_result:
         with _lock:
@@ -101,10 +175,10 @@ def band(settings: Settings, job_id: str, sigma_text: str, delta_text: str, keep
                 _cache.move_to_end(key)
                 return Band(hit.sigma, hit.delta, hit.png, hit.figures, cached=True)
     start = time.perf_counter()
-    result = render_frame(scene, params)
+    result, source = render_band(settings, job_id, scene, params, tile)
     png = _png_bytes(result)
     figures = {"certified_share": result.certified_share, "status_shares": result.status_shares(),
-               "seconds": time.perf_counter() - start}
+               "seconds": time.perf_counter() - start, "field": source}
     out = Band(params.sigma, params.delta, png, figures)
     with _lock:
         _cache[key] = out
@@ -114,6 +188,38 @@ def band(settings: Settings, job_id: str, sigma_text: str, delta_text: str, keep
     if keep_result:
         return Band(out.sigma, out.delta, png, figures, result=result)
     return out
+
+
+_exr_locks: dict[tuple, threading.Lock] = {}
+
+
+def frame_exr(settings: Settings, job_id: str, index: int) -> Path | None:
+    """The path of frame ``index``'s EXR, written now if it is not yet
+    (Settings.exr_on_request): the frame decided again from the job's root
+    field with the job's scene, size, method, samples and tiling, which is
+    the frame the workers rendered, to the bit (the PNG beside it is made
+    from the same pixels). None while the frame is not done (or no such
+    frame)."""
+    layout = store_for(settings).job(job_id)
+    path = layout.frame(index, "exr")
+    if path.exists():
+        return path
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        job = c.execute(select(Job.scene, Job.width, Job.height, Job.method, Job.tile).where(Job.id == job_id)).first()
+        frame = c.execute(select(Frame.status, Frame.sigma, Frame.delta)
+                          .where(Frame.job_id == job_id, Frame.index == index)).first()
+    if job is None or frame is None or frame.status != "done":
+        return None
+    with _lock:
+        lock = _exr_locks.setdefault((settings.sqlalchemy_url, job_id, index), threading.Lock())
+    with lock:  # (one write per frame when its first requests come together)
+        if path.exists():
+            return path
+        params = FrameParams(sigma=frame.sigma, delta=frame.delta, width=job.width, height=job.height,
+                             method=job.method, samples=samples_of(job.scene), engine=settings.engine)
+        result, _source = render_band(settings, job_id, scene_from_dict(job.scene), params, job.tile)
+        write_exr(result, store_for(settings).prepare(path), compression=settings.exr_compression)
+    return path
 
 
 def _png_bytes(result: FrameResult) -> bytes:

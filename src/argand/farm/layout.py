@@ -51,6 +51,12 @@ class JobLayout:
     def atlas(self) -> Path:
         return self.folder / "atlas.png"
 
+    def field_tile(self, index: int) -> Path:
+        """Tile ``index``'s root field (its recorded primary roots and a
+        CRC-32, argand.render.field.stored_tape), written once by the first
+        run that renders the tile, read by the band routes."""
+        return self.folder / "field" / f"{index:04d}.tape"
+
     def tiles(self, index: int) -> Path:
         return self.folder / "tiles" / f"{index:04d}"
 

@@ -63,6 +63,11 @@ class Settings(BaseSettings):
     #: OpenEXR compression of the frames: none, rle, zip, zips, piz, and zstd
     #: where OpenImageIO's OpenEXR has it; "zip:N"/"zstd:N" give a level.
     exr_compression: str = EXR_COMPRESSION
+    #: A frame's EXR (every AOV, some 100 ms to encode at 512x512) is
+    #: written on its first request, decided from the job's root field, and
+    #: kept (argand.farm.bands.frame_exr); False: written by the assembler
+    #: with the frame's other files, as before.
+    exr_on_request: bool = True
 
     # Access: a bearer token for every state-changing route (None: no token,
     # allowed only on a loopback host). From ARGAND_API_TOKEN, or the first

@@ -18,6 +18,7 @@ tiles of the job's next frames where they are queued (claim_siblings).
 
 from __future__ import annotations
 
+import logging
 import time
 import uuid
 from dataclasses import dataclass, field
@@ -36,7 +37,10 @@ from argand.farm.settings import Settings
 from argand.farm.states import ACTIVE, FRAME, JOB, STOPPED, TILE
 from argand.farm.store import is_store_error, store_for
 from argand.render.options import EngineOptions
+from argand.render.field import stored_tape
 from argand.render.frames import INTERLEAVED_CHANNELS, TileRect, render_tile_bands_into
+
+log = logging.getLogger(__name__)
 
 #: Within a run of tiles: how often to look for a cancel or pause, and how
 #: often to commit the tiles finished so far.
@@ -207,8 +211,13 @@ def _render_claimed(runs: list[TileRun]) -> str | None:
         outs = [(r.frame_px, x0, y0) if r.frame_px is not None else
                 (np.empty((y1 - y0, x1 - x0, channels), np.float32), 0, 0) for r in group]
         start = time.perf_counter()
-        figures = render_tile_bands_into([r.plan for r in group], TileRect(x0, y0, x1, y1), outs)
+        store = store_for(run.settings)
+        field_path = store.job(run.job_id).field_tile(i)
+        tape: list | None = None if field_path.exists() else []
+        figures = render_tile_bands_into([r.plan for r in group], TileRect(x0, y0, x1, y1), outs, record=tape)
         seconds = (time.perf_counter() - start) / len(group)
+        if tape:
+            _keep_field(run, store, field_path, tape[0])
         for r, (block, _ox, _oy), (esc, calls, stats) in zip(group, outs, figures):
             r.pending[i] = seconds
             r.local[i] = (block[y0:y1, x0:x1] if r.frame_px is not None else block, esc, calls, stats)
@@ -217,6 +226,18 @@ def _render_claimed(runs: list[TileRun]) -> str | None:
                 r.commit()
             last_commit = time.monotonic()
     return None
+
+
+def _keep_field(run: TileRun, store, path, tape: bytes) -> None:
+    """Stores a tile's root field (the first run to render the tile writes
+    it; the band routes decide any band from it). The field only spares the
+    band routes a solve: a store that refuses it loses nothing (the routes
+    solve the tile again), so its error does not stop the job."""
+    try:
+        store.prepare(path)
+        store.write_atomic(path, stored_tape(tape))
+    except OSError as exc:
+        log.warning("job %s: tile %s's root field not kept (%s)", run.job_id, path.name, exc)
 
 
 def run_tiles(settings: Settings, job_id: str, frame_index: int, tile_indices: list[int], worker: str,

@@ -96,6 +96,19 @@ class RootField:
         return out
 
 
+def stored_tape(tape: bytes) -> bytes:
+    """A tile's tape as the farm stores it: the bytes, then their CRC-32 (4 bytes, little-endian)."""
+    return tape + zlib.crc32(tape).to_bytes(4, "little")
+
+
+def tape_of_stored(data: bytes) -> bytes:
+    """The tape of stored_tape's bytes; ValueError where the checksum does not match."""
+    tape = data[:-4]
+    if len(data) < 4 or zlib.crc32(tape).to_bytes(4, "little") != data[-4:]:
+        raise ValueError("a stored root field tile does not match its checksum")
+    return tape
+
+
 def _tile_rects(width: int, height: int, tile: int) -> list:
     from argand.render.frames import tiles
 

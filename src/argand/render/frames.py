@@ -218,17 +218,22 @@ def render_tile_into(frame_plan: Any, rect: TileRect, out: np.ndarray, ox: int =
 
 
 def render_tile_bands_into(frame_plans: Sequence[Any], rect: TileRect,
-                           outs: Sequence[tuple[np.ndarray, int, int]]) -> list[tuple[int, int, np.ndarray]]:
+                           outs: Sequence[tuple[np.ndarray, int, int]],
+                           record: list | None = None) -> list[tuple[int, int, np.ndarray]]:
     """render_tile_into for several bands of one tile at once (their plans
     differ in σ and δ only; _core.render_tile_bands solves the primary roots
     once): band b's pixels go into outs[b] = (out, ox, oy) as
     render_tile_into writes them, the same bits. Returns each band's
-    (escalations, root_calls, stats)."""
+    (escalations, root_calls, stats). ``record``: a list the tile's root
+    field (bytes) is appended to."""
     h, w = rect.y1 - rect.y0, rect.x1 - rect.x0
     planes = [(np.empty((h, w, 4), np.float32),) + tuple(np.empty((h, w), AOV_DTYPES[n]) for n in AOV_CHANNELS)
               for _ in frame_plans]
     figures = _core.render_tile_bands(list(frame_plans), rect.x0, rect.y0, rect.x1, rect.y1, planes, 0, 0,
-                                      exact=decide_pixel)
+                                      exact=decide_pixel, record=record is not None)
+    if record is not None:
+        figures, tape = figures
+        record.append(tape)
     out = []
     for (block, ox, oy), band, (esc, calls, counts, hits, _levels) in zip(outs, planes, figures):
         target = block[oy:oy + h, ox:ox + w]

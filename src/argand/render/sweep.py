@@ -4,10 +4,12 @@ against (the same frames and the same files, without the farm)."""
 
 from __future__ import annotations
 
+import dataclasses
 from contextlib import contextmanager, nullcontext
 from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
+from argand.render.field import RootField
 from argand.render.frames import FrameParams, FrameResult, TileAOVs, render_bands
 from argand.frames.frame_set import FrameSet
 from argand.media.frame_files import EXR_COMPRESSION
@@ -42,6 +44,7 @@ def render_sweep(
     on_tile: Callable[[TileAOVs], None] | None = None,
     grid: FrameSet | None = None,
     mp4: bool = True,
+    root_field: Path | None = None,
 ) -> list[dict]:
     """Renders ``params`` on ``workers`` threads (encoding too), frames that
     share their rays together (their roots solved once), and
@@ -49,7 +52,8 @@ def render_sweep(
     animation.mp4 (unless not ``mp4``) when there is more than one frame, and
     atlas.png when ``grid`` (the frames' places, one per param) has more than
     one σ and δ. on_frame(index, params) is called as each frame is written.
-    Returns each frame's figures."""
+    ``root_field``: also write the run's root field there (RootField.save;
+    the frames must share their rays). Returns each frame's figures."""
     from argand.media import gif
     from argand.media.atlas import atlas_png
     from argand.media.contact_sheet import cell_size, scale_to_cell
@@ -66,7 +70,8 @@ def render_sweep(
     if animated:
         out.mkdir(parents=True, exist_ok=True)
     with oiio_threads(workers), (Mp4Encoder(mp4_tmp, fps) if animated and mp4 else nullcontext()) as video:
-        for index, result in enumerate(_frames(scene, params, tile, workers, on_tile)):
+        field = RootField(0, 0, 0, 0)
+        for index, result in enumerate(_frames(scene, params, tile, workers, on_tile, field)):
             p = result.params
             if on_frame:
                 on_frame(index, p)
@@ -85,6 +90,10 @@ def render_sweep(
             mp4_tmp.replace(out / "animation.mp4")
     if atlas:
         _write_atomic(out / "atlas.png", atlas_png(grid, cells, params[0].width, params[0].height))
+    if root_field is not None:
+        if not field.tiles:
+            raise ValueError("--root-field: the frames do not share their rays (they differ in more than σ and δ)")
+        field.save(root_field)
     return figures
 
 
@@ -94,12 +103,20 @@ BANDS_AT_ONCE = 32
 
 
 def _frames(scene: Any, params: Sequence[FrameParams], tile: int, workers: int | None,
-            on_tile: Callable[[TileAOVs], None] | None) -> Iterator[FrameResult]:
+            on_tile: Callable[[TileAOVs], None] | None, field: RootField) -> Iterator[FrameResult]:
     """The sweep's frames in order, BANDS_AT_ONCE at a time through
-    render_bands (each, to the bit, the frame render_frame gives alone)."""
+    render_bands (each, to the bit, the frame render_frame gives alone):
+    the first group records the root field into ``field``, the later ones
+    decide from it instead of solving again (when they share its rays)."""
     for first in range(0, len(params), BANDS_AT_ONCE):
         group = list(params[first:first + BANDS_AT_ONCE])
-        yield from render_bands(scene, group, tile=tile, workers=workers, on_tile=on_tile)
+        same = all(dataclasses.replace(p, sigma=params[0].sigma, delta=params[0].delta) == params[0] for p in group)
+        if first == 0 and same:
+            yield from render_bands(scene, group, tile=tile, workers=workers, on_tile=on_tile, record=field)
+        elif field.tiles and same:
+            yield from render_bands(scene, group, tile=tile, workers=workers, on_tile=on_tile, field=field)
+        else:
+            yield from render_bands(scene, group, tile=tile, workers=workers, on_tile=on_tile)
 
 
 def _write_atomic(path: Path, data: bytes) -> None:

@@ -35,14 +35,17 @@ def _headers(b: Band) -> dict[str, str]:
             "X-Argand-Certified-Share": repr(float(b.figures["certified_share"])),
             "X-Argand-Status-Shares": json.dumps(b.figures["status_shares"], separators=(",", ":")),
             "X-Argand-Render-Seconds": f"{b.figures['seconds']:.4f}", "X-Argand-Cache": "hit" if b.cached else "miss",
+            "X-Argand-Root-Field": b.figures.get("field", ""),
             "Cache-Control": "private, max-age=3600"}
 
 
 @router.get("/band.png", **binary("image/png", "The band's picture (certified decisions), figures in X-Argand-* headers"))
 def band_png(job_id: JobIdDep, settings: SettingsDep, sigma: str = SIGMA, delta: str = DELTA):
-    """Any band of a done job, within the band rule: what `argand render
-    --sigma S --delta D` shows for the job's scene and size. 409 while the
-    job is not done; 422 for a pair outside the band rule."""
+    """Any band of a done job, within the band rule, decided from the job's
+    root field: what `argand render --sigma S --delta D --tile T` shows for
+    the job's scene, size and tile size. 409 while the job is not done; 422
+    for a pair outside the band rule. X-Argand-Root-Field says where the
+    roots came from (memory, store, or solved for this request)."""
     b = _band(settings, job_id, sigma, delta)
     return Response(b.png, media_type="image/png", headers=_headers(b))
 

@@ -13,6 +13,7 @@ from sqlalchemy import func, select
 from argand.api.deps import JobIdDep, SessionDep, SettingsDep, job_or_404
 from argand.api.schemas import FramePage, frame_out
 from argand.farm.assembly import animation_mp4, animation_webp, atlas_png
+from argand.farm.bands import frame_exr
 from argand.farm.database import session_scope
 from argand.farm.job_limits import MAX_PAGE
 from argand.farm.models import Frame, Job
@@ -54,9 +55,21 @@ def frame_png(job_id: JobIdDep, index: int, settings: SettingsDep):
     return _file(store_for(settings).job(job_id).frame(index, "png"), "image/png")
 
 
+def _exr(settings, job_id: str, index: int) -> Path:
+    """The frame's EXR, written now from the job's root field if it is not
+    yet (argand.farm.bands.frame_exr); 404 while the frame is not done."""
+    path = frame_exr(settings, job_id, index)
+    if path is None:
+        raise HTTPException(404, detail=f"frame {index} of job {job_id} is not ready")
+    return path
+
+
 @router.get("/frames/{index}.exr", **binary("image/x-exr", "The frame's EXR (every AOV)"))
-def frame_exr(job_id: JobIdDep, index: int, settings: SettingsDep):
-    return _file(store_for(settings).job(job_id).frame(index, "exr"), "image/x-exr")
+def frame_exr_file(job_id: JobIdDep, index: int, settings: SettingsDep):
+    """The frame's EXR: R, G, B, A and every AOV. Written on its first
+    request (decided from the job's root field, the very pixels the workers
+    rendered) and kept."""
+    return FileResponse(_exr(settings, job_id, index), media_type="image/x-exr")
 
 
 @router.get("/frames/{index}/thumbnail.png", **binary("image/png", "A small copy of the frame's PNG"))
@@ -72,10 +85,10 @@ def frame_channel(job_id: JobIdDep, index: int, channel: str, settings: Settings
     layout = store_for(settings).job(job_id)
     if channel == "beauty":
         return _file(layout.frame(index, "png"), "image/png")
-    exr = layout.frame(index, "exr")
-    if not exr.exists():
-        raise HTTPException(404, detail="the frame is not ready")
     out = layout.channel(channel, index)
+    if out.exists():
+        return FileResponse(out, media_type="image/png")
+    exr = _exr(settings, job_id, index)
     if not out.exists():
         channel_png(exr, channel, out)
     return FileResponse(out, media_type="image/png")
