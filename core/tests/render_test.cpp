@@ -840,6 +840,114 @@ static void test_classify_discs() {
     CHECK(compared > 100000 && live > 10000 && eligible > 5000);
 }
 
+
+/// A tile's planes, owned (render_tile_bands writes through a TileView).
+struct OwnedTile {
+    int w, h;
+    std::vector<float> rgba, z, arg, re, im, share;
+    std::vector<std::int32_t> count;
+    std::vector<std::uint8_t> status, level;
+    TileView v;
+    OwnedTile(int w_, int h_) : w(w_), h(h_) {
+        const std::size_t n = static_cast<std::size_t>(w) * h;
+        rgba.assign(4 * n, -1.0f), z.assign(n, -1.0f), arg.assign(n, -1.0f), re.assign(n, -1.0f), im.assign(n, -1.0f);
+        share.assign(n, -1.0f), count.assign(n, -1), status.assign(n, 99), level.assign(n, 99);
+        v.stride = w;
+        v.rgba = rgba.data(), v.modulus = z.data(), v.argument = arg.data(), v.re = re.data(), v.im = im.data();
+        v.count = count.data(), v.status = status.data(), v.escalation = level.data(), v.certified_share = share.data();
+    }
+    bool same(const OwnedTile& o) const {
+        return std::memcmp(rgba.data(), o.rgba.data(), rgba.size() * 4) == 0 &&
+               std::memcmp(z.data(), o.z.data(), z.size() * 4) == 0 && std::memcmp(re.data(), o.re.data(), re.size() * 4) == 0 &&
+               std::memcmp(im.data(), o.im.data(), im.size() * 4) == 0 && count == o.count && status == o.status &&
+               level == o.level;
+    }
+};
+
+/// The root field: recorded once, replayed for other bands with the bits of
+/// a render from scratch; a field of another tile or cut anywhere, or with
+/// a byte too many, is refused before anything is read out of bounds (the
+/// sanitizer build runs this too).
+static void test_root_field() {
+    SceneSpec sc;
+    SurfaceSpec s;  // x^6 + y^6 + z^6 - 1: degree 6, batched and seeded
+    s.degree = 6;
+    s.terms = {{6, 0, 0, 1.0}, {0, 6, 0, 1.0}, {0, 0, 6, 1.0}, {0, 0, 0, -1.0}};
+    s.clip_radius = 1.6;
+    sc.objects.push_back(s);
+    sc.camera.position[0] = 0.3;
+    sc.camera.position[1] = -4.0;
+    sc.camera.position[2] = 0.7;
+    auto plan = [&](double sigma, double delta) {
+        FrameParams fp;
+        fp.sigma = sigma;
+        fp.delta = delta;
+        fp.width = 40;
+        fp.height = 24;
+        return plan_frame(sc, fp);
+    };
+    const FramePlan a = plan(0.0, 0.0), b = plan(0.4, 0.9), c = plan(0.0, kPiDouble);
+    const TileRect r{8, 0, 40, 24};
+    RootField field;
+    OwnedTile ta(32, 24);
+    render_tile_bands({&a}, r, {&ta.v}, nullptr, &field, nullptr);
+    CHECK(field.bytes.size() > 32 * 24 * 5);
+    for (const FramePlan* p : {&a, &b, &c}) {
+        OwnedTile scratch(32, 24), derived(32, 24);
+        render_tile_bands({p}, r, {&scratch.v}, nullptr, nullptr, nullptr);
+        render_tile_bands({p}, r, {&derived.v}, nullptr, nullptr, &field);
+        CHECK(scratch.same(derived));
+    }
+    auto refused = [&](const RootField& f, const TileRect& rr) {
+        OwnedTile t(40, 24);
+        try {
+            render_tile_bands({&b}, rr, {&t.v}, nullptr, nullptr, &f);
+        } catch (const std::invalid_argument&) {
+            return true;
+        }
+        return false;
+    };
+    CHECK(refused(field, TileRect{0, 0, 32, 24}));  // another tile
+    for (std::size_t cut : {field.bytes.size() - 1, field.bytes.size() / 2, std::size_t{40}, std::size_t{3}}) {
+        RootField f;
+        f.bytes.assign(field.bytes.begin(), field.bytes.begin() + static_cast<std::ptrdiff_t>(cut));
+        CHECK(refused(f, r));
+    }
+    RootField longer = field;
+    longer.bytes.push_back(0);
+    CHECK(refused(longer, r));
+    // Every single byte after the header set to 255 (a disc count above the
+    // degree, flags that do not exist, a status out of range, or a length
+    // that runs past the end): refused, or read within bounds.
+    for (std::size_t at = 28; at < field.bytes.size(); at += 97) {
+        RootField f = field;
+        f.bytes[at] = 255;
+        OwnedTile t(32, 24);
+        try {
+            render_tile_bands({&b}, r, {&t.v}, nullptr, nullptr, &f);
+        } catch (const std::invalid_argument&) {
+        }
+    }
+    const FramePlan other = [&] {
+        SceneSpec sc2 = sc;
+        sc2.objects[0].terms[3].coeff = -1.5;
+        FrameParams fp = a.params;
+        return plan_frame(sc2, fp);
+    }();
+    CHECK(rays_fingerprint(other) != rays_fingerprint(a));
+    CHECK(rays_fingerprint(b) == rays_fingerprint(a));
+    {
+        OwnedTile t(32, 24);
+        bool threw = false;
+        try {
+            render_tile_bands({&other}, r, {&t.v}, nullptr, nullptr, &field);
+        } catch (const std::invalid_argument&) {
+            threw = true;
+        }
+        CHECK(threw);
+    }
+}
+
 int main() {
     test_band_rule();
     test_balls();
@@ -855,5 +963,6 @@ int main() {
     test_tiles_and_limits();
     test_exact_hook();
     test_samples();
+    test_root_field();
     return check_summary("render_test");
 }

@@ -111,6 +111,27 @@ def main(path: str) -> int:
         if together.rgba.tobytes() != alone.rgba.tobytes() or any(
                 np.asarray(together.aovs[k]).tobytes() != np.asarray(alone.aovs[k]).tobytes() for k in alone.aovs):
             problems.append(f"steiner sigma={band.sigma} delta={band.delta}: rendered together differs from alone")
+    # The root field (record, replay for other bands, refusals of a cut
+    # field) through the bindings: the same bits, no memory error.
+    from argand.render.field import RootField
+
+    field = RootField(0, 0, 0, 0)
+    octic = load_scene("chmutov-octic")
+    first = replace(params, sigma=0.0, delta=0.0)
+    render_bands(octic, [first], tile=10, workers=2, record=field)
+    for derived, band in zip(render_bands(octic, bands, tile=10, workers=2, field=field), bands):
+        alone = render_frame(octic, band, tile=10, workers=1)
+        if derived.rgba.tobytes() != alone.rgba.tobytes() or any(
+                np.asarray(derived.aovs[k]).tobytes() != np.asarray(alone.aovs[k]).tobytes() for k in alone.aovs):
+            problems.append(f"chmutov sigma={band.sigma} delta={band.delta}: derived from the field differs")
+    rect = next(iter(field.tiles))
+    cut = RootField(field.fingerprint, field.width, field.height, field.tile, dict(field.tiles))
+    cut.tiles[rect] = cut.tiles[rect][: len(cut.tiles[rect]) // 2]
+    try:
+        render_bands(octic, [bands[1]], tile=10, workers=1, field=cut)
+        problems.append("a cut root field was read")
+    except ValueError:
+        pass
     # More objects than the renderer's old 16-entry stack array held (ASan
     # found the overflow with this scene): rendered in full, or refused with
     # a ValueError by a scene limit below 20; never a memory error.
