@@ -16,8 +16,9 @@ setup: $(VENV)/.argand-built
 # reports it unavailable), PostgreSQL's server binaries (the PostgreSQL farm
 # test starts its own server from them) and Chromium for the browser tests
 # (Playwright's own browser download does not work offline), and Clang for
-# the libFuzzer targets (make fuzz, make test-fuzz).
-DEB_PACKAGES := mpsolve python3-mpsolve postgresql chromium clang iproute2 nftables faketime
+# the libFuzzer targets (make fuzz, make test-fuzz), and surf and POV-Ray for
+# the peers benchmark (argand bench peers reports either unavailable without it).
+DEB_PACKAGES := mpsolve python3-mpsolve postgresql chromium clang iproute2 nftables faketime surf-alggeo povray
 $(VENV)/.argand-debs:
 	@mkdir -p $(VENV)
 	@if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
@@ -139,7 +140,7 @@ bench-all: setup
 # tests (tests/web) write every page they visit into build/screenshots/
 # (ignored by git, so make test changes no tracked file); this copies the
 # ones the docs show. A few minutes (a real farm in Chromium).
-DOC_SCREENSHOTS := new-job job job-status-channel job-atlas jobs workers compare
+DOC_SCREENSHOTS := new-job job job-status-channel job-atlas jobs workers compare job-root-atlas
 screenshots: setup
 	$(VENV)/bin/pytest -q -p no:cacheprovider tests/web
 	for shot in $(DOC_SCREENSHOTS); do cp build/screenshots/$$shot.png docs/screenshots/; done

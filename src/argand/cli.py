@@ -539,6 +539,29 @@ def bench_bands_cmd(
     console.print(f"wrote {out / 'bands.json'}, {out / 'bands.md'} and {out / 'bands.png'}")
 
 
+@bench_app.command("peers")
+def bench_peers_cmd(
+    out: Path = typer.Option(Path("docs/bench"), "--out", metavar="DIR", help="Folder for peers.json, peers.md, "
+                             "peers.png and peers_side.png."),
+    smoke: bool = typer.Option(False, "--smoke", help="2 surfaces at 96x96 and 2 centre-row views at 95x95, 1 run."),
+    runs: Optional[int] = typer.Option(None, "--runs", min=1, help="Interleaved rounds per timing (default 3, smoke 1)."),
+) -> None:
+    """surf and POV-Ray against Argand on the same rays (real surface, one core): CPU time and wrong pixels by the
+    exact truth."""
+    from argand.bench.peers import PEER_LABELS, PEERS, bench_peers
+
+    with console.status("benchmarking peers") as status:
+        report = bench_peers(out_dir=out, smoke=smoke, runs=runs, progress=lambda m: status.update(m))
+    for name in ("surf", "povray"):
+        if not report["available"][name]:
+            console.print(f"{name}: unavailable (binary not found)")
+    for size, entry in report["totals"].items():
+        console.print(f"{size}x{size}: Argand {entry['argand']['cpu_s']:.2f} s, {entry['argand']['wrong']} wrong; "
+                      + "; ".join(f"{PEER_LABELS[p]} {entry[p]['cpu_s']:.2f} s ({entry[p]['over_argand']:.2f}x), "
+                                  f"{entry[p]['wrong']} wrong" for p in PEERS if p in entry))
+    console.print(f"wrote {out / 'peers.json'}, {out / 'peers.md'}, {out / 'peers.png'} and {out / 'peers_side.png'}")
+
+
 @bench_app.command("all")
 def bench_all_cmd(
     out: Path = typer.Option(None, "--out", metavar="DIR", help="Folder for every section's files (default docs/bench, "
