@@ -205,6 +205,26 @@ def test_render_sweeps_sigma_and_grids_with_an_atlas_and_an_mp4(tmp_path):
         assert r.returncode == 2 and message in " ".join(r.stderr.split()), (args, r.stderr)
 
 
+def test_render_lays_an_atlas_out_where_the_roots_are(tmp_path):
+    from argand.frames.frame_set import atlas_grid, root_atlas_cuts
+    from argand.media.frame_files import read_band
+    from argand.render.convert import to_core_scene
+    from argand.scene import load_scene
+
+    out = tmp_path / "roots"
+    r = run("render", "steiner", "--atlas", "4", "--atlas-layout", "roots", "--size", "24x24", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    cuts = root_atlas_cuts(to_core_scene(load_scene("steiner")), 24, 24, 4)
+    assert cuts != [p * math.pi / 4 for p in range(5)]  # (not the uniform cuts)
+    assert [read_band(out / f"frame_{i:04d}.exr") for i in range(10)] == [
+        (p.sigma, p.delta) for p in atlas_grid(4, cuts).points]
+    assert (out / "atlas.png").exists()
+    for args, message in ((["--atlas-layout", "roots"], "--atlas-layout lays out an atlas: give it with --atlas N"),
+                          (["--atlas", "3", "--atlas-layout", "spiral"], "--atlas-layout must be uniform or roots")):
+        r = run("render", "steiner", *args, "--size", "8x8", "--out", str(tmp_path / "bad"))
+        assert r.returncode == 2 and message in " ".join(r.stderr.split()), (args, r.stderr)
+
+
 def test_render_uses_the_exr_compression_asked_for(tmp_path):
     import OpenImageIO as oiio
 

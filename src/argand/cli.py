@@ -124,6 +124,8 @@ def render(
     deltas: Optional[str] = typer.Option(None, "--deltas", metavar="START:STOP:COUNT", help="A sweep of δ START:STOP:COUNT (e.g. 0:pi/9:24)."),
     atlas: Optional[int] = typer.Option(None, "--atlas", metavar="N", min=1, help="N: the whole space σ ≥ 0, σ + δ ≤ π "
                                         "on a triangular grid of N rows and columns (N(N+1)/2 frames), step π/N."),
+    atlas_layout: str = typer.Option("uniform", "--atlas-layout", metavar="LAYOUT", help="uniform: cut [0, π] every "
+                                     "π/N; roots: cut it where the scene's roots are (frames where the picture changes)."),
     size: str = typer.Option(DEFAULT_SIZE, "--size", metavar="WxH", help="WxH in pixels (the farm's default too)."),
     out: Path = typer.Option(Path("render"), "--out", metavar="DIR", help="Output folder: one run's files; "
                              "refused if it holds another run's (see --overwrite)."),
@@ -166,6 +168,10 @@ def render(
         grid = FrameSet.from_axes(sigma=sigma, sigmas=sigmas, delta=delta, deltas=deltas, atlas=atlas)
     except ValueError as exc:
         fail(str(exc))
+    if atlas_layout not in ("uniform", "roots"):
+        fail(f"--atlas-layout must be uniform or roots, got {atlas_layout!r}")
+    if atlas_layout == "roots" and atlas is None:
+        fail("--atlas-layout lays out an atlas: give it with --atlas N")
     try:
         check_exr_compression(exr_compression)
     except ValueError as exc:
@@ -175,6 +181,10 @@ def render(
         loaded = load_scene(scene)
     except (ValueError, OSError) as exc:
         fail(str(exc))
+    if atlas_layout == "roots":
+        from argand.frames.frame_set import root_atlas_cuts
+        from argand.render.convert import to_core_scene
+        grid = FrameSet.from_axes(atlas=atlas, atlas_cuts=root_atlas_cuts(to_core_scene(loaded), width, height, atlas))
     exact = {}
     if exact_per_tile is not None:
         exact["exact_pixels_per_tile"] = exact_per_tile

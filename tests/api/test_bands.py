@@ -22,6 +22,8 @@ from PIL import Image
 
 from argand.farm import tile_work
 from argand.frames.angles import parse_angle
+from argand.frames.frame_set import atlas_grid, root_atlas_cuts
+from argand.render.convert import to_core_scene
 from argand.media.frame_files import EXR_CHANNELS, read_exr, to_srgb8
 from argand.render import FrameParams, render_frame
 from argand.scene import load_scene
@@ -133,6 +135,36 @@ def test_the_root_arguments_show_where_the_picture_can_change(farm_parts):  # no
         assert json.loads(above.headers["X-Argand-Status-Shares"])["certified"] == 1.0
         assert np.all(_png_pixels(above.content) == _png_pixels(above.content)[0, 0])  # background only
         assert c.get("/api/jobs/nosuchjob/arguments").status_code == 404
+
+
+def test_an_atlas_laid_out_where_the_roots_are(farm_parts):  # noqa: F811
+    """GET /arguments?atlas=N gives the cuts where the job's roots are and
+    the bands between them; a job submitted with atlas_layout "roots"
+    renders exactly those bands, the ones `argand render --atlas N
+    --atlas-layout roots` renders for the scene and size; bad requests are
+    refused saying why."""
+    settings, _redis = farm_parts
+    with _served(farm_parts) as (c, _redis_server, _app):
+        job_id = _finish(settings, c, "whitney", [0])
+        body = c.get(f"/api/jobs/{job_id}/arguments", params={"atlas": 5}).json()
+        cuts = body["atlas"]["cuts"]
+        assert body["atlas"]["steps"] == 5 and len(cuts) == 6 and cuts[0] == 0.0 and cuts[-1] == math.pi
+        # Whitney's roots lie below π/6: most cuts are there.
+        assert sum(0 < x < math.pi / 6 for x in cuts) >= 3, cuts
+        want = [(p.sigma, p.delta) for p in atlas_grid(5, root_atlas_cuts(to_core_scene(load_scene("whitney")), W, H, 5)).points]
+        assert [tuple(b) for b in body["atlas"]["bands"]] == want
+        assert "atlas" not in c.get(f"/api/jobs/{job_id}/arguments").json()
+        for bad in (0, 141, "x"):
+            assert c.get(f"/api/jobs/{job_id}/arguments", params={"atlas": bad}).status_code == 422
+        r = c.post("/api/jobs", json={"scene": "whitney", "atlas": 5, "atlas_layout": "roots", "width": W, "height": H})
+        assert r.status_code == 201, r.text
+        frames = c.get(f"/api/jobs/{r.json()['id']}/frames").json()
+        frames = frames["frames"] if isinstance(frames, dict) else frames
+        assert sorted((f["sigma"], f["delta"]) for f in frames) == sorted(want)
+        for body, words in (({"atlas_layout": "roots", "deltas": [0.1]}, "atlas_layout"),
+                            ({"atlas": 3, "atlas_layout": "shuffled"}, "atlas_layout")):
+            r = c.post("/api/jobs", json={"scene": "whitney", "width": W, "height": H, **body})
+            assert r.status_code == 422 and words in r.text, r.text
 
 
 @pytest.mark.parametrize("damage", ["missing", "flipped", "truncated", "other rays"])

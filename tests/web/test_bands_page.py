@@ -76,6 +76,38 @@ def test_the_sliders_show_any_band_and_follow_a_scrub(farm):
         assert not page.errors, page.errors
 
 
+def test_the_atlas_where_the_roots_are_shows_bands_and_opens_them(farm):
+    """The page's atlas cut where the roots are: the cuts the API gives,
+    one thumbnail per band (the band route's picture), and a click shows
+    that exact band in the main picture."""
+    job_id = _done_job(farm, "steiner", 64)
+    with chromium_page() as page:
+        page.goto(f"{farm.url}/#/job/{job_id}")
+        page.wait_for_function("document.querySelector('#root-atlas')?.dataset?.done === '6'", timeout=60_000)
+        atlas = httpx.get(f"{farm.url}/api/jobs/{job_id}/arguments", params={"atlas": 6}).json()["atlas"]
+        cells = page.eval_on_selector_all(".root-atlas-cell[data-band]", "(els) => els.map((e) => [e.dataset.band, e.dataset.loaded])")
+        # (JavaScript's shortest round-trip text of the doubles: the same values.)
+        assert [tuple(map(float, band.split("/"))) for band, _ in cells] == [tuple(b) for b in atlas["bands"]]
+        assert all(loaded == "yes" for _, loaded in cells), cells
+        # A thumbnail is the band route's PNG of its band.
+        key = cells[2][0]
+        s, d = atlas["bands"][2]
+        thumb = page.evaluate(f"""async () => {{
+            const img = document.querySelector('.root-atlas-cell[data-band="{key}"] img');
+            const c = document.createElement('canvas'); c.width = img.naturalWidth; c.height = img.naturalHeight;
+            c.getContext('2d').drawImage(img, 0, 0);
+            return Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data); }}""")
+        png = httpx.get(f"{farm.url}/api/jobs/{job_id}/band.png", params={"sigma": repr(s), "delta": repr(d)}).content
+        expected = np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"))
+        assert np.array_equal(np.array(thumb, np.uint8).reshape(expected.shape), expected)
+        # A click shows that band (its exact values) above.
+        page.click(f'.root-atlas-cell[data-band="{key}"]')
+        page.wait_for_function(f"document.querySelector('#band-canvas').dataset.band === '{key}'", timeout=30_000)
+        assert np.array_equal(_canvas_pixels(page, "#band-canvas"), expected)
+        shot(page, "job-root-atlas")
+        assert not page.errors, page.errors
+
+
 def test_scrubbing_a_512_job_is_measured(farm):
     job_id = _done_job(farm, "bicube", SIDE)
     with chromium_page() as page:

@@ -80,6 +80,10 @@ class JobRequest(BaseModel):
     atlas: StrictInt | None = Field(None, ge=1, le=MAX_ATLAS_STEPS, description=(
         "N: the whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of N rows and columns, step π/N "
         "(N(N+1)/2 frames); instead of sigma(s) and delta(s)"))
+    atlas_layout: Literal["uniform", "roots"] = Field("uniform", description=(
+        "With atlas: \"uniform\" cuts [0, π] every π/N; \"roots\" cuts it where the scene's roots are "
+        "(argand.frames.frame_set.atlas_cuts over the arguments of an evenly spread grid of its pixels' roots), "
+        "so the frames sit where the picture changes"))
     width: StrictInt = Field(DEFAULT_WIDTH, ge=1, le=MAX_FRAME_SIDE)
     height: StrictInt = Field(DEFAULT_HEIGHT, ge=1, le=MAX_FRAME_SIDE)
     tile: StrictInt | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
@@ -112,6 +116,8 @@ class JobRequest(BaseModel):
     @model_validator(mode="after")
     def _one_way(self) -> "JobRequest":
         FrameSet.check_one_way(**self.axes())
+        if self.atlas_layout != "uniform" and self.atlas is None:
+            raise ValueError("atlas_layout lays out an atlas: give it with atlas")
         return self
 
     def axes(self) -> dict[str, Any]:

@@ -19,7 +19,6 @@ back to a band is free.
 
 from __future__ import annotations
 
-import math
 import tempfile
 import threading
 import time
@@ -27,16 +26,17 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 from sqlalchemy import select
 
-from argand.core import _core, find_roots
+from argand.core import _core
 from argand.farm.database import engine_for
 from argand.farm.models import Frame, Job
 from argand.farm.planning import samples_of
 from argand.farm.settings import Settings
 from argand.frames.angles import parse_angle
+from argand.frames.frame_set import atlas_cuts, atlas_grid
 from argand.media.frame_files import to_srgb8, write_exr, write_png
+from argand.render.arguments import argument_histogram
 from argand.render.convert import to_core_scene
 from argand.farm.store import store_for
 from argand.render.field import RootField, tape_of_stored
@@ -237,58 +237,19 @@ def exr_bytes(result: FrameResult, compression: str) -> bytes:
         return path.read_bytes()
 
 
-#: Pixels per side of the grid whose roots root_arguments reads, and its bins over [0, π].
-ARGUMENT_GRID = 48
-ARGUMENT_BINS = 90
-
-
-def inside_clip(obj, origin, direction, centres):
-    """Which roots' points lie inside the object's clipping sphere (all
-    when it has none): the point at distance |t| along the ray, in object
-    space (object = linear (world - translate)), at the disc's centre."""
-    radius = float(obj.clip_radius)
-    if radius <= 0.0:
-        return np.ones(len(centres), bool)
-    linear = np.asarray(obj.linear, float).reshape(3, 3)
-    o = linear @ (np.asarray(origin, float) - np.asarray(obj.translate, float))
-    d = linear @ np.asarray(direction, float)
-    points = o[None, :] + np.abs(centres)[:, None] * d[None, :]
-    return np.einsum("ij,ij->i", points, points) <= radius * radius
-
-
-def root_arguments(settings: Settings, job_id: str, grid: int = ARGUMENT_GRID, bins: int = ARGUMENT_BINS) -> dict:
-    """Where in (σ, δ) a job's picture can change: the arguments |arg t| of
-    the roots of the primary rays of a grid x grid subset of its pixels
-    (evenly spread, pixel centres), each object's ray polynomial solved
-    with proven discs (argand.core.find_roots, coefficient radii included);
-    a verified disc counts its roots, at the argument of its centre, when
-    its centre's point lies inside the object's clipping sphere (the roots
-    a frame can show). A band's picture changes only where σ or σ + δ
-    crosses such a root's argument, so the histogram shows which bands are
-    worth looking at. Raises NoJob."""
+def root_arguments(settings: Settings, job_id: str, atlas: int | None = None) -> dict:
+    """Where in (σ, δ) a job's picture can change
+    (argand.render.arguments.argument_histogram on the job's scene and size)
+    and, with ``atlas`` (N steps), the atlas laid out where those roots are
+    (argand.frames.frame_set.atlas_cuts: its cuts and its bands as [σ, δ]
+    pairs in frame order). Raises NoJob."""
     with engine_for(settings.sqlalchemy_url).connect() as c:
         job = c.execute(select(Job.scene, Job.width, Job.height).where(Job.id == job_id)).first()
     if job is None:
         raise NoJob(job_id)
-    core_scene = to_core_scene(scene_from_dict(job.scene))
-    frame_plan = plan(core_scene, FrameParams(width=job.width, height=job.height))
-    xs = sorted({min(job.width - 1, int((i + 0.5) * job.width / grid)) for i in range(grid)})
-    ys = sorted({min(job.height - 1, int((j + 0.5) * job.height / grid)) for j in range(grid)})
-    args: list[float] = []
-    weights: list[int] = []
-    unverified = 0
-    for y in ys:
-        for x in xs:
-            origin, direction = _core.primary_ray(frame_plan, x, y, 0)
-            for obj in range(len(core_scene.objects)):
-                coeffs, radius = _core.ray_polynomial(frame_plan, obj, origin, direction, True)
-                if not (np.all(np.isfinite(coeffs)) and coeffs[-1] != 0.0):
-                    continue
-                roots = find_roots(coeffs, radius=radius)
-                ok = roots.verified & inside_clip(core_scene.objects[obj], origin, direction, roots.center)
-                unverified += int(np.sum(roots.count[~roots.verified]))
-                args += np.abs(np.angle(roots.center[ok])).tolist()
-                weights += roots.count[ok].tolist()
-    counts, edges = np.histogram(args, bins=bins, range=(0.0, math.pi), weights=weights)
-    return {"edges": edges.tolist(), "counts": counts.astype(int).tolist(), "pixels": len(xs) * len(ys),
-            "roots": int(sum(weights)), "unverified_roots": unverified}
+    out = argument_histogram(to_core_scene(scene_from_dict(job.scene)), job.width, job.height)
+    if atlas is not None:
+        cuts = atlas_cuts(out["edges"], out["counts"], atlas, at_zero=out["at_zero"], at_pi=out["at_pi"])
+        out["atlas"] = {"steps": atlas, "cuts": list(cuts),
+                        "bands": [[p.sigma, p.delta] for p in atlas_grid(atlas, cuts).points]}
+    return out

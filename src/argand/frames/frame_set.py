@@ -19,6 +19,7 @@ import numpy as np
 
 from argand.core import _core
 from argand.frames.angles import parse_angle, parse_sweep
+from argand.render.arguments import argument_histogram
 from argand.render.frames import BAND_RULE, delta_sweep
 
 #: A frame's size when a run gives none: a job over HTTP and `argand render` alike.
@@ -94,17 +95,21 @@ class FrameSet:
 
     @classmethod
     def from_axes(cls, sigma: Axis = None, sigmas: Axis = None, delta: Axis = None, deltas: Axis = None,
-                  atlas: int | None = None, max_frames: int | None = None) -> "FrameSet":
+                  atlas: int | None = None, max_frames: int | None = None,
+                  atlas_cuts: Sequence[float] | None = None) -> "FrameSet":
         """The frames a run asks for, the CLI's and the API's alike: the grid
         σ values x δ values (each axis 0 when not given), or with ``atlas``
-        the triangular grid of that many steps (atlas_grid). Raises
+        the triangular grid of that many steps (atlas_grid; over
+        ``atlas_cuts`` when given, e.g. atlas_cuts() where the roots are). Raises
         ValueError naming the axis for an axis given two ways or unreadable,
         for more than ``max_frames`` frames (counted before anything is
         expanded), and BandRuleError naming the pairs that break the band rule."""
         cls.check_one_way(sigma, sigmas, delta, deltas, atlas)
         if atlas is not None:
             _check_frames(atlas_frames(atlas) if _is_count(atlas) else 0, max_frames)
-            return atlas_grid(atlas)
+            return atlas_grid(atlas, atlas_cuts)
+        if atlas_cuts is not None:
+            raise ValueError("atlas cuts need an atlas")
         row = _axis("sigmas", sigmas) if sigmas is not None else _axis("sigma", 0.0 if sigma is None else sigma, True)
         column = _axis("deltas", deltas) if deltas is not None else _axis("delta", 0.0 if delta is None else delta, True)
         _check_frames(_count(row) * _count(column), max_frames)
@@ -229,28 +234,98 @@ def atlas_frames(steps: int) -> int:
     return steps * (steps + 1) // 2
 
 
-def atlas_grid(steps: int) -> FrameSet:
+def atlas_grid(steps: int, cuts: Sequence[float] | None = None) -> FrameSet:
     """The whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of ``steps``
-    rows and columns, h = π / steps: σ = 0, h, ..., π - h (rows) and
-    δ = h, 2h, ..., π (columns), every pair with σ + δ ≤ π, so row i holds
-    steps - i frames and the last column of each row lies on σ + δ = π.
+    rows and columns over the cuts c_0 = 0 < c_1 < ... < c_steps = π: row i
+    starts its bands at σ = c_i, column j ends them j + 1 cuts later, so
+    frame (i, j) is the band [c_i, c_{i+j+1}] (δ = c_{i+j+1} - c_i), row i
+    holds steps - i frames and the last of each row ends at π. ``cuts``
+    None: the uniform atlas, c_k = k π / steps (linspace), whose δ is the
+    same along a column, h = π / steps, 2h, ..., π; other cuts (atlas_cuts:
+    where the roots are) give each frame its own δ, and the δ axis holds the
+    first row's (from_points' rule).
 
     δ = 0 is left out: a band of width 0 holds a root only if its argument is
     exactly σ, so for σ > 0 that column would be empty, and σ = 0, δ = 0 (the
-    real surface) is what `--delta 0` renders. The values are
-    linspace(0, π, steps + 1); where a diagonal pair's rounded sum exceeds π
-    its δ is lowered by the fewest ulps that satisfy the band rule."""
+    real surface) is what `--delta 0` renders. Where a diagonal pair's
+    rounded sum exceeds π its δ is lowered by the fewest ulps that satisfy
+    the band rule."""
     if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
         raise ValueError(f"an atlas needs a whole number of steps >= 1, got {steps!r}")
-    line = [float(v) for v in np.linspace(0.0, math.pi, steps + 1)]
-    sigmas, deltas = tuple(line[:-1]), tuple(line[1:])
+    if cuts is None:
+        line = [float(v) for v in np.linspace(0.0, math.pi, steps + 1)]
+        width = line[1:]  # (the uniform atlas's δ: the cut itself, as it always was)
+    else:
+        line = _check_cuts(cuts, steps)
+        width = None
+    sigmas = tuple(line[:-1])
     points = []
     for i, s in enumerate(sigmas):
-        for j, d in enumerate(deltas[: steps - i]):
+        for j in range(steps - i):
+            d = width[j] if width is not None else line[i + j + 1] - s
             while not _core.band_rule_holds(s, d):  # the diagonal, rounded above pi: an ulp at a time
                 d = math.nextafter(d, 0.0)
             points.append(FramePoint(i, j, s, d))
+    deltas = tuple(width) if width is not None else tuple(p.delta for p in points[:steps])
     return FrameSet(sigmas, deltas, tuple(points))
+
+
+def _check_cuts(cuts: Sequence[float], steps: int) -> list[float]:
+    line = [float(c) for c in cuts]
+    if len(line) != steps + 1 or line[0] != 0.0 or line[-1] != math.pi:
+        raise ValueError(f"an atlas of {steps} steps needs {steps + 1} cuts from 0 to pi, got {len(line)}")
+    if not all(a < b for a, b in zip(line, line[1:])):
+        raise ValueError("an atlas's cuts must increase strictly")
+    return line
+
+
+#: The share of an atlas's cuts placed by the roots' arguments (the rest are
+#: spread evenly, so every part of [0, π] keeps some cuts and the cuts stay
+#: apart even where all roots share one argument, e.g. 0 on the real surface).
+ROOT_SHARE = 0.75
+
+
+def atlas_cuts(edges: Sequence[float], counts: Sequence[float], steps: int, root_share: float = ROOT_SHARE,
+               at_zero: float = 0, at_pi: float = 0) -> list[float]:
+    """Cuts 0 = c_0 < ... < c_steps = π for atlas_grid laid out where the
+    roots are: c_k is where the mixed distribution
+    M(θ) = (1 - root_share) θ / π + root_share R(θ) reaches k / steps, R the
+    roots' share with argument below θ (the histogram ``counts`` over the
+    bins ``edges`` of [0, π], argand.render.arguments, linear within a bin).
+    So an arc of [0, π] holding a share f of the roots gets about
+    steps (root_share f + (1 - root_share) w / π) cuts, w its width, and
+    bands change where pictures change. Roots whose argument is exactly 0
+    or exactly π (``at_zero``, ``at_pi``: counted in the first and last bin;
+    the real roots) are left out: every atlas cuts there already, and
+    spreading them over their bin would put cuts where no picture changes.
+    No other roots: the uniform cuts."""
+    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
+        raise ValueError(f"an atlas needs a whole number of steps >= 1, got {steps!r}")
+    if not 0.0 <= root_share < 1.0:
+        raise ValueError(f"root_share must lie in [0, 1), got {root_share!r}")
+    e = np.asarray(edges, float)
+    c = np.asarray(counts, float)
+    if e.ndim != 1 or c.shape != (len(e) - 1,) or len(c) == 0 or np.any(c < 0) or np.any(np.diff(e) <= 0):
+        raise ValueError("atlas_cuts needs a histogram: counts >= 0 over increasing edges")
+    c = c.copy()
+    c[0] = max(0.0, c[0] - float(at_zero))
+    c[-1] = max(0.0, c[-1] - float(at_pi))
+    total = float(c.sum())
+    roots = np.concatenate([[0.0], np.cumsum(c) / total]) if total > 0 else e / math.pi * 0.0
+    share = root_share if total > 0 else 0.0
+    mixed = (1.0 - share) * (e - e[0]) / (e[-1] - e[0]) + share * roots
+    line = [float(v) for v in np.interp(np.arange(steps + 1) / steps, mixed, e)]
+    line[0], line[-1] = 0.0, math.pi
+    for k in range(1, steps):  # (strictly increasing: interp of a strictly increasing M)
+        line[k] = min(max(line[k], math.nextafter(line[k - 1], math.inf)), math.pi)
+    return _check_cuts(line, steps)
+
+
+def root_atlas_cuts(core_scene: Any, width: int, height: int, steps: int) -> list[float]:
+    """atlas_cuts for a scene's frame: where the roots of an evenly spread
+    grid of its pixels' primary rays are (argand.render.arguments)."""
+    h = argument_histogram(core_scene, width, height)
+    return atlas_cuts(h["edges"], h["counts"], steps, at_zero=h["at_zero"], at_pi=h["at_pi"])
 
 
 def format_angle(value: float) -> str:

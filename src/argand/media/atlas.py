@@ -32,7 +32,8 @@ def grid_sheet(grid: FrameSet, cells: Mapping[int, np.ndarray], size: tuple[int,
 
 def atlas_png(grid: FrameSet, cells: Mapping[int, np.ndarray], width: int, height: int, title: str = "") -> bytes:
     """The labelled atlas as PNG bytes: the contact sheet at one screen pixel
-    per pixel, δ values under the columns, σ values beside the rows."""
+    per pixel, δ values under the columns (for an atlas on uneven cuts,
+    how many cuts each band spans), σ values beside the rows."""
     from matplotlib.figure import Figure
 
     w, h = cell_size(width, height)
@@ -45,9 +46,15 @@ def atlas_png(grid: FrameSet, cells: Mapping[int, np.ndarray], width: int, heigh
     ax = fig.add_axes((left / W, bottom / H, sw / W, sh / H))
     ax.imshow(sheet, interpolation="nearest", extent=(0, sw, sh, 0))
     rows, cols = grid.shape
-    ax.set_xticks([PAD + c * (w + PAD) + w / 2 for c in range(cols)], [format_angle(d) for d in grid.deltas])
+    # A column of the uniform atlas has one δ; one laid out on other cuts
+    # (where the roots are) has a δ per frame: its column j is the band
+    # ending j + 1 cuts after σ.
+    uniform = all(abs(p.delta - grid.deltas[p.delta_index]) <= 1e-12 * max(1.0, p.delta) for p in grid.points)
+    xticks = [format_angle(d) for d in grid.deltas] if uniform else [f"+{c + 1}" for c in range(cols)]
+    ax.set_xticks([PAD + c * (w + PAD) + w / 2 for c in range(cols)], xticks)
     ax.set_yticks([PAD + r * (h + PAD) + h / 2 for r in range(rows)], [format_angle(s) for s in grid.sigmas])
-    ax.set_xlabel("δ (band width)", color=TEXT)
+    ax.set_xlabel("δ (band width)" if uniform else "band width in cuts (σ values, π)",
+                  color=TEXT)
     ax.set_ylabel("σ (band start)", color=TEXT)
     ax.tick_params(colors=TEXT, labelsize=8, length=0)
     for spine in ax.spines.values():

@@ -2,7 +2,8 @@
 // (σ ≥ 0, σ + δ ≤ π), the picture following them with certified frames
 // from GET /api/jobs/{id}/band.png, and where the picture can change: the
 // histogram of the roots' arguments (GET /api/jobs/{id}/arguments) with the
-// band drawn over it. app.js calls attach() on a job page.
+// band drawn over it, and the atlas laid out where those roots are (its
+// cuts denser where the arguments are). app.js calls attach() on a job page.
 
 const PI = Math.PI;
 const STEPS = 720;  // slider positions over [0, π]: steps of π/720 (0.25°)
@@ -48,6 +49,12 @@ export function attach(container, job, headers = () => ({}), before = null) {
         <canvas id="band-arguments" width="360" height="120" aria-label="Arguments of the roots, with the band"></canvas>
         <p class="muted">Roots' |arg| over [0, π] (a grid of pixels, proven discs); the band is shaded. The picture changes only where σ or σ + δ crosses a root.</p>
       </div>
+    </div>
+    <div class="root-atlas">
+      <h3>Atlas where the roots are
+        <label class="muted">steps <input id="root-atlas-steps" type="number" min="1" max="12" value="6" style="width:3.5rem" aria-label="Steps of the atlas where the roots are"></label></h3>
+      <p class="muted" id="root-atlas-cuts"></p>
+      <div id="root-atlas" role="grid" aria-label="Bands cut where the roots are"></div>
     </div>`;
   place(container, section, before);
   const canvas = section.querySelector("#band-canvas"), ctx = canvas.getContext("2d");
@@ -114,9 +121,62 @@ export function attach(container, job, headers = () => ({}), before = null) {
     if (inFlight) wanted = [s, d];
     else request(s, d);
   }
+  // The atlas laid out where the roots are: its cuts from GET
+  // /api/jobs/{id}/arguments?atlas=N (argand.frames.frame_set.atlas_cuts),
+  // row i the bands starting at cut i, column j those ending j + 1 cuts
+  // later, each a thumbnail of band.png (one request at a time); a click
+  // shows that exact band above (the sliders move to the nearest step).
+  const atlasBox = section.querySelector("#root-atlas"), stepsInput = section.querySelector("#root-atlas-steps");
+  let atlasRun = 0;
+  async function drawAtlas() {
+    const run = ++atlasRun, steps = Math.max(1, Math.min(12, Number(stepsInput.value) || 6));
+    const r = await fetch(`/api/jobs/${job.id}/arguments?atlas=${steps}`, { headers: headers() });
+    if (!live || run !== atlasRun || !r.ok) return;
+    const body = await r.json(), a = body.atlas;
+    args = body;  // (the histogram comes with it)
+    drawArguments();
+    section.querySelector("#root-atlas-cuts").textContent = `Cuts: ${a.cuts.map(angleLabel).join(", ")} (denser where the roots' arguments are; ${a.bands.length} bands)`;
+    atlasBox.innerHTML = "";
+    atlasBox.style.gridTemplateColumns = `repeat(${steps}, auto)`;
+    const cells = [];
+    let k = 0;
+    for (let i = 0; i < steps; i++) for (let j = 0; j < steps; j++) {
+      const cell = document.createElement("button");
+      cell.className = "root-atlas-cell";
+      if (j < steps - i) {
+        const [s, d] = a.bands[k++];
+        cell.dataset.band = `${s}/${d}`;
+        cell.title = `[${angleLabel(s)}, ${angleLabel(s + d)}]`;
+        cell.innerHTML = `<img alt="band [${angleLabel(s)}, ${angleLabel(s + d)}]"><span>${angleLabel(s)} … ${angleLabel(s + d)}</span>`;
+        cell.addEventListener("click", () => {
+          sigma.value = String(Math.round((s / PI) * STEPS));
+          delta.value = String(Math.min(STEPS - Number(sigma.value), Math.round((d / PI) * STEPS)));
+          drawArguments();
+          section.querySelector("#band-label").innerHTML = `σ = ${angleLabel(s)}, δ = ${angleLabel(d)} <span class="muted">(band [${angleLabel(s)}, ${angleLabel(s + d)}], a cut of the atlas)</span>`;
+          if (inFlight) wanted = [s, d]; else request(s, d);
+        });
+        cells.push([cell, s, d]);
+      } else {
+        cell.disabled = true;
+        cell.className += " empty";
+      }
+      atlasBox.append(cell);
+    }
+    for (const [cell, s, d] of cells) {  // one thumbnail at a time: the farm serves the sliders too
+      if (!live || run !== atlasRun) return;
+      const img = cell.querySelector("img");
+      const t = await fetch(`/api/jobs/${job.id}/band.png?sigma=${s}&delta=${d}`, { headers: headers() });
+      if (!t.ok) { cell.dataset.loaded = "error"; continue; }
+      img.src = URL.createObjectURL(await t.blob());
+      await img.decode().catch(() => {});
+      cell.dataset.loaded = "yes";
+    }
+    atlasBox.dataset.done = String(steps);
+  }
+  stepsInput.addEventListener("change", drawAtlas);
   sigma.addEventListener("input", update);
   delta.addEventListener("input", update);
-  fetch(`/api/jobs/${job.id}/arguments`, { headers: headers() }).then((r) => r.ok ? r.json() : null).then((a) => { args = a; if (live) drawArguments(); });
   update();
+  drawAtlas();
   return { section, detach() { live = false; } };
 }

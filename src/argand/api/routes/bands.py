@@ -10,6 +10,7 @@ from fastapi.responses import Response
 
 from argand.api.deps import JobIdDep, SettingsDep
 from argand.api.routes.frames import binary
+from argand.api.schemas import MAX_ATLAS_STEPS
 from argand.farm.bands import Band, JobNotDone, NoJob, band, exr_bytes, root_arguments
 
 router = APIRouter(prefix="/api/jobs/{job_id}", tags=["bands"])
@@ -59,12 +60,17 @@ def band_exr(job_id: JobIdDep, settings: SettingsDep, sigma: str = SIGMA, delta:
 
 
 @router.get("/arguments")
-def arguments(job_id: JobIdDep, settings: SettingsDep) -> dict:
+def arguments(job_id: JobIdDep, settings: SettingsDep,
+              atlas: int | None = Query(None, ge=1, le=MAX_ATLAS_STEPS, description=(
+                  "Also the atlas of N steps laid out where these roots are: its cuts and bands"))) -> dict:
     """Where the job's picture can change along σ and δ: a histogram over
     [0, π] of the arguments |arg t| of the roots of the primary rays of an
     evenly spread subset of its pixels (proven discs; see
-    argand.farm.bands.root_arguments)."""
+    argand.farm.bands.root_arguments); with ``atlas``, the atlas of that
+    many steps laid out where the roots are ("atlas": steps, cuts, and its
+    bands as [σ, δ] in frame order; the job page shows them as a contact
+    sheet from band.png)."""
     try:
-        return root_arguments(settings, job_id)
+        return root_arguments(settings, job_id, atlas)
     except NoJob:
         raise HTTPException(404, detail=f"no job {job_id!r}") from None

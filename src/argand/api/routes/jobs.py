@@ -23,6 +23,8 @@ from argand.farm.progress import eta_seconds, jobs_progress
 from argand.farm.states import ACTIONS, ENDED, JOB, shown_frame_status
 from argand.farm.job_limits import MAX_PAGE
 from argand.farm.submission import FarmBusy, JobRefused, JobSpec, StoreFull, create_job, job_frames
+from argand.frames.frame_set import root_atlas_cuts
+from argand.render.convert import to_core_scene
 from argand.scene import Scene, SceneError, load_scene, scene_from_dict
 from argand.scene.presets import PRESETS
 
@@ -58,7 +60,11 @@ def submit(req: JobRequest, settings: SettingsDep, s: SessionDep, request: Reque
     if req.samples is not None:  # the job's scene carries its samples per pixel (checked by JobRequest)
         scene = scene.model_copy(update={"samples": req.samples})
     try:
-        frames = job_frames(settings.max_frames, **req.axes())
+        axes = req.axes()
+        if req.atlas_layout == "roots":  # (the atlas's size is checked first: a refusal costs no solving)
+            job_frames(settings.max_frames, **axes)
+            axes["atlas_cuts"] = root_atlas_cuts(to_core_scene(scene), req.width, req.height, req.atlas)
+        frames = job_frames(settings.max_frames, **axes)
         spec = JobSpec(name, scene, frames, req.width, req.height, req.tile or settings.default_tile, req.priority,
                        req.method)
         job_id = create_job(settings, spec, send=False, session=s)
