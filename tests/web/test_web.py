@@ -193,6 +193,22 @@ def test_a_grid_job_plays_along_both_axes_and_its_atlas_opens_frames(farm, page,
     atlas = farm.get(f"/api/jobs/{page.url.rsplit('/', 1)[1]}")
     assert len(atlas["frames"]) == 6 and len(atlas["sigmas"]) == len(atlas["deltas"]) == 3
     assert page.locator("#grid.atlas .cell").count() == 6
+    # The same atlas cut where the roots are: the API's cuts for the scene.
+    page.goto(farm.url + "/#/new")
+    page.click("[data-preset=whitney]")
+    page.check("#atlas")
+    page.check("#atlas-roots")
+    page.fill("#atlas-steps", "3")
+    for field, value in (("#width", "32"), ("#height", "32"), ("#tile", "32")):
+        page.fill(field, value)
+    page.click("#submit")
+    page.wait_for_url("**/#/job/*")
+    roots = farm.get(f"/api/jobs/{page.url.rsplit('/', 1)[1]}")
+    from argand.frames.frame_set import root_atlas_cuts
+    from argand.render.convert import to_core_scene
+    from argand.scene import load_scene
+    cuts = root_atlas_cuts(to_core_scene(load_scene("whitney")), 32, 32, 3)
+    assert list(roots["sigmas"]) == cuts[:-1] and len(roots["frames"]) == 6
     assert not page.errors, page.errors
 
 

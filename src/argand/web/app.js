@@ -121,6 +121,7 @@ async function newPage() {
       <label>Frames (δ values) <input id="count" type="number" min="1" max="${meta.limits.max_frames}" value="12"></label>
       <label class="wide check"><span><input id="atlas" type="checkbox"> Atlas: the whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of
         <input id="atlas-steps" type="number" min="1" max="${Math.floor((Math.sqrt(8 * meta.limits.max_frames + 1) - 1) / 2)}" value="6" style="width:4rem" aria-label="Atlas steps"> steps (step π/N; replaces the σ and δ values)</span></label>
+      <label class="wide check"><span><input id="atlas-roots" type="checkbox"> Atlas cut where the roots are (denser where the scene's roots' arguments are, not every π/N)</span></label>
       <label>Width <input id="width" type="number" min="8" max="${meta.limits.max_width}" value="${meta.defaults.width}"></label>
       <label>Height <input id="height" type="number" min="8" max="${meta.limits.max_height}" value="${meta.defaults.height}"></label>
       <label>Tile <input id="tile" type="number" min="${meta.limits.min_tile}" max="${meta.limits.max_tile}" value="${meta.defaults.tile}"></label>
@@ -164,7 +165,8 @@ async function newPage() {
       scene = { objects: [obj] };
     }
     const sigmaCount = Number(val("sigma-count"));
-    const frames = view.querySelector("#atlas").checked ? { atlas: Number(val("atlas-steps")) } : {
+    const frames = view.querySelector("#atlas").checked ? { atlas: Number(val("atlas-steps")),
+      ...(view.querySelector("#atlas-roots").checked ? { atlas_layout: "roots" } : {}) } : {
       sigmas: sigmaCount > 1 ? { start: val("sigma"), stop: val("sigma-stop"), count: sigmaCount } : val("sigma"),
       deltas: { start: val("start"), stop: val("stop"), count: Number(val("count")) } };
     const body = { scene, ...frames,
