@@ -23,8 +23,10 @@ import tempfile
 import threading
 import time
 from collections import OrderedDict
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Iterator
 
 from sqlalchemy import select
 
@@ -71,6 +73,34 @@ _cache: OrderedDict[tuple, Band] = OrderedDict()
 _lock = threading.Lock()
 
 
+class KeyedLocks:
+    """One lock per key, kept only while a thread holds it or waits for it:
+    a long-running API answering bands of many jobs keeps no lock for a job
+    nobody asks about any more."""
+
+    def __init__(self) -> None:
+        self._guard = threading.Lock()
+        self._locks: dict[tuple, list] = {}  # key -> [lock, threads holding or waiting]
+
+    def __len__(self) -> int:
+        with self._guard:
+            return len(self._locks)
+
+    @contextmanager
+    def hold(self, key: tuple) -> Iterator[None]:
+        with self._guard:
+            entry = self._locks.setdefault(key, [threading.Lock(), 0])
+            entry[1] += 1
+        try:
+            with entry[0]:
+                yield
+        finally:
+            with self._guard:
+                entry[1] -= 1
+                if entry[1] == 0:
+                    del self._locks[key]
+
+
 def band_params(settings: Settings, job_id: str, sigma_text: str, delta_text: str) -> tuple:
     """(scene, FrameParams, tile size) of the band of a done job. Raises
     NoJob, JobNotDone, or ValueError naming what is wrong with σ or δ (the
@@ -101,7 +131,7 @@ def _angle(name: str, text: str) -> float:
 FIELD_CACHE_BYTES = 384 << 20
 
 _fields: OrderedDict[tuple, RootField] = OrderedDict()
-_field_locks: dict[tuple, threading.Lock] = {}
+_field_locks = KeyedLocks()  # one solve per job when its first requests come together
 
 
 def stored_field(settings: Settings, job_id: str, frame_plan, width: int, height: int, tile: int) -> RootField | None:
@@ -147,9 +177,7 @@ def render_band(settings: Settings, job_id: str, scene, params: FrameParams, til
     """The band's frame, from the job's root field (recorded now if there
     is none yet), and where the field came from: memory, store or solved."""
     key = (settings.sqlalchemy_url, job_id, params.engine)
-    with _lock:
-        job_lock = _field_locks.setdefault(key, threading.Lock())
-    with job_lock:  # (one solve per job when its first requests come together)
+    with _field_locks.hold(key):
         field, source = _job_field(settings, job_id, scene, params, tile)
         if field is not None:
             try:
@@ -190,7 +218,7 @@ def band(settings: Settings, job_id: str, sigma_text: str, delta_text: str, keep
     return out
 
 
-_exr_locks: dict[tuple, threading.Lock] = {}
+_exr_locks = KeyedLocks()  # one write per frame when its first requests come together
 
 
 def frame_exr(settings: Settings, job_id: str, index: int) -> Path | None:
@@ -210,9 +238,7 @@ def frame_exr(settings: Settings, job_id: str, index: int) -> Path | None:
                           .where(Frame.job_id == job_id, Frame.index == index)).first()
     if job is None or frame is None or frame.status != "done":
         return None
-    with _lock:
-        lock = _exr_locks.setdefault((settings.sqlalchemy_url, job_id, index), threading.Lock())
-    with lock:  # (one write per frame when its first requests come together)
+    with _exr_locks.hold((settings.sqlalchemy_url, job_id, index)):
         if path.exists():
             return path
         params = FrameParams(sigma=frame.sigma, delta=frame.delta, width=job.width, height=job.height,
