@@ -384,12 +384,14 @@ void bind_scene(py::module_& m) {
     m.attr("FIELD_LIMITS") = limits;
 }
 
-/// The farm's interleaved layout (the EXR's channel order); Python's
-/// argand.render.frames.INTERLEAVED_CHANNELS must equal it (tested).
-constexpr const char* kInterleavedNames[] = {"R",     "G",      "B",          "A",
-                                             "Z",     "arg",    "re",         "im",
-                                             "count", "status", "escalation", "certified_share"};
-constexpr int kInterleavedChannels = sizeof(kInterleavedNames) / sizeof(kInterleavedNames[0]);
+/// The farm's interleaved layout (the EXR's channel order): R, G, B, A,
+/// then render.h's kAovs; argand.render.frames.INTERLEAVED_CHANNELS is built
+/// from the same table.
+constexpr int kInterleavedChannels = 4 + kAovCount;
+const char* interleaved_name(int c) {
+    static constexpr const char* kColour[] = {"R", "G", "B", "A"};
+    return c < 4 ? kColour[c] : kAovs[c - 4].name;
+}
 
 /// The exact tier's hook around a Python callable `fn(frame, query) ->
 /// dict` (argand.render.exact.decide_pixel): called from render_tile with
@@ -589,14 +591,14 @@ void init_render(py::module_& m) {
             }
             py::dict out;
             out["rgba"] = rgba;
-            out["Z"] = z;
-            out["arg"] = arg;
-            out["re"] = re;
-            out["im"] = im;
-            out["count"] = count;
-            out["status"] = status;
-            out["escalation"] = escalation;
-            out["certified_share"] = share;
+            out[kAovs[0].name] = z;
+            out[kAovs[1].name] = arg;
+            out[kAovs[2].name] = re;
+            out[kAovs[3].name] = im;
+            out[kAovs[4].name] = count;
+            out[kAovs[5].name] = status;
+            out[kAovs[6].name] = escalation;
+            out[kAovs[7].name] = share;
             out["escalations"] = v.escalations;
             out["root_calls"] = v.root_calls;
             return out;
@@ -626,14 +628,14 @@ void init_render(py::module_& m) {
                                           std::to_string(W) + (channels == 1 ? "" : ", 4") + ") array");
             };
             check(rgba, "rgba", 4);
-            check(z, "Z", 1);
-            check(arg, "arg", 1);
-            check(re, "re", 1);
-            check(im, "im", 1);
-            check(count, "count", 1);
-            check(status, "status", 1);
-            check(escalation, "escalation", 1);
-            check(share, "certified_share", 1);
+            check(z, kAovs[0].name, 1);
+            check(arg, kAovs[1].name, 1);
+            check(re, kAovs[2].name, 1);
+            check(im, kAovs[3].name, 1);
+            check(count, kAovs[4].name, 1);
+            check(status, kAovs[5].name, 1);
+            check(escalation, kAovs[6].name, 1);
+            check(share, kAovs[7].name, 1);
             TileView v = view_of_planes(rgba, z, arg, re, im, count, status, escalation, share, W,
                                         static_cast<std::size_t>(y0) * W + x0);
             ExactHook hook(exact);
@@ -693,14 +695,14 @@ void init_render(py::module_& m) {
                 };
                 auto rgba = plane(0, "rgba", 4, float{});
                 width = rgba.shape(1);
-                auto z = plane(1, "Z", 1, float{});
-                auto arg = plane(2, "arg", 1, float{});
-                auto re = plane(3, "re", 1, float{});
-                auto im = plane(4, "im", 1, float{});
-                auto count = plane(5, "count", 1, std::int32_t{});
-                auto status = plane(6, "status", 1, std::uint8_t{});
-                auto escalation = plane(7, "escalation", 1, std::uint8_t{});
-                auto share = plane(8, "certified_share", 1, float{});
+                auto z = plane(1, kAovs[0].name, 1, float{});
+                auto arg = plane(2, kAovs[1].name, 1, float{});
+                auto re = plane(3, kAovs[2].name, 1, float{});
+                auto im = plane(4, kAovs[3].name, 1, float{});
+                auto count = plane(5, kAovs[4].name, 1, std::int32_t{});
+                auto status = plane(6, kAovs[5].name, 1, std::uint8_t{});
+                auto escalation = plane(7, kAovs[6].name, 1, std::uint8_t{});
+                auto share = plane(8, kAovs[7].name, 1, float{});
                 views[b] = view_of_planes(rgba, z, arg, re, im, count, status, escalation, share, width,
                                           static_cast<std::size_t>(oy) * width + ox);
             }
@@ -925,7 +927,9 @@ void init_render(py::module_& m) {
           py::arg("samples"));
     m.def("band_rule_holds", &band_rule_holds, "True iff (sigma, delta) satisfy BAND_RULE (decided exactly).",
           py::arg("sigma"), py::arg("delta"));
-    py::list names;
-    for (const char* n : kInterleavedNames) names.append(n);
+    py::list names, aovs;
+    for (int c = 0; c < kInterleavedChannels; ++c) names.append(interleaved_name(c));
+    for (const AovSpec& a : kAovs) aovs.append(py::make_tuple(a.name, a.dtype));
     m.attr("INTERLEAVED_CHANNELS") = py::tuple(names);
+    m.attr("AOVS") = py::tuple(aovs);
 }

@@ -376,3 +376,28 @@ def test_the_renderers_limits_are_defined_once_in_cpp_and_enforced_everywhere():
         _core.plan_frame(too_high, 0.0, 0.0, 8, 8)
     with pytest.raises(pydantic.ValidationError):
         Settings(max_width=MAX_FRAME_SIDE + 1)
+
+
+def test_the_aovs_are_one_table_from_cpp_to_the_exr(tmp_path):
+    """render.h's kAovs (_core.AOVS) names every AOV once: the planes a tile
+    binding returns have its names and dtypes, a frame's planes and the
+    EXR's channels follow it, in its order after R, G, B, A."""
+    from argand.core import _core
+    from argand.media.frame_files import read_exr, write_exr
+    from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, TileRect, plan, render_frame
+    from argand.render.convert import to_core_scene
+    from argand.scene import load_scene
+
+    assert INTERLEAVED_CHANNELS == ("R", "G", "B", "A") + tuple(n for n, _ in _core.AOVS) and AOV_CHANNELS
+    scene = load_scene("steiner")
+    fplan = plan(to_core_scene(scene), FrameParams(delta=0.3, width=20, height=12))
+    tile = _core.render_tile(fplan, 0, 0, 20, 12)
+    for name, dtype in _core.AOVS:
+        assert tile[name].dtype == np.dtype(dtype) and tile[name].shape == (12, 20), name
+    frame = render_frame(scene, FrameParams(delta=0.3, width=20, height=12), workers=1)
+    assert [(n, frame.aovs[n].dtype.name) for n in frame.aovs] == list(_core.AOVS)
+    write_exr(frame, tmp_path / "f.exr")
+    names, pixels = read_exr(tmp_path / "f.exr")
+    assert sorted(names) == sorted(INTERLEAVED_CHANNELS)  # (OpenEXR keeps channels in its own order)
+    for name, _ in _core.AOVS:
+        assert np.array_equal(pixels[..., names.index(name)], frame.aovs[name].astype(np.float32)), name

@@ -227,6 +227,21 @@ constexpr const char* kLadderLevelNames[] = {"first",          "root double-doub
 /// Z, arg, re, im and count describe one sample, the shown sample: the
 /// hitting sample of least |t| (the first such), or the first sample when
 /// none hits (docs/rendering.md).
+/// The AOVs a frame carries besides its colour (R, G, B, A), in the EXR's
+/// channel order: the one table of them. The bindings export it as
+/// _core.AOVS ((name, NumPy dtype) pairs) and name their planes from it;
+/// argand.render.frames builds its planes, dtypes and the EXR's channels
+/// from _core.AOVS. TileAOVs and TileView hold them in this order (Z is
+/// `modulus`, arg `argument`).
+struct AovSpec {
+    const char* name;
+    const char* dtype;
+};
+inline constexpr AovSpec kAovs[] = {{"Z", "float32"},     {"arg", "float32"},    {"re", "float32"},
+                                    {"im", "float32"},    {"count", "int32"},    {"status", "uint8"},
+                                    {"escalation", "uint8"}, {"certified_share", "float32"}};
+inline constexpr int kAovCount = static_cast<int>(sizeof(kAovs) / sizeof(kAovs[0]));
+
 struct TileAOVs {
     int width = 0, height = 0;
     std::vector<float> rgba;      // 4 per pixel, linear colour; A = 1 on a hit, 0 on a miss

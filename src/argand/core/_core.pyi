@@ -40,6 +40,7 @@ EXACT_PIXELS_PER_TILE: int
 EXACT_DEFAULT_BITS: int
 BAND_RULE: str
 INTERLEAVED_CHANNELS: tuple[str, ...]
+AOVS: tuple[tuple[str, str], ...]
 STATUS_NAMES: dict[int, str]
 LADDER_LEVEL_NAMES: dict[int, str]
 #: Bounds of the typed scene's number fields, by "Struct.field": (lo, hi,

@@ -28,10 +28,10 @@ from argand.render.options import EngineOptions
 #: (the one channel list: the farm, the EXR writer and the tests read it).
 #: ``escalation`` is the ladder level a pixel needed (LADDER_LEVEL_NAMES);
 #: ``certified_share`` the share of the pixel's samples that are certified.
-AOV_CHANNELS = ("Z", "arg", "re", "im", "count", "status", "escalation", "certified_share")
-#: Each AOV's array type as the renderer writes it (the EXR stores all as float32).
-AOV_DTYPES = {"Z": np.float32, "arg": np.float32, "re": np.float32, "im": np.float32, "count": np.int32,
-              "status": np.uint8, "escalation": np.uint8, "certified_share": np.float32}
+AOV_CHANNELS = tuple(name for name, _dtype in _core.AOVS)
+#: Each AOV's array type as the renderer writes it (the EXR stores all as
+#: float32): render.h's kAovs, the one table of them (_core.AOVS).
+AOV_DTYPES = {name: np.dtype(dtype).type for name, dtype in _core.AOVS}
 
 #: Pixel status codes (the ``status`` AOV), defined in C++ (render.h's
 #: PixelStatus and kStatusNames); docs/rendering.md says what each one proves.
@@ -194,9 +194,7 @@ def render_tile_planned(frame_plan: Any, rect: TileRect) -> TileAOVs:
 
 #: The farm's interleaved layout (the EXR's channel order); the C++ writer
 #: (render_tile_into) must agree, which the import checks.
-INTERLEAVED_CHANNELS = ("R", "G", "B", "A") + AOV_CHANNELS
-if tuple(_core.INTERLEAVED_CHANNELS) != INTERLEAVED_CHANNELS:  # pragma: no cover - a build mismatch
-    raise ImportError(f"argand.core._core writes channels {_core.INTERLEAVED_CHANNELS}, expected {INTERLEAVED_CHANNELS}")
+INTERLEAVED_CHANNELS = tuple(_core.INTERLEAVED_CHANNELS)  # R, G, B, A, then AOV_CHANNELS
 
 
 def interleave(rgba: np.ndarray, aovs: Any) -> np.ndarray:
