@@ -565,8 +565,8 @@ def bench_peers_cmd(
     for name in ("surf", "povray"):
         if not report["available"][name]:
             console.print(f"{name}: unavailable (binary not found)")
-    for size, entry in report["totals"].items():
-        console.print(f"{size}x{size}: Argand {entry['argand']['cpu_s']:.2f} s, {entry['argand']['wrong']} wrong; "
+    for key, entry in report["totals"].items():
+        console.print(f"{key}: Argand {entry['argand']['cpu_s']:.2f} s, {entry['argand']['wrong']} wrong; "
                       + "; ".join(f"{PEER_LABELS[p]} {entry[p]['cpu_s']:.2f} s ({entry[p]['over_argand']:.2f}x), "
                                   f"{entry[p]['wrong']} wrong" for p in PEERS if p in entry))
     console.print(f"wrote {out / 'peers.json'}, {out / 'peers.md'}, {out / 'peers.png'} and {out / 'peers_side.png'}")

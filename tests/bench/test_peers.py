@@ -106,8 +106,16 @@ def test_smoke_run_writes_its_files_and_finds_the_peers_wrong_pixels(tmp_path):
     # double root), Argand does not certify them, and the peers miss some.
     axes = rows[("steiner-axes", 95)]
     assert axes["argand"]["uncertified"] >= 95 and axes["argand"]["uncertified_hits_true"] >= 95
-    for p in peers.PEERS:
-        assert axes["peers"][p]["missed_multiple_root"] > 0, p
+    for p in peers.PEERS:  # along the double lines: the centre row (x, y axes) and column (the z axis)
+        e = axes["peers"][p]
+        assert e["wrong"] > 0 and e["centre_row"] + e["centre_column"] >= 0.7 * e["wrong"], (p, e)
+    # POV-Ray's closed-form quartic loses the double roots of the centre row.
+    assert axes["peers"]["povray"]["missed_multiple_root"] >= 20
+    # The torus from its tangent plane: with Sturm sequences POV-Ray finds
+    # the tangent circle's double roots, without them it misses some.
+    torus = rows[("torus-tangent", 95)]
+    assert torus["argand"]["uncertified_hits_true"] >= 40
+    assert torus["peers"]["povray"]["missed_multiple_root"] > 0
     assert data["totals"]["96"]["argand"]["wrong"] == 0
     text = (tmp_path / "peers.md").read_text()
     assert "![peers: speed against wrong pixels](peers.png)" in text and "steiner-axes" in text

@@ -256,7 +256,7 @@ def compare(scene: Any, size: int, result: Any, peers: dict[str, Any], truth_cap
     for name, mask in peers.items():
         wrong = np.zeros_like(a_hit)
         kinds = {"spurious_hit": 0, "missed_multiple_root": 0, "missed_simple_root": 0, "silhouette": 0,
-                 "centre_row": 0}
+                 "centre_row": 0, "centre_column": 0}
         for (y, x), t in truth.items():
             if t.hit is None or bool(mask[y, x]) == t.hit:
                 continue
@@ -269,6 +269,7 @@ def compare(scene: Any, size: int, result: Any, peers: dict[str, Any], truth_cap
                 kinds["missed_simple_root"] += 1
             kinds["silhouette"] += bool(edge[y, x])
             kinds["centre_row"] += size % 2 == 1 and y == size // 2
+            kinds["centre_column"] += size % 2 == 1 and x == size // 2 and y != size // 2
         disagree = int((mask != a_hit).sum())
         out["peers"][name] = {"hits": int(mask.sum()), "disagree_with_argand": disagree,
                               "wrong": round(int(wrong.sum()) * weight),
@@ -375,21 +376,23 @@ def bench_peers(out_dir: Path = Path("docs/bench"), smoke: bool = False, runs: i
         rows.append(row)
 
     totals = {}
-    for size in sorted({s for _, s, sp in cases if not sp}):
-        sel = [r for r in rows if r["size"] == size and not r["special"]]
-        entry = {}
+    groups = [(str(size), size, False) for size in sorted({s for _, s, sp in cases if not sp})]
+    groups += [(f"{size} centre-row views", size, True) for size in sorted({s for _, s, sp in cases if sp})]
+    for key, size, sp in groups:
+        sel = [r for r in rows if r["size"] == size and r["special"] == sp]
+        entry: dict[str, Any] = {"cases": len(sel), "special": sp, "size": size}
         for who in ("argand", *PEERS):
-            key = who
-            cpu = [r["cpu_s"].get(key) for r in sel]
+            cpu = [r["cpu_s"].get(who) for r in sel]
             wrong = [r["argand"]["wrong"] if who == "argand" else r["peers"].get(who, {}).get("wrong") for r in sel]
             if any(v is None for v in cpu) or any(v is None for v in wrong):
                 continue
             entry[who] = {"cpu_s": sum(cpu), "wrong": sum(wrong)}
+        entry["argand"]["uncertified"] = sum(r["argand"]["uncertified"] for r in sel)
         entry["argand_process"] = {"cpu_s": sum(r["cpu_s"]["argand_process"] for r in sel)}
         for who in PEERS:
             if who in entry:
                 entry[who]["over_argand"] = entry[who]["cpu_s"] / entry["argand"]["cpu_s"]
-        totals[str(size)] = entry
+        totals[key] = entry
 
     report = {
         "benchmark": "peers", "smoke": smoke, "machine": machine_info(), "versions": peer_versions(),
@@ -422,29 +425,33 @@ def chart(report: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    sizes = list(report["totals"])
-    fig, axes = plt.subplots(1, max(1, len(sizes)), figsize=(5.2 * max(1, len(sizes)), 4.2), squeeze=False)
-    for ax, size in zip(axes[0], sizes):
-        entry = report["totals"][size]
-        for who, v in entry.items():
-            if who not in COLORS:
+    groups = list(report["totals"])
+    fig, axes = plt.subplots(1, max(1, len(groups)), figsize=(4.6 * max(1, len(groups)), 4.2), squeeze=False)
+    for ax, key in zip(axes[0], groups):
+        entry = report["totals"][key]
+        top = 1
+        for who in COLORS:
+            if who not in entry:
                 continue
-            ax.scatter([v["cpu_s"]], [v["wrong"]], s=70, color=COLORS[who], label=PEER_LABELS[who], zorder=3)
-            ax.annotate(PEER_LABELS[who], (v["cpu_s"], v["wrong"]), textcoords="offset points", xytext=(6, 5),
-                        fontsize=8)
-        if "argand_process" in entry and "argand" in entry:
+            v = entry[who]
+            top = max(top, v["wrong"])
+            ax.scatter([v["cpu_s"]], [v["wrong"]], s=70, color=COLORS[who], label=PEER_LABELS[who], zorder=3,
+                       alpha=0.85)
+        if "argand" in entry:
             ax.scatter([entry["argand_process"]["cpu_s"]], [entry["argand"]["wrong"]], s=70, marker="s",
-                       facecolors="none", edgecolors=COLORS["argand"], label="Argand (whole process)", zorder=3)
+                       facecolors="none", edgecolors=COLORS["argand"], label="Argand, whole process", zorder=3)
         ax.set_xscale("log")
         ax.set_yscale("symlog", linthresh=1)
-        ax.set_ylim(bottom=-0.5)
-        ax.set_xlabel("CPU seconds, all surfaces, one core")
-        ax.set_ylabel("wrong pixels (exact truth), all surfaces")
-        n = len([r for r in report["rows"] if str(r["size"]) == size and not r["special"]])
-        ax.set_title(f"{n} surfaces at {size}x{size}")
+        ax.set_ylim(-0.3, 4 * top)
+        ax.set_xlabel("CPU seconds (sum), one core")
+        ax.set_ylabel("wrong pixels (exact truth, sum)")
+        size = entry["size"]
+        what = "centre-row views" if entry["special"] else "presets"
+        ax.set_title(f"{entry['cases']} {what} at {size}x{size}", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7, loc="upper right")
-    fig.suptitle("Peers: speed against wrong pixels (lower left is better)")
+        ax.legend(fontsize=7, loc="upper left")
+    fig.suptitle("Peers: speed against wrong pixels (lower left is better; Argand's uncertified pixels are not claims)",
+                 fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -521,12 +528,14 @@ def markdown(report: dict, chart_path: str = "peers.png", side_path: str = "peer
     if missing:
         lines += [f"Unavailable here (binary not found): {', '.join(missing)}.", ""]
     lines += [f"![peers: speed against wrong pixels]({chart_path})", ""]
-    for size, entry in report["totals"].items():
+    for key, entry in report["totals"].items():
         if "argand" not in entry:
             continue
         a = entry["argand"]
-        lines += [f"All surfaces at {size}×{size}: Argand {a['cpu_s']:.2f} s CPU (whole process "
-                  f"{entry['argand_process']['cpu_s']:.2f} s), {a['wrong']} wrong; "
+        what = "centre-row views" if entry["special"] else "presets"
+        lines += [f"The {entry['cases']} {what} at {entry['size']}×{entry['size']}: Argand {a['cpu_s']:.2f} s CPU "
+                  f"(whole process {entry['argand_process']['cpu_s']:.2f} s), {a['wrong']} wrong, "
+                  f"{a['uncertified']} not certified; "
                   + "; ".join(f"{PEER_LABELS[p]} {entry[p]['cpu_s']:.2f} s ({entry[p]['over_argand']:.2f}× Argand's "
                               f"render), {entry[p]['wrong']} wrong" for p in PEERS if p in entry) + ".", ""]
     lines += ["| surface | size | degree | Argand ms | Argand process ms | surf ms | POV-Ray ms | POV-Ray sturm ms "
@@ -540,16 +549,16 @@ def markdown(report: dict, chart_path: str = "peers.png", side_path: str = "peer
                      f"{_fmt(c['surf'])} | {_fmt(c['povray'])} | {_fmt(c['povray-sturm'])} | "
                      f"{r['argand']['uncertified']}{f' ({aw} wrong!)' if aw else ''} | " + " | ".join(wrong) + " |")
     lines += ["", "What the wrong pixels are (spurious hit / missed on a multiple root / missed on a simple root; "
-              "on the silhouette; on an odd frame's centre row):", ""]
+              "on the silhouette; on an odd frame's centre row or column):", ""]
     lines += ["| surface | size | peer | wrong | spurious hit | missed, multiple root | missed, simple root "
-              "| silhouette | centre row |", "|---|---:|---|---:|---:|---:|---:|---:|---:|"]
+              "| silhouette | centre row | centre column |", "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|"]
     for r in report["rows"]:
         for p in PEERS:
             e = r["peers"].get(p)
             if e and e["wrong"]:
                 lines.append(f"| {r['case']} | {r['size']} | {PEER_LABELS[p]} | {e['wrong']} | {e['spurious_hit']} | "
                              f"{e['missed_multiple_root']} | {e['missed_simple_root']} | {e['silhouette']} | "
-                             f"{e['centre_row']} |")
+                             f"{e['centre_row']} | {e.get('centre_column', 0)} |")
     sampled = [f"{r['case']} {r['size']}" for r in report["rows"] if r["truth_sampled"]]
     if sampled:
         lines += ["", f"Too many disagreements to decide all of them for {', '.join(sampled)}: a deterministic sample "
@@ -572,36 +581,43 @@ def markdown(report: dict, chart_path: str = "peers.png", side_path: str = "peer
 
 def explain(report: dict) -> list[str]:
     """The reading of the wrong pixels, from the counts of this run."""
-    def total(peer: str, key: str, special: bool | None = None) -> int:
-        return sum(r["peers"].get(peer, {}).get(key, 0) for r in report["rows"]
-                   if special is None or r["special"] == special)
+    def total(peer: str, key: str, special: bool) -> int:
+        return sum(r["peers"].get(peer, {}).get(key, 0) for r in report["rows"] if r["special"] == special)
 
     lines = ["### Reading the wrong pixels", ""]
     for p in PEERS:
         if not report["available"].get(p):
             continue
-        w, spur = total(p, "wrong", False), total(p, "spurious_hit", False)
-        mult, simple = total(p, "missed_multiple_root", False), total(p, "missed_simple_root", False)
-        sil = total(p, "silhouette", False)
-        ws, mults, rows = total(p, "wrong", True), total(p, "missed_multiple_root", True), total(p, "centre_row", True)
-        lines.append(f"- **{PEER_LABELS[p]}**: on the presets {w} wrong pixels: {spur} spurious hits, {mult} missed "
-                     f"hits on a multiple root (a ray through a singular curve, or tangent), {simple} other missed "
-                     f"hits; {sil} of them on the silhouette. On the centre-row views {ws} wrong, {mults} of them "
-                     f"missed multiple roots, {rows} on the centre row.")
+        parts = []
+        for special, what in ((False, "the presets"), (True, "the centre-row views")):
+            w = total(p, "wrong", special)
+            parts.append(f"on {what} {w} wrong" + (
+                f" ({total(p, 'spurious_hit', special)} spurious hits, {total(p, 'missed_multiple_root', special)} "
+                f"missed hits on a multiple root, {total(p, 'missed_simple_root', special)} other missed hits; "
+                f"{total(p, 'silhouette', special)} on the silhouette, {total(p, 'centre_row', special)} on the "
+                f"centre row, {total(p, 'centre_column', special)} on the centre column)" if w else ""))
+        worst = sorted(((r["peers"][p]["wrong"], r["case"], r["size"]) for r in report["rows"]
+                        if r["peers"].get(p, {}).get("wrong")), reverse=True)[:4]
+        lines.append(f"- **{PEER_LABELS[p]}**: " + "; ".join(parts) + "."
+                     + (" Most: " + ", ".join(f"{c} {s}² ({w})" for w, c, s in worst) + "." if worst else ""))
     lines += ["",
-              "A missed hit on a multiple root is a ray whose exact polynomial has a real double (or higher) root: "
-              "after rounding the coefficients to doubles the root splits into a complex pair with a tiny imaginary "
-              "part (or a near-double real pair), and a real-root finder (surf's bisection on sign changes, "
-              "POV-Ray's Sturm sequences or its closed-form quartic) sees no real root there. That is what shows as "
-              "isolated dots along Steiner's 1-dimensional whiskers and Whitney's handle, and as a broken centre row "
-              "on the tangent torus. A spurious hit is the reverse: rounding turns a complex pair with a tiny "
-              "imaginary part into two real roots, typically on grazing rays at the silhouette. Argand decides each "
-              "pixel with a proof or says it could not (its uncertified pixels are not claims; the exact truth "
-              "decides them too).",
+              "The peers find real roots in doubles: surf subdivides and bisects on sign changes of the rounded "
+              "ray polynomial, POV-Ray counts them with Sturm sequences (`sturm`; for degree > 4 POV-Ray always "
+              "uses them) or solves a quartic in closed form. Where the exact polynomial has a real double root (a "
+              "ray through a singular curve, or tangent to the surface) rounding splits it into a complex pair with "
+              "a tiny imaginary part or two close real roots, and the peer may see no real root: a **missed hit on "
+              "a multiple root** (POV-Ray's quartic solver along Steiner's double lines and the torus's tangent "
+              "circle, the centre row). The reverse is a **spurious hit**: where the exact polynomial has only a "
+              "complex pair with a tiny imaginary part, the rounded one has a real double root and the peer draws "
+              "it: isolated dots along Steiner's 1-dimensional whiskers (the z axis passes the centre column's rays "
+              "at a rounding's distance, not exactly), or along a grazing silhouette. A **missed simple root** is "
+              "a pair of close simple roots that a sign-change search steps over (surf on rays that graze the "
+              "torus just below its tangent plane).",
               "",
-              f"Argand: {sum(r['argand']['wrong'] for r in report['rows'])} certified pixels contradicted by the exact "
-              "truth among those checked (every pixel where a peer disagrees with it, and every uncertified one), "
-              f"{sum(r['argand']['uncertified'] for r in report['rows'])} pixels not certified (status cluster, "
-              "unverified or undecided), of which the truth says "
-              f"{sum(r['argand']['uncertified_hits_true'] for r in report['rows'])} hit."]
+              "Argand certifies a pixel only with a proof: a pixel on a double root is reported as not certified "
+              "(status cluster) rather than guessed, and the exact truth decides those pixels here as well. "
+              f"Argand: {sum(r['argand']['wrong'] for r in report['rows'])} certified pixels contradicted by the "
+              "truth among those checked (every pixel where a peer disagrees with it, and every uncertified one); "
+              f"{sum(r['argand']['uncertified'] for r in report['rows'])} pixels not certified, of which the truth "
+              f"says {sum(r['argand']['uncertified_hits_true'] for r in report['rows'])} hit."]
     return lines
