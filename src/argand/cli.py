@@ -2,18 +2,61 @@
 
 from __future__ import annotations
 
+import importlib
 import math
+import os
 from pathlib import Path
-from typing import List, Optional
+from typing import Any, Callable, List, Optional
 
 import typer
-from rich import box
-from rich.console import Console
-from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-from rich.table import Table
 
-from argand.frames.frame_set import DEFAULT_HEIGHT, DEFAULT_WIDTH, angle_text
+from argand.frames.defaults import DEFAULT_HEIGHT, DEFAULT_WIDTH
+
+# Loading the CLI imports typer and nothing heavy: rich, numpy, the scene
+# model (pydantic), OpenImageIO and the farm come when a command uses them
+# (tests/test_startup.py keeps it so), since `argand render` of one frame
+# is a process of about 0.3 s of CPU in all (docs/benchmarks.md). The names
+# below stand for rich's and argand's until then.
+
+
+class _Later:
+    """A module, imported at its first attribute read; a rich Console
+    (``console``: its options), made then."""
+
+    def __init__(self, module: str, console: dict | None = None) -> None:
+        self._module, self._console, self._made = module, console, None
+
+    def made(self) -> Any:
+        if self._made is None:
+            made = importlib.import_module(self._module)
+            self._made = made if self._console is None else made.Console(**self._console)
+        return self._made
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.made(), name)
+
+
+def _later(module: str, name: str) -> Callable[..., Any]:
+    """``module.name`` (a function or a class), imported at its first call;
+    a _Later given to it (``console=err``) is passed as what it stands for."""
+
+    def call(*args: Any, **kwargs: Any) -> Any:
+        args = tuple(a.made() if isinstance(a, _Later) else a for a in args)
+        kwargs = {k: v.made() if isinstance(v, _Later) else v for k, v in kwargs.items()}
+        return getattr(importlib.import_module(module), name)(*args, **kwargs)
+
+    call.__name__ = call.__qualname__ = name
+    return call
+
+
+box = _Later("rich.box")
+escape = _later("rich.markup", "escape")
+Table = _later("rich.table", "Table")
+Progress = _later("rich.progress", "Progress")
+BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn = (
+    _later("rich.progress", n) for n in ("BarColumn", "MofNCompleteColumn", "TextColumn", "TimeElapsedColumn",
+                                         "TimeRemainingColumn"))
+angle_text = _later("argand.frames.frame_set", "angle_text")
 
 # Plain help (click's layout): an option that takes a value shows what it
 # takes (WxH, ANGLE, DIR), a flag shows nothing, and no option its Python type.
@@ -27,13 +70,22 @@ bench_app = typer.Typer(help="Benchmarks against the alternatives; JSON and char
                         rich_markup_mode=None)
 app.add_typer(bench_app, name="bench")
 
-console = Console()
-err = Console(stderr=True)
+console = _Later("rich.console", console={})
+err = _Later("rich.console", console={"stderr": True})
 
 
 def fail(message: str, code: int = 2) -> None:
     err.print(f"[bold red]error:[/] {escape(message)}", soft_wrap=True)
     raise typer.Exit(code)
+
+
+def _one_blas_thread() -> None:
+    """Before numpy is imported: OpenBLAS on one thread, unless the
+    environment says otherwise. numpy's OpenBLAS starts a thread per core
+    when it is loaded, each spinning about 0.1 s for work that roots, render
+    and presets never give it (their matrices are at most 3x3): 0.07 s of
+    CPU per extra core for a command that takes 0.3 s (docs/benchmarks.md)."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 # ---------------------------------------------------------------------------
@@ -47,6 +99,7 @@ def roots(
     method: str = typer.Option("auto", "--method", "-m", metavar="METHOD", help="auto | smith | paper | unverified"),
 ) -> None:
     """All complex roots of p(t) = p_0 + p_1 t + ... + p_n t^n, with proven enclosures."""
+    _one_blas_thread()
     from argand.core import METHODS, find_roots
 
     if method not in METHODS:
@@ -157,6 +210,7 @@ def render(
 ) -> None:
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, animation.gif and .mp4,
     and atlas.png for a grid of (sigma, delta)."""
+    _one_blas_thread()
     from argand.frames.frame_set import FrameSet
     from argand.media.frame_files import check_exr_compression
     from argand.render import FrameParams
@@ -280,6 +334,7 @@ def _explain(scene, params, where: str, tile: int) -> None:
 @app.command()
 def presets() -> None:
     """List the preset scenes."""
+    _one_blas_thread()
     from argand.scene import load_scene
     from argand.scene.presets import PRESETS
 

@@ -22,8 +22,9 @@ from argand.frames.angles import parse_angle, parse_sweep
 from argand.render.arguments import argument_histogram
 from argand.render.frames import BAND_RULE, delta_sweep
 
-#: A frame's size when a run gives none: a job over HTTP and `argand render` alike.
-DEFAULT_WIDTH = DEFAULT_HEIGHT = 512
+# A frame's size when a run gives none, a job over HTTP and `argand render`
+# alike: defined apart, so the CLI's help states it without importing this.
+from argand.frames.defaults import DEFAULT_HEIGHT, DEFAULT_WIDTH
 
 #: How many offending pairs a refusal quotes (the count says how many more).
 QUOTED_PAIRS = 5

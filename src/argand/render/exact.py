@@ -46,7 +46,22 @@ import threading
 from dataclasses import dataclass
 from typing import Any
 
-import flint
+
+class _Flint:
+    """python-flint, imported when the exact tier first decides a pixel: most
+    frames send it none, and the import costs a process about 25 ms of CPU
+    (`argand render` of one frame, docs/benchmarks.md). The first use puts
+    the module itself in its place."""
+
+    def __getattr__(self, name: str) -> Any:
+        global flint
+        import flint as module
+
+        flint = module
+        return getattr(module, name)
+
+
+flint: Any = _Flint()
 
 #: First working precision of the exact tier (bits); doubled up to the
 #: frame's ``exact_max_bits``.

@@ -54,11 +54,7 @@ def render_sweep(
     one σ and δ. on_frame(index, params) is called as each frame is written.
     ``root_field``: also write the run's root field there (RootField.save;
     the frames must share their rays). Returns each frame's figures."""
-    from argand.media import gif
-    from argand.media.atlas import atlas_png
-    from argand.media.contact_sheet import cell_size, scale_to_cell
     from argand.media.frame_files import to_srgb8, write_frame
-    from argand.media.video import Mp4Encoder
 
     if grid is not None and len(grid) != len(params):
         raise ValueError(f"the grid has {len(grid)} frames, the sweep {len(params)}")
@@ -66,6 +62,14 @@ def render_sweep(
     previews, figures, cells = [], [], {}
     animated = len(params) > 1
     atlas = grid is not None and grid.is_grid
+    # Pillow and PyAV for an animation, the atlas's modules for an atlas,
+    # imported only then: one frame's process does without them.
+    if animated:
+        from argand.media import gif
+        from argand.media.video import Mp4Encoder
+    if atlas:
+        from argand.media.atlas import atlas_png
+        from argand.media.contact_sheet import cell_size, scale_to_cell
     mp4_tmp = out / "animation.mp4.tmp"
     if animated:
         out.mkdir(parents=True, exist_ok=True)
