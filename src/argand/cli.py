@@ -14,9 +14,10 @@ from argand.frames.defaults import DEFAULT_HEIGHT, DEFAULT_WIDTH
 
 # Loading the CLI imports typer and nothing heavy: rich, numpy, the scene
 # model (pydantic), OpenImageIO and the farm come when a command uses them
-# (tests/test_startup.py keeps it so), since `argand render` of one frame
-# is a process of about 0.3 s of CPU in all (docs/benchmarks.md). The names
-# below stand for rich's and argand's until then.
+# (tests/test_startup.py keeps it so): `argand render` of one 512² frame
+# is a process of about half a second of CPU, most of it imports
+# (cli_process_cpu_s, docs/benchmarks.md). The names below stand for
+# rich's and argand's until then.
 
 
 class _Later:
@@ -84,7 +85,7 @@ def _one_blas_thread() -> None:
     environment says otherwise. numpy's OpenBLAS starts a thread per core
     when it is loaded, each spinning about 0.1 s for work that roots, render
     and presets never give it (their matrices are at most 3x3): 0.07 s of
-    CPU per extra core for a command that takes 0.3 s (docs/benchmarks.md)."""
+    CPU per extra core, for a command of about 0.5 s (docs/benchmarks.md)."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 

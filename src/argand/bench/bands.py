@@ -97,6 +97,26 @@ def bench_cli(size: int, frames: int, atlas: int, atlas_size: int, repeat: int) 
             "atlas_over_one": atlas_run["wall_s"] / one_small["wall_s"]}
 
 
+#: The scenes of the whole-process figure: `argand render SCENE` of one frame, every core (the default).
+CLI_PROCESS_SCENES = ("bicube", "whitney", "chmutov-octic")
+
+
+def bench_cli_process(size: int, scenes: tuple[str, ...], repeat: int) -> dict:
+    """cli_process_cpu_s: the CPU (user + sys, every thread, from
+    getrusage(RUSAGE_CHILDREN)) of a whole `argand render SCENE --size
+    SIZExSIZE` process, one frame as a user runs it (every core, every file
+    written), median of ``repeat``: the interpreter, the imports, the render
+    and the files (issue 25 asks for at most 0.25 s at 512²)."""
+    figures = {}
+    for scene in scenes:
+        cpus = []
+        for _ in range(repeat):
+            with tempfile.TemporaryDirectory(prefix="argand-bench-cli-") as tmp:
+                cpus.append(_run_cli(["render", scene, "--size", f"{size}x{size}", "--out", str(Path(tmp) / "out")])[1])
+        figures[scene] = sorted(cpus)[len(cpus) // 2]
+    return {"size": size, "runs": repeat, "cli_process_cpu_s": figures}
+
+
 def bench_band_route(scene_name: str, size: int, pairs: int, tile: int = 64) -> dict:
     """The band route's work per request (argand.farm.bands: the band on
     every core, then its PNG) over random pairs of the band rule, two ways
@@ -175,6 +195,9 @@ def bench_bands(out_dir: Path = Path("docs/bench"), smoke: bool = False,
         report["render"].append(bench_render_together(name, size, frames, rounds))
     progress("bands: argand render, a sweep and an atlas against one frame (whole process)")
     report["cli"] = bench_cli(size, frames, 3 if smoke else 12, 48 if smoke else 256, 1 if smoke else 3)
+    progress("bands: argand render of one frame, the whole process's CPU")
+    report["cli_process"] = bench_cli_process(size, CLI_PROCESS_SCENES[:1] if smoke else CLI_PROCESS_SCENES,
+                                              1 if smoke else 5)
     progress("bands: the band route's work over random pairs")
     report["band_route"] = [bench_band_route(name, size, 4 if smoke else 40)
                             for name in ("bicube", "whitney", "chmutov-octic")]
@@ -210,7 +233,15 @@ def markdown(report: dict, image: str = "bands.png") -> list[str]:
               f"| one frame, {cli['atlas_size']}² | {cli['one_frame_atlas_size']['wall_s']:.2f} s | "
               f"{cli['one_frame_atlas_size']['cpu_s']:.2f} s | 1 |",
               f"| atlas of {cli['atlas']} ({cli['atlas_frames']} frames), {cli['atlas_size']}² | {cli['atlas_run']['wall_s']:.2f} s "
-              f"| {cli['atlas_run']['cpu_s']:.2f} s | {cli['atlas_over_one']:.1f}× |", "",
+              f"| {cli['atlas_run']['cpu_s']:.2f} s | {cli['atlas_over_one']:.1f}× |", ""]
+    process = report.get("cli_process")
+    if process:  # (absent from a report made before it was measured)
+        figures = process["cli_process_cpu_s"]
+        lines += [f"One frame as a user runs it, `argand render SCENE --size {process['size']}x{process['size']}` (every "
+                  f"core, every file written): the whole process's CPU, user + sys of every thread "
+                  f"(cli_process_cpu_s, median of {process['runs']}): "
+                  + ", ".join(f"{scene} {cpu:.2f} s" for scene, cpu in figures.items()) + ".", ""]
+    lines += [
               "The band route's work per request (the band on every core, then its PNG), random pairs, decided "
               "from the job's root field against solved from scratch (same pairs, interleaved; every channel "
               "compared):", "",
