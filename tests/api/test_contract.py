@@ -46,3 +46,22 @@ def test_an_undeclared_method_is_a_405_that_lists_every_allowed_one(api):  # noq
     assert c.post(f"/api/jobs/{job_id}/cancel").json()["status"] == "canceled"
     paths = c.get("/openapi.json").json()["paths"]
     assert {f"/api/jobs/{{job_id}}/{a}" for a in ("cancel", "pause", "resume", "retry")} <= set(paths)
+
+
+def test_what_the_document_calls_valid_is_taken(api):  # noqa: F811
+    """Found by schemathesis with every check: JSON Schema's integer 3.0,
+    the nulls the document allows, the optional integers' bounds in the
+    document, and an OPTIONS whose Allow names only the path's methods."""
+    c, _settings, _ = api
+    r = c.post("/api/jobs", json={**JOB, "width": 32.0, "priority": 3.0, "sigma": None, "sigmas": None, "delta": None,
+                                  "deltas": None, "atlas": None, "samples": None})
+    assert r.status_code == 201, r.text
+    job_id = r.json()["id"]
+    assert c.patch(f"/api/jobs/{job_id}", json={"priority": 4.0}).json()["priority"] == 4
+    assert c.post("/api/jobs", json={**JOB, "width": 32.5}).status_code == 422
+    props = c.get("/openapi.json").json()["components"]["schemas"]["JobRequest"]["properties"]
+    for name in ("atlas", "tile", "samples"):
+        integer = props[name]["anyOf"][0]
+        assert {"minimum", "maximum"} <= set(integer) and not {"ge", "le"} & set(integer), (name, integer)
+    r = c.options(f"/api/jobs/{job_id}/animation.gif")
+    assert r.status_code == 405 and r.headers["allow"] == "GET, HEAD", r.headers

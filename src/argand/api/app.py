@@ -159,8 +159,11 @@ def _answer_wrong_methods(app: FastAPI) -> None:
     async def http_error(request: Request, exc: StarletteHTTPException):
         if exc.status_code != 405:
             return await http_exception_handler(request, exc)
-        allowed = allowed_methods(request.app, request.url.path)
-        allowed |= {m.strip() for m in (exc.headers or {}).get("Allow", "").split(",") if m.strip()}
+        # The document's methods for the path; Starlette's (those of the first
+        # route matching the path, which may be the hidden catch-all POST of a
+        # job's sub-paths) only for a path the document does not have.
+        allowed = allowed_methods(request.app, request.url.path) or \
+            {m.strip() for m in (exc.headers or {}).get("Allow", "").split(",") if m.strip()}
         allow = ", ".join(sorted(allowed))
         return JSONResponse({"detail": f"{request.method} is not allowed here; allowed: {allow}"}, status_code=405,
                             headers={"Allow": allow})

@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, StringConstraints, field_validator, model_validator
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, Strict, StringConstraints, field_validator,
+                      model_validator)
 
 from argand.core import METHODS
 from argand.farm.models import Job
@@ -20,8 +21,22 @@ from argand.scene.model import check_samples
 from argand.frames.frame_set import DEFAULT_HEIGHT, DEFAULT_WIDTH, FrameSet, FramePoint, angle_text
 
 Priority = Field(5, ge=PRIORITIES.start, le=PRIORITIES.stop - 1)
-#: A JSON integer and nothing else: not true (pydantic would read 1), not "512".
-StrictInt = Annotated[int, Strict()]
+def _integral(v: Any) -> Any:
+    """A JSON number without a fractional part is an integer, as JSON Schema
+    has it (3.0 is the integer 3); everything else goes to the strict check."""
+    return int(v) if isinstance(v, float) and v.is_integer() else v
+
+
+#: A JSON integer and nothing else: not true (pydantic would read 1), not
+#: "512", not 16.5; 3.0 is 3 (an "integer" of the OpenAPI document).
+StrictInt = Annotated[int, Strict(), BeforeValidator(_integral)]
+
+
+def bounded_int(low: int, high: int) -> Any:
+    """StrictInt from ``low`` to ``high``, for an optional field: the bounds
+    sit on the integer itself, so that the document has them as its
+    minimum and maximum (given on the optional field, they read "ge"/"le")."""
+    return Annotated[int, Strict(), Field(ge=low, le=high), BeforeValidator(_integral)]
 #: A preset's name: not empty, not blank.
 PresetName = Annotated[str, StringConstraints(min_length=1, strip_whitespace=True)]
 
@@ -77,7 +92,7 @@ class JobRequest(BaseModel):
     delta: float | str | None = Field(None, description="One δ (the default, 0); or give deltas")
     deltas: float | str | list[float | str] | AngleRange | None = Field(
         None, description="δ values: a number, a list or {start, stop, count}")
-    atlas: StrictInt | None = Field(None, ge=1, le=MAX_ATLAS_STEPS, description=(
+    atlas: bounded_int(1, MAX_ATLAS_STEPS) | None = Field(None, description=(
         "N: the whole space σ ≥ 0, σ + δ ≤ π on a triangular grid of N rows and columns, step π/N "
         "(N(N+1)/2 frames); instead of sigma(s) and delta(s)"))
     atlas_layout: Literal["uniform", "roots"] = Field("uniform", description=(
@@ -86,10 +101,11 @@ class JobRequest(BaseModel):
         "so the frames sit where the picture changes"))
     width: StrictInt = Field(DEFAULT_WIDTH, ge=1, le=MAX_FRAME_SIDE)
     height: StrictInt = Field(DEFAULT_HEIGHT, ge=1, le=MAX_FRAME_SIDE)
-    tile: StrictInt | None = Field(None, ge=MIN_TILE, le=MAX_TILE, description="Tile size in pixels (default: the farm's)")
+    tile: bounded_int(MIN_TILE, MAX_TILE) | None = Field(
+        None, description="Tile size in pixels (default: the farm's)")
     priority: StrictInt = Priority
     method: Literal[METHODS] = "auto"
-    samples: StrictInt | None = Field(None, ge=1, le=MAX_SAMPLES,
+    samples: bounded_int(1, MAX_SAMPLES) | None = Field(None,
                                 description="Samples per pixel, a square (1, 4, 9, ..., MAX_SAMPLES; default: the "
                                 "scene's): the colour is their mean, the status the worst of theirs")
 
@@ -98,20 +114,21 @@ class JobRequest(BaseModel):
     def _samples(cls, v: int | None) -> int | None:
         return None if v is None else check_samples(v)
 
+    # null is the field left out (the document says each may be null).
     @field_validator("sigma", "delta", mode="before")
     @classmethod
-    def _one_value(cls, v: Any) -> float:
-        return _angle(v)
+    def _one_value(cls, v: Any) -> float | None:
+        return None if v is None else _angle(v)
 
     @field_validator("sigmas", mode="before")
     @classmethod
     def _sigmas(cls, v: Any) -> Any:
-        return _axis(v, "sigmas")
+        return None if v is None else _axis(v, "sigmas")
 
     @field_validator("deltas", mode="before")
     @classmethod
     def _deltas(cls, v: Any) -> Any:
-        return _axis(v, "deltas")
+        return None if v is None else _axis(v, "deltas")
 
     @model_validator(mode="after")
     def _one_way(self) -> "JobRequest":
