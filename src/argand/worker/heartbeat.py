@@ -66,7 +66,18 @@ class Heartbeat:
         self._every(max(REAPER_EVERY_S, self.settings.heartbeat_interval_s), step)
 
     def start(self) -> None:
-        self.beat()  # registered before the first task
+        """Beats once now (the worker registered before its first task), then
+        starts the threads. A database that does not answer that first beat
+        (a worker started while its host is cut off from it, or while it
+        restarts) does not stop them: the heartbeat thread beats once it
+        answers. (Raised out of Celery's worker_ready, it left a worker that
+        took tasks but never beat again, and never started its watchdog and
+        stall check: "unhealthy" for good; tests/cluster found it.)"""
+        try:
+            self.beat()
+        except Exception as exc:  # noqa: BLE001 - any database error; the thread retries
+            print(f"argand worker {self.name}: no first heartbeat ({exc!r}); beating every "
+                  f"{self.settings.heartbeat_interval_s:g} s until the database answers", file=sys.stderr, flush=True)
         threading.Thread(target=self._every, args=(self.settings.heartbeat_interval_s, self.beat), daemon=True,
                          name="argand-heartbeat").start()
         threading.Thread(target=self._reap_rounds, daemon=True, name="argand-reaper").start()
