@@ -76,9 +76,9 @@ test-py: setup
 # two worker hosts, and every fault of docs/reliability.md's "Many hosts"
 # during a running job. Needs root, ip, nft (Debian's iproute2, nftables) and
 # PostgreSQL's server binaries; skipped with the reason otherwise. A few minutes.
-# Not part of make test for now: in a clean clone's CI-like run the worker
-# host w1 did not come back healthy after the sixth fault (8 setup errors),
-# while runs in the working tree passed 14 of 14; see issue 27.
+# Part of make test. (It was left out for a while: a worker restarted while its
+# host was cut off from PostgreSQL never beat again, at random; fixed in
+# argand.worker.heartbeat and pinned by a test of its own, see issue 27.)
 cluster-test: setup
 	$(VENV)/bin/pytest -q -p no:cacheprovider tests/cluster
 
@@ -122,7 +122,7 @@ FUZZ_SMOKE_SECONDS ?= 15
 test-fuzz: fuzz-build
 	PYTHON=$(PY) sh fuzz/run.sh smoke $(FUZZ_SMOKE_SECONDS)
 
-test: test-cpp test-py test-sanitize test-fuzz bench-smoke
+test: test-cpp test-py cluster-test test-sanitize test-fuzz bench-smoke
 
 bench: setup
 	$(VENV)/bin/argand bench roots

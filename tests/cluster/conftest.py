@@ -1,4 +1,4 @@
-"""The cluster's fixtures: one cluster per test module (its hosts started
+"""The cluster's fixtures: one cluster for the whole run (its hosts started
 once), brought back to health before each test (faults healed, the workers
 of every worker host running and healthy), and every test bounded in time
 (a test past its limit fails, and the cluster is still torn down)."""
@@ -50,7 +50,7 @@ def time_limit():
         signal.signal(signal.SIGALRM, previous)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def cluster():
     def terminate(*_args):  # a SIGTERM to pytest still tears the cluster down
         raise KeyboardInterrupt
@@ -81,11 +81,14 @@ def farm(cluster, request):
     for host in WORKER_HOSTS:
         if cluster.proc(host, "worker").popen.poll() is not None:
             cluster.start_worker(host)
-    for host in WORKER_HOSTS:
-        cluster.wait(lambda: cluster.worker_healthy(host), 60, f"the worker on {host} is healthy")
+    try:
+        for host in WORKER_HOSTS:
+            cluster.wait(lambda: cluster.worker_healthy(host), 60, f"the worker on {host} is healthy")
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}\n{cluster.diagnosis()}") from None
     yield cluster
     if request.node.rep_call.failed if hasattr(request.node, "rep_call") else False:
-        print(cluster.logs())
+        print(cluster.diagnosis())
 
 
 @pytest.hookimpl(wrapper=True, tryfirst=True)

