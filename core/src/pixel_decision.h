@@ -1,8 +1,8 @@
 // pixel_decision.h: the proven decisions a pixel is made of (internal
 // header of the renderer): where a root disc lies relative to the argument
-// band, the clipping sphere and the other discs, and the double-double
-// refinement of a disc. Every predicate is certain-only: Yes and No are
-// proofs, Unknown claims nothing.
+// band, the clipping sphere and the other discs (the double-double
+// refinement of a disc, root finding, is refine_dd.h's). Every predicate is
+// certain-only: Yes and No are proofs, Unknown claims nothing.
 #pragma once
 
 #include <cmath>
@@ -472,24 +472,5 @@ void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, c
 bool classify_discs_avx2_supported();
 /// The fastest supported form (`scalar`: the scalar one).
 ClassifyDiscs classify_discs_best(bool scalar = false);
-
-/// Shrinks a verified count-1 disc d of p with the double-double
-/// coefficients p (|p_k - c_k| <= r_k): Newton steps in double-double, then
-/// the inclusion disc |z - x| <= n |p(x) / p'(x)| (it holds a root of every
-/// polynomial of degree <= n in the coefficient balls), accepted only when it
-/// lies inside d (so it holds d's root). Returns true and replaces d when the
-/// result is smaller.
-bool refine_disc_dd(const RayCoefficients<DoubleDouble>& p, bool real, RootDisc& d);
-
-/// Re-isolates every root of p from scratch in double-double (for a
-/// polynomial whose double discs left a cluster): Aberth-Ehrlich from the
-/// current discs (a cluster's approximations spread inside it), then Smith's
-/// discs with the double-double coefficient balls (each radius bounds the
-/// Smith radius of every polynomial within them, so the counts hold for the
-/// exact one). Replaces res's discs and returns true only when every root
-/// gets its own verified disc, all pairwise disjoint (proven); otherwise
-/// leaves res untouched. Not for polynomials with an exact root at 0 or an
-/// uncertain leading coefficient.
-bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res);
 
 }  // namespace argand::detail

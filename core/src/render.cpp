@@ -32,6 +32,7 @@
 #include "pixel_decision.h"
 #include "polish.h"
 #include "ray_polynomial.h"
+#include "refine_dd.h"
 #include "root_kernels.h"
 
 namespace argand {

@@ -15,6 +15,7 @@
 
 #include "../src/pixel_decision.h"
 #include "../src/ray_polynomial.h"
+#include "../src/refine_dd.h"
 #include "argand/render.h"
 #include "check.h"
 
