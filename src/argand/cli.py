@@ -186,7 +186,8 @@ def render(
     overwrite: bool = typer.Option(False, "--overwrite", help="Remove another run's files from --out first (frames, "
                                    "animations, atlas.png; nothing else)."),
     workers: int = typer.Option(0, "--workers", metavar="N", help="Threads (0: all cores)."),
-    tile: int = typer.Option(64, "--tile", metavar="PIXELS", help="Tile size in pixels."),
+    tile: int = typer.Option(64, "--tile", metavar="PIXELS", callback=_tile_option,
+                             help="Tile size in pixels, a multiple of 8 (the frame's bits do not depend on it)."),
     method: str = typer.Option("auto", "--method", metavar="METHOD", help="Root method: auto | smith | paper | unverified."),
     hue: bool = typer.Option(False, "--hue", help="Colour complex roots by their argument."),
     samples: Optional[int] = typer.Option(
@@ -217,6 +218,16 @@ def render(
     from argand.render import FrameParams
     from argand.render.sweep import render_sweep
     from argand.scene import load_scene
+
+def _tile_option(value: int) -> int:
+    """--tile, checked as the renderer checks it (argand.render.frames.check_tile)."""
+    from argand.render.frames import check_tile
+
+    try:
+        return check_tile(value)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc)) from None
+
 
     try:
         # The API builds a job's frames the same way: the same pairs and the same refusals.

@@ -80,7 +80,7 @@ def main(path: str) -> int:
     # straight into the frame's arrays (render_tile_frame), the same pixels.
     from argand.render import render_frame
 
-    frame = render_frame(load_scene("whitney"), params, tile=10, workers=2)
+    frame = render_frame(load_scene("whitney"), params, tile=8, workers=2)
     if not np.array_equal(frame.rgba, tile.rgba) or any(
         not np.array_equal(frame.aovs[k], tile.aovs[k]) for k in tile.aovs
     ):
@@ -106,8 +106,8 @@ def main(path: str) -> int:
     from argand.render.frames import render_bands
 
     bands = [replace(params, sigma=s, delta=d) for s, d in ((0.0, 0.0), (0.0, np.pi / 9), (0.4, 1.1), (0.0, np.pi))]
-    for together, band in zip(render_bands(load_scene("steiner"), bands, tile=10, workers=2), bands):
-        alone = render_frame(load_scene("steiner"), band, tile=10, workers=1)
+    for together, band in zip(render_bands(load_scene("steiner"), bands, tile=8, workers=2), bands):
+        alone = render_frame(load_scene("steiner"), band, tile=8, workers=1)
         if together.rgba.tobytes() != alone.rgba.tobytes() or any(
                 np.asarray(together.aovs[k]).tobytes() != np.asarray(alone.aovs[k]).tobytes() for k in alone.aovs):
             problems.append(f"steiner sigma={band.sigma} delta={band.delta}: rendered together differs from alone")
@@ -118,9 +118,9 @@ def main(path: str) -> int:
     field = RootField(0, 0, 0, 0)
     octic = load_scene("chmutov-octic")
     first = replace(params, sigma=0.0, delta=0.0)
-    render_bands(octic, [first], tile=10, workers=2, record=field)
-    for derived, band in zip(render_bands(octic, bands, tile=10, workers=2, field=field), bands):
-        alone = render_frame(octic, band, tile=10, workers=1)
+    render_bands(octic, [first], tile=8, workers=2, record=field)
+    for derived, band in zip(render_bands(octic, bands, tile=8, workers=2, field=field), bands):
+        alone = render_frame(octic, band, tile=8, workers=1)
         if derived.rgba.tobytes() != alone.rgba.tobytes() or any(
                 np.asarray(derived.aovs[k]).tobytes() != np.asarray(alone.aovs[k]).tobytes() for k in alone.aovs):
             problems.append(f"chmutov sigma={band.sigma} delta={band.delta}: derived from the field differs")
@@ -128,7 +128,7 @@ def main(path: str) -> int:
     cut = RootField(field.fingerprint, field.width, field.height, field.tile, dict(field.tiles))
     cut.tiles[rect] = cut.tiles[rect][: len(cut.tiles[rect]) // 2]
     try:
-        render_bands(octic, [bands[1]], tile=10, workers=1, field=cut)
+        render_bands(octic, [bands[1]], tile=8, workers=1, field=cut)
         problems.append("a cut root field was read")
     except ValueError:
         pass

@@ -67,6 +67,12 @@ def test_bad_values_are_422_with_the_reason(api):
     assert "at most 10000" in _refused(c, {**JOB, "deltas": [0.0] * 10_001})
     assert "exceed the limit of 720" in _refused(c, {**JOB, "deltas": {"start": 0, "stop": 0.1, "count": 5000}})
     assert "less than or equal to 8192" in _refused(c, {**JOB, "width": 10**30})
+    # A tile off the renderer's 8x8 seed blocks (the frame's bits would depend on the cut); the
+    # document says so (multipleOf), and the service's limits name the rule for the front end.
+    assert "multiple of 8" in _refused(c, {**JOB, "tile": 20})
+    tile_schema = c.get("/openapi.json").json()["components"]["schemas"]["JobRequest"]["properties"]["tile"]
+    assert any(s.get("multipleOf") == 8 for s in tile_schema.get("anyOf", [tile_schema])), tile_schema
+    assert c.get("/api/meta").json()["limits"]["tile_multiple"] == 8
     r = c.get("/api/jobs", params={"page": 1042210733140914176})
     assert r.status_code == 422 and "less than or equal to 1000000" in r.text
     r = c.get("/api/jobs", params={"page": 1000000, "per_page": 200})

@@ -57,8 +57,8 @@ def test_whole_frames_travel_as_one_message_when_there_are_enough_of_them():
 
 
 def test_batch_runs_keeps_tile_order():
-    rects = tile_rects(100, 10, 10)
-    assert batch_runs(list(range(10)), rects, 250) == [[0, 1, 2], [3, 4, 5], [6, 7, 8], [9]]
+    rects = tile_rects(80, 8, 8)
+    assert batch_runs(list(range(10)), rects, 160) == [[0, 1, 2], [3, 4, 5], [6, 7, 8], [9]]
     assert batch_runs([], rects, 250) == []
 
 

@@ -197,10 +197,10 @@ def test_the_tiles_exact_budget_holds_and_the_pixels_beyond_it_are_counted():
     assert np.count_nonzero(levels == EXACT) == 4 == result.figures["exact_pixels"]
     assert np.count_nonzero(levels == OVER_CAP) == open_pixels - 4 == result.figures["exact_over_cap"]
     assert np.all(status[levels == OVER_CAP] == 3) and np.all(status[levels == EXACT] == 0)
-    # The budget is per tile: 3x3 tiles give each tile its own.
-    small = render_frame(scene, FrameParams(width=9, height=9, exact_pixels_per_tile=1), tile=3, workers=1)
-    per_tile = [int(np.count_nonzero(small.aovs["escalation"][y:y + 3, x:x + 3] == EXACT))
-                for y in range(0, 9, 3) for x in range(0, 9, 3)]
+    # The budget is per tile: 8x8 tiles of a 24x24 frame give each tile its own.
+    small = render_frame(scene, FrameParams(width=24, height=24, exact_pixels_per_tile=1), tile=8, workers=1)
+    per_tile = [int(np.count_nonzero(small.aovs["escalation"][y:y + 8, x:x + 8] == EXACT))
+                for y in range(0, 24, 8) for x in range(0, 24, 8)]
     assert max(per_tile) == 1 and sum(per_tile) > 1
     # Off: nothing reaches the tier.
     off = render_frame(scene, FrameParams(width=9, height=9, **OFF), workers=1)

@@ -100,3 +100,32 @@ def test_a_certified_pixel_writes_its_root_not_the_solvers_approximation():
         errors.append(abs(float(frame.aovs["Z"][y, x]) - exact) / exact)
     assert len(errors) > 200
     assert np.percentile(errors, 99) < 1e-5 and max(errors) < 1e-4, (np.percentile(errors, [50, 90, 99]), max(errors))
+
+
+def test_a_tile_off_the_seed_blocks_is_refused_everywhere_with_the_reason():
+    """A tile whose side is not a multiple of the seed block would start
+    inside a block, its pixels without the seeds they get in any other
+    tiling: the frame's bits would depend on the cut (a cluster's centre,
+    which conjugate is listed first). The library, the CLI and the farm's
+    settings refuse it, naming the rule and the nearest sizes."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from argand.farm.settings import Settings
+    from argand.render.frames import TILE_MULTIPLE, check_tile
+
+    scene = load_scene("chmutov-octic")
+    params = FrameParams(delta=math.pi / 18, width=40, height=24)
+    for bad in (1, 7, 12, 20, 50, 4095):
+        with pytest.raises(ValueError, match=f"multiple of {TILE_MULTIPLE}"):
+            render_frame(scene, params, tile=bad, workers=1)
+    assert [check_tile(t) for t in (8, 16, 24, 4096)] == [8, 16, 24, 4096]
+    with pytest.raises(ValueError, match=r"got 20; e\.g\. 16 or 24"):
+        check_tile(20)
+    with pytest.raises(ValueError, match="multiple of 8"):
+        Settings(default_tile=20)
+    argand = str(Path(sys.executable).with_name("argand"))
+    r = subprocess.run([argand, "render", "whitney", "--size", "8x8", "--tile", "20", "--out", "unused"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "multiple of 8" in r.stderr and "16 or 24" in r.stderr, r.stderr

@@ -43,13 +43,13 @@ CASES = [
     # (id, scene, delta, samples, width, height, tile, exact tier's pixels per tile). Without the exact
     # tier the singular lines leave cluster samples beside certified ones (mixed pixels); with it, the
     # tier's budget is spent on the samples in the finer frame's order too.
-    ("steiner-axis-9", lambda: moved("steiner", [0.4, 0.0, 0.0]), 0.0, 9, 7, 7, 3, 0),
-    ("whitney-handle-9", lambda: moved("whitney", [0.0, 0.0, -0.7]), 0.3, 9, 7, 7, 4, 0),
-    ("plucker-axis-9", lambda: moved("plucker", [0.0, 0.0, 0.3]), 0.1, 9, 7, 5, 7, 0),
-    ("dense-5-seeded-4", lambda: random_scene("dense", 5, seed=4), math.pi / 18, 4, 8, 6, 5, 0),
-    ("steiner-axis-9-exact", lambda: moved("steiner", [0.4, 0.0, 0.0]), 0.0, 9, 7, 7, 3, 64),
-    ("whitney-handle-9-exact-1", lambda: moved("whitney", [0.0, 0.0, -0.7]), 0.3, 9, 7, 7, 4, 1),
-    ("plucker-axis-9-exact-1", lambda: moved("plucker", [0.0, 0.0, 0.3]), 0.1, 9, 7, 5, 7, 1),
+    ("steiner-axis-9", lambda: moved("steiner", [0.4, 0.0, 0.0]), 0.0, 9, 19, 17, 8, 0),
+    ("whitney-handle-9", lambda: moved("whitney", [0.0, 0.0, -0.7]), 0.3, 9, 19, 17, 8, 0),
+    ("plucker-axis-9", lambda: moved("plucker", [0.0, 0.0, 0.3]), 0.1, 9, 17, 13, 8, 0),
+    ("dense-5-seeded-4", lambda: random_scene("dense", 5, seed=4), math.pi / 18, 4, 20, 14, 8, 0),
+    ("steiner-axis-9-exact", lambda: moved("steiner", [0.4, 0.0, 0.0]), 0.0, 9, 19, 17, 8, 64),
+    ("whitney-handle-9-exact-1", lambda: moved("whitney", [0.0, 0.0, -0.7]), 0.3, 9, 19, 17, 8, 1),
+    ("plucker-axis-9-exact-1", lambda: moved("plucker", [0.0, 0.0, 0.3]), 0.1, 9, 17, 13, 8, 1),
 ]
 
 
@@ -191,11 +191,11 @@ def run(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_cli_renders_samples_and_explains_one_sample(tmp_path):
-    r = run("render", "whitney", "--delta", "0.3", "--size", "9x7", "--samples", "4", "--tile", "4",
+    r = run("render", "whitney", "--delta", "0.3", "--size", "9x7", "--samples", "4", "--tile", "8",
             "--out", str(tmp_path / "out"))
     assert r.returncode == 0, r.stderr
     names, px = read_exr(tmp_path / "out" / "frame_0000.exr")
-    local = render_frame(load_scene("whitney"), FrameParams(delta=0.3, width=9, height=7, samples=4), tile=4, workers=1)
+    local = render_frame(load_scene("whitney"), FrameParams(delta=0.3, width=9, height=7, samples=4), tile=8, workers=1)
     for aov in AOV_CHANNELS:
         assert np.array_equal(px[..., names.index(aov)], local.aovs[aov].astype(np.float32)), aov
     share = px[..., names.index("certified_share")]

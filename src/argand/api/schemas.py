@@ -12,6 +12,7 @@ from argand.core import METHODS
 from argand.farm.models import Job
 from argand.farm.job_limits import MAX_FRAME_SIDE, MAX_FRAMES
 from argand.farm.planning import MAX_TILE, MIN_TILE
+from argand.render.frames import TILE_MULTIPLE
 from argand.farm.progress import eta_seconds, job_progress
 from argand.farm.queue import PRIORITIES
 from argand.farm.states import shown_frame_status
@@ -32,11 +33,12 @@ def _integral(v: Any) -> Any:
 StrictInt = Annotated[int, Strict(), BeforeValidator(_integral)]
 
 
-def bounded_int(low: int, high: int) -> Any:
-    """StrictInt from ``low`` to ``high``, for an optional field: the bounds
-    sit on the integer itself, so that the document has them as its
-    minimum and maximum (given on the optional field, they read "ge"/"le")."""
-    return Annotated[int, Strict(), Field(ge=low, le=high), BeforeValidator(_integral)]
+def bounded_int(low: int, high: int, multiple_of: int | None = None) -> Any:
+    """StrictInt from ``low`` to ``high`` (and a multiple of ``multiple_of``),
+    for an optional field: the bounds sit on the integer itself, so that the
+    document has them as its minimum, maximum and multipleOf (given on the
+    optional field, they read "ge"/"le")."""
+    return Annotated[int, Strict(), Field(ge=low, le=high, multiple_of=multiple_of), BeforeValidator(_integral)]
 #: A preset's name: not empty, not blank.
 PresetName = Annotated[str, StringConstraints(min_length=1, strip_whitespace=True)]
 
@@ -101,8 +103,9 @@ class JobRequest(BaseModel):
         "so the frames sit where the picture changes"))
     width: StrictInt = Field(DEFAULT_WIDTH, ge=1, le=MAX_FRAME_SIDE)
     height: StrictInt = Field(DEFAULT_HEIGHT, ge=1, le=MAX_FRAME_SIDE)
-    tile: bounded_int(MIN_TILE, MAX_TILE) | None = Field(
-        None, description="Tile size in pixels (default: the farm's)")
+    tile: bounded_int(MIN_TILE, MAX_TILE, TILE_MULTIPLE) | None = Field(
+        None, description=f"Tile size in pixels, a multiple of {TILE_MULTIPLE} (default: the farm's): tiles on the "
+        f"renderer's {TILE_MULTIPLE}x{TILE_MULTIPLE} seed blocks keep a frame the same bits whatever its tiling")
     priority: StrictInt = Priority
     method: Literal[METHODS] = "auto"
     samples: bounded_int(1, MAX_SAMPLES) | None = Field(None,

@@ -16,6 +16,7 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from argand.farm.job_limits import MAX_FRAME_SIDE, MAX_FRAMES
 from argand.farm.planning import MAX_TILE, MIN_TILE
+from argand.render.frames import TILE_MULTIPLE
 from argand.media.frame_files import EXR_COMPRESSION, check_exr_compression
 from argand.render.options import EngineOptions, engine_environment
 
@@ -50,7 +51,7 @@ class Settings(BaseSettings):
     #: Reads (GET) need the token too (when a token is set). Off by default:
     #: on loopback the front end's images and event stream are plain GETs.
     token_for_reads: bool = False
-    default_tile: int = Field(64, ge=MIN_TILE, le=MAX_TILE)
+    default_tile: int = Field(64, ge=MIN_TILE, le=MAX_TILE, multiple_of=TILE_MULTIPLE)
     #: The engine's modes this process renders with: the defaults, unless
     #: `argand worker` read others from the environment
     #: (argand.render.options.engine_options_from_environment).

@@ -250,9 +250,31 @@ def render_tile(scene: Any, params: FrameParams, rect: TileRect) -> TileAOVs:
     return render_tile_planned(plan(to_core_scene(scene), params), rect)
 
 
+#: A tile's side is a multiple of this, the renderer's seed block (render.h
+#: kSeedBlock): neighbour seeds flow within frame-aligned blocks of 8 x 8
+#: samples, so tiles that start on the block grid give a frame the same bits
+#: whatever the tile size, thread or worker count. A tile of another size
+#: would start inside a block and begin without the seeds its pixels get
+#: in any other tiling (a cluster's centre or the conjugate the solver
+#: lists first would then depend on the cut).
+TILE_MULTIPLE = 8
+
+
+def check_tile(size: int) -> int:
+    """``size`` if it is a tile size the renderer takes (a positive multiple
+    of TILE_MULTIPLE); else ValueError saying why."""
+    if isinstance(size, bool) or not isinstance(size, int) or size < TILE_MULTIPLE or size % TILE_MULTIPLE:
+        lower = max(TILE_MULTIPLE, size // TILE_MULTIPLE * TILE_MULTIPLE) if isinstance(size, int) else TILE_MULTIPLE
+        raise ValueError(
+            f"tile size must be a multiple of {TILE_MULTIPLE} pixels (got {size!r}; e.g. {lower} or "
+            f"{lower + TILE_MULTIPLE}): tiles on the renderer's {TILE_MULTIPLE}x{TILE_MULTIPLE} seed blocks keep "
+            f"a frame the same bits whatever its tiling")
+    return size
+
+
 def tiles(width: int, height: int, size: int) -> list[TileRect]:
-    if size < 1:
-        raise ValueError("tile size must be >= 1")
+    """The frame's tiles, row by row (ValueError for a size check_tile refuses)."""
+    check_tile(size)
     return [
         TileRect(x, y, min(x + size, width), min(y + size, height))
         for y in range(0, height, size)

@@ -124,7 +124,7 @@ async function newPage() {
       <label class="wide check"><span><input id="atlas-roots" type="checkbox"> Atlas cut where the roots are (denser where the scene's roots' arguments are, not every π/N)</span></label>
       <label>Width <input id="width" type="number" min="8" max="${meta.limits.max_width}" value="${meta.defaults.width}"></label>
       <label>Height <input id="height" type="number" min="8" max="${meta.limits.max_height}" value="${meta.defaults.height}"></label>
-      <label>Tile <input id="tile" type="number" min="${meta.limits.min_tile}" max="${meta.limits.max_tile}" value="${meta.defaults.tile}"></label>
+      <label>Tile <input id="tile" type="number" min="${meta.limits.min_tile}" max="${meta.limits.max_tile}" step="${meta.limits.tile_multiple}" value="${meta.defaults.tile}"></label>
       <label>Priority <input id="priority" type="number" min="${meta.limits.priority[0]}" max="${meta.limits.priority[1]}" value="${meta.defaults.priority}"></label>
       <label>Samples per pixel <select id="samples">${meta.limits.samples.map((n) => `<option${n === meta.defaults.samples ? " selected" : ""}>${n}</option>`).join("")}</select></label>
       <div class="wide"><button class="primary" type="submit" id="submit">Render</button> <span id="form-msg" class="error"></span></div>

@@ -20,6 +20,7 @@ from argand.farm.database import session_scope
 from argand.farm.models import Job
 from argand.farm.outbox import pending
 from argand.farm.planning import MAX_TILE, MIN_TILE
+from argand.render.frames import TILE_MULTIPLE
 from argand.farm.previews import EMPTY, PREVIEW_CHANNELS, STATUS_COLOURS
 from argand.farm.queue import PRIORITIES, broker_client
 from argand.farm.reaper import take_census
@@ -53,7 +54,7 @@ def meta(settings: SettingsDep) -> dict:
         "methods": list(METHODS),
         "limits": {"max_width": settings.max_width, "max_height": settings.max_height,
                    "max_frames": settings.max_frames, "max_job_pixels": settings.max_job_pixels,
-                   "min_tile": MIN_TILE, "max_tile": MAX_TILE, "priority": [PRIORITIES.start, PRIORITIES.stop - 1],
+                   "min_tile": MIN_TILE, "max_tile": MAX_TILE, "tile_multiple": TILE_MULTIPLE, "priority": [PRIORITIES.start, PRIORITIES.stop - 1],
                    "max_degree": MAX_DEGREE, "max_job_tiles": settings.max_job_tiles,
                    "max_active_jobs": settings.max_active_jobs, "max_body_bytes": settings.max_body_bytes,
                    "max_objects": MAX_OBJECTS, "max_streams_per_client": settings.max_streams_per_client,
