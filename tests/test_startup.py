@@ -20,7 +20,9 @@ HEAVY = ("numpy", "rich", "pydantic", "yaml", "OpenImageIO", "flint", "PIL", "av
          "fastapi", "starlette", "uvicorn", "celery", "redis", "argand.scene", "argand.render", "argand.media",
          "argand.farm", "argand.api", "argand.worker", "argand.serve", "argand.bench")
 #: Never imported by `argand render` of one frame.
-NOT_FOR_ONE_FRAME = ("flint", "PIL", "av", "matplotlib", "sqlalchemy", "fastapi", "starlette", "uvicorn", "celery",
+#: (typer's pydantic adapters and the scene's pydantic models: not for a preset.)
+NOT_FOR_ONE_FRAME = ("flint", "pydantic", "typer._adapters", "argand.scene.schema", "PIL", "av", "matplotlib",
+                     "sqlalchemy", "fastapi", "starlette", "uvicorn", "celery",
                      "redis", "argand.farm", "argand.api", "argand.worker", "argand.serve", "argand.bench",
                      "argand.media.gif", "argand.media.video", "argand.media.atlas", "argand.media.contact_sheet")
 
@@ -58,3 +60,78 @@ def test_one_frame_loads_only_what_it_uses(tmp_path):
                                                                     "frame_0000.png"]
     # numpy's OpenBLAS on one thread (its threads spin for work render never gives them)
     assert out["openblas"] == "1"
+
+
+def test_one_frame_of_a_preset_does_without_pydantic(tmp_path):
+    """typer's per-parameter pydantic adapters and the scene's pydantic
+    models are most of a one-frame process's CPU after numpy: a preset's
+    render takes neither (argand.cli._plain_values_without_pydantic,
+    argand.scene.presets.preset_scene), with options given on the command
+    line too."""
+    modules, _ = loaded_after(
+        "import sys\nfrom argand.cli import app\n"
+        "sys.argv = ['argand', 'render', 'bicube', '--size', '16x16', '--workers', '1', '--tile', '8', "
+        f"'--fps', '8', '--out', {str(tmp_path / 'out')!r}]\n"
+        "try:\n    app()\nexcept SystemExit as exc:\n    assert not exc.code, exc.code")
+    assert found(modules, ("pydantic", "pydantic_core", "typer._adapters", "argand.scene.schema")) == []
+
+
+def test_plain_values_are_what_typers_adapters_give():
+    """The values argand.cli takes without typer's pydantic adapters are the
+    ones those adapters give, and every other value (errors included) is
+    theirs: each of `argand render`'s parameters, on values of every kind."""
+    from pathlib import Path as P
+
+    import typer.main
+    from typer._click import Context
+    from typer._click.exceptions import BadParameter
+    from typer._coercion import build_runtime_param
+
+    from argand.cli import app
+
+    command = typer.main.get_command(app).commands["render"]
+    ctx = Context(command)
+    values = [None, "", "0", "1", "64", "064", "-1", "+3", " 5", "5 ", "1_000", "1.0", "1.5", "8.0", "1e3", "nan",
+              "inf", "abc", "٣", "a/b", "~/x", ".", "-", 0, 1, 64, -1, 8.0, 1.5, float("inf"), float("nan"), True,
+              False, P("render"), P("a/b"), b"x"]
+
+    def outcome(runtime, param, value):
+        try:
+            got = runtime.coerce(value, param=param, ctx=ctx)
+        except BadParameter as exc:
+            return "error", exc.format_message()
+        return type(got), repr(got)
+
+    checked = 0
+    for param in command.params:
+        if param.type_descriptor.annotation not in (str, int, float, bool, P):
+            continue
+        param._runtime_param = None
+        plain = param.get_runtime_param()
+        assert type(plain).__name__ == "PlainParam", param.name
+        for value in values:
+            assert outcome(plain, param, value) == outcome(build_runtime_param(param.type_descriptor), param, value), \
+                (param.name, value)
+            checked += 1
+    assert checked > 300
+
+
+def test_preset_scene_is_load_scenes_typed_scene():
+    """argand.scene.presets.preset_scene (a preset without the pydantic
+    models, for `argand render`) gives every preset's typed scene and
+    samples exactly as load_scene does."""
+    from argand.render.convert import to_core_scene
+    from argand.scene import PRESETS, load_scene
+    from argand.scene.presets import preset_scene
+
+    def plain(o):
+        if isinstance(o, (int, float, str, bool, type(None))):
+            return o
+        if isinstance(o, (list, tuple)):
+            return [plain(x) for x in o]
+        return {k: plain(getattr(o, k)) for k in dir(o) if not k.startswith("_") and not callable(getattr(o, k))}
+
+    for name in PRESETS:
+        light, full = preset_scene(name), load_scene(name)
+        assert light.samples == full.samples, name
+        assert plain(to_core_scene(light)) == plain(to_core_scene(full)), name

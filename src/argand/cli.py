@@ -50,6 +50,67 @@ def _later(module: str, name: str) -> Callable[..., Any]:
     return call
 
 
+def _plain_values_without_pydantic() -> None:
+    """Typer (0.2x) turns each parameter's value into its type through a
+    pydantic TypeAdapter built per parameter the first time a command runs:
+    importing pydantic and building about twenty adapters is ~0.1 s of CPU
+    for `argand render` of one frame, whose values are plain str, int,
+    float, bool and Path. Here a value typer's adapter would only pass through
+    (a str for a str, an int for an int within min/max, a finite float for a
+    float, a Path, a plain decimal number for an int or float) is taken as the adapter
+    would give it; anything else goes through typer's own adapter, so errors
+    and unusual inputs read exactly as typer makes them
+    (tests/test_startup.py compares the two). Left as typer has it when its
+    internals are not the ones this was written against."""
+    try:
+        from pathlib import Path as PathType
+
+        from typer import core as typer_core
+        from typer._coercion import RuntimeParam, build_runtime_param
+        from typer._param_types import coerce_cli_path
+    except ImportError:  # another typer: its own coercion
+        return
+    import re  # (loaded by typer already)
+
+    # int: digits without a leading zero; float: those, with decimals too
+    plain_number = re.compile(r"(0|[1-9][0-9]{0,17})(\.[0-9]{1,17})?")
+    parameter = getattr(typer_core, "_TyperParameter", None)
+    original = getattr(parameter, "get_runtime_param", None)
+    if original is None or getattr(original, "argand_plain", False):
+        return
+
+    class PlainParam(RuntimeParam):
+        def _coerce_value(self, value: Any, param: Any, ctx: Any) -> Any:
+            kind, info = self.annotation, self.parameter_info
+            if kind is str and type(value) is str:
+                return value
+            if kind in (int, float) and type(value) is str and value.isascii() and plain_number.fullmatch(value) and (
+                    kind is float or "." not in value):
+                value = kind(value)
+            if (kind is int and type(value) is int) or (kind is float and type(value) is float and math.isfinite(value)):
+                if (info.min is None or value >= info.min) and (info.max is None or value <= info.max):
+                    return value
+            if kind is PathType and type(value) is str and value:
+                value = PathType(value)
+            if kind is PathType and isinstance(value, PathType):
+                return coerce_cli_path(value, info, path_type=PathType, param=param, ctx=ctx)
+            return build_runtime_param(param.type_descriptor)._coerce_value(value, param=param, ctx=ctx)
+
+    def get_runtime_param(self: Any) -> Any:
+        d = self.type_descriptor
+        info = d.parameter_info
+        if (self._runtime_param is None and d.annotation in (str, int, float, bool, PathType) and d.file_annotation is None
+                and info.parser is None and not info.clamp and info.path_type is None and not self.multiple
+                and self.nargs == 1):
+            self._runtime_param = PlainParam(parameter_info=info, annotation=d.annotation)
+        return original(self)
+
+    get_runtime_param.argand_plain = True  # type: ignore[attr-defined]
+    parameter.get_runtime_param = get_runtime_param
+
+
+_plain_values_without_pydantic()
+
 box = _Later("rich.box")
 escape = _later("rich.markup", "escape")
 Table = _later("rich.table", "Table")
@@ -218,6 +279,7 @@ def render(
     from argand.render import FrameParams
     from argand.render.sweep import render_sweep
     from argand.scene import load_scene
+    from argand.scene.presets import PRESETS, preset_scene
 
 def _tile_option(value: int) -> int:
     """--tile, checked as the renderer checks it (argand.render.frames.check_tile)."""
@@ -244,7 +306,8 @@ def _tile_option(value: int) -> int:
         fail(f"--exr-compression: {exc}")
     width, height = _parse_size(size)
     try:
-        loaded = load_scene(scene)
+        # A preset without the pydantic models (the same typed scene: tests/test_startup.py).
+        loaded = preset_scene(scene) if scene in PRESETS else load_scene(scene)
     except (ValueError, OSError) as exc:
         fail(str(exc))
     if atlas_layout == "roots":
