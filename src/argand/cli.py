@@ -222,6 +222,16 @@ def _parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def _tile_option(value: int) -> int:
+    """--tile, checked as the renderer checks it (argand.render.frames.check_tile)."""
+    from argand.render.frames import check_tile
+
+    try:
+        return check_tile(value)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc)) from None
+
+
 #: A frame's size when none is given (the farm's default too).
 DEFAULT_SIZE = f"{DEFAULT_WIDTH}x{DEFAULT_HEIGHT}"
 
@@ -280,16 +290,6 @@ def render(
     from argand.render.sweep import render_sweep
     from argand.scene import load_scene
     from argand.scene.presets import PRESETS, preset_scene
-
-def _tile_option(value: int) -> int:
-    """--tile, checked as the renderer checks it (argand.render.frames.check_tile)."""
-    from argand.render.frames import check_tile
-
-    try:
-        return check_tile(value)
-    except ValueError as exc:
-        raise typer.BadParameter(str(exc)) from None
-
 
     try:
         # The API builds a job's frames the same way: the same pairs and the same refusals.
@@ -363,7 +363,10 @@ def _tile_option(value: int) -> int:
 
 #: The files a run writes into its --out folder (argand.render.sweep.render_sweep).
 RUN_FILES = ("frame_[0-9][0-9][0-9][0-9].exr", "frame_[0-9][0-9][0-9][0-9].png", "frame_[0-9][0-9][0-9][0-9].json",
-             "animation.gif", "animation.mp4", "animation.mp4.tmp", "atlas.png")
+             "animation.gif", "animation.mp4", "atlas.png",
+             # what a killed run's atomic writes left (argand.media.atomic.temporary_beside)
+             "frame_[0-9][0-9][0-9][0-9].*.????????????.tmp.*", "animation.*.????????????.tmp.*",
+             "atlas.png.????????????.tmp.png")
 
 
 def _clear_out(out: Path, overwrite: bool) -> None:

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from argand.media.atomic import is_temporary
 from argand.media.frame_files import read_exr
 from argand.render import AOV_CHANNELS, FrameParams, render_frame
 from argand.scene import load_scene
@@ -81,7 +82,7 @@ def check_job(cluster, job_id: str, scene: str = "whitney") -> dict:
             assert np.array_equal(pixels[..., names.index(aov)], local.aovs[aov].astype(np.float32)), (f.index, aov)
     tiles = cluster.sql("select renders, attempts, status from tiles where job_id = :j", j=job_id)
     assert all(t.status == "done" and t.renders == 1 for t in tiles), sorted({(t.status, t.renders) for t in tiles})
-    left = sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.suffix in (".chunk", ".tmp"))
+    left = sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.suffix == ".chunk" or is_temporary(p.name))
     assert not left, f"tile files left in the finished job: {left[:5]}"
     return {"tiles": len(tiles), "claimed_again": sum(t.attempts > 1 for t in tiles)}
 

@@ -10,6 +10,7 @@ import time
 
 import numpy as np
 
+from argand.media.atomic import is_temporary
 from argand.farm import control, tile_work
 from argand.farm.database import session_scope
 from argand.farm.models import Job, Tile
@@ -55,7 +56,7 @@ def test_a_worker_frozen_past_reassignment_writes_nothing_into_the_finished_job(
         tiles = s.query(Tile).filter(Tile.job_id == job_id).all()
         assert {(t.status, t.worker, t.renders) for t in tiles} == {("done", "fresh", 1)}
     left = files_of(settings, job_id)
-    assert not [f for f in left if f.startswith("tiles") or f.endswith((".chunk", ".tmp"))], left
+    assert not [f for f in left if f.startswith("tiles") or f.endswith(".chunk") or is_temporary(f.rsplit("/", 1)[-1])], left
     names, px = read_exr(settings.store_path / "jobs" / job_id / "frame_0000.exr")
     local = render_frame(load_scene("steiner"), FrameParams(width=64, height=64), tile=16, workers=1)
     assert np.array_equal(px[..., names.index("Z")], local.aovs["Z"])

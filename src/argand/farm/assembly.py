@@ -9,10 +9,7 @@ request, so no encoding stands between the last frame and the job's end."""
 
 from __future__ import annotations
 
-import json
-import os
 import time
-import uuid
 from typing import Any
 
 import numpy as np
@@ -31,7 +28,8 @@ from argand.media.atlas import atlas_png as draw_atlas
 from argand.media.contact_sheet import cell_size, scale_to_cell
 from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, STATUS_NAMES, FrameParams, FrameResult, frame_figures
 from argand.frames.frame_set import FrameSet, FramePoint
-from argand.media.frame_files import to_srgb8, write_exr, write_png
+from argand.media.atomic import atomic_path
+from argand.media.frame_files import to_srgb8, write_frame, write_png
 from argand.media.video import Mp4Encoder
 
 #: The thumbnail keeps every step-th pixel, step = max(width, height) // THUMBNAIL_SIZE.
@@ -100,10 +98,9 @@ def _write_files(settings: Settings, store: FrameStore, layout: JobLayout, index
     """The frame's PNG, figures, thumbnail and GIF fragment, and its EXR
     unless it is written on request (Settings.exr_on_request)."""
     srgb = to_srgb8(result.rgba)
-    if not settings.exr_on_request:
-        write_exr(result, store.prepare(layout.frame(index, "exr")), px, settings.exr_compression)
-    write_png(srgb, layout.frame(index, "png"))
-    store.write_atomic(layout.frame(index, "json"), (json.dumps(dict(result.figures, index=index), indent=2) + "\n").encode())
+    # The frame's files as `argand render` writes them (the one writer).
+    write_frame(result, layout.folder, index, exr=px, srgb8=srgb, compression=settings.exr_compression,
+                with_exr=not settings.exr_on_request)
     h, w = srgb.shape[:2]
     step = max(1, max(w, h) // THUMBNAIL_SIZE)
     write_png(np.ascontiguousarray(srgb[::step, ::step]), layout.thumbnail(index))
@@ -189,14 +186,9 @@ def animation_mp4(settings: Settings, job_id: str, n_frames: int, fps: float = 8
     path = layout.animation("mp4")
     if path.exists():
         return
-    tmp = path.with_name(f"animation.{uuid.uuid4().hex[:12]}.tmp.mp4")
-    try:
-        with Mp4Encoder(tmp, fps) as encoder:
-            for picture in _frame_pngs(layout, n_frames):
-                encoder.add(picture)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    with atomic_path(path) as tmp, Mp4Encoder(tmp, fps) as encoder:
+        for picture in _frame_pngs(layout, n_frames):
+            encoder.add(picture)
 
 
 def atlas_png(settings: Settings, job_id: str) -> bool:

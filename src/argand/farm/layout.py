@@ -15,7 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-FRAME_FILES = ("exr", "png", "json")
+from argand.media.frame_files import FRAME_FILES, frame_file_name
+
 ANIMATIONS = ("gif", "webp", "mp4")
 
 
@@ -30,9 +31,7 @@ class JobLayout:
 
     def frame(self, index: int, kind: str) -> Path:
         """The frame's EXR (all channels), PNG (beauty, sRGB) or JSON (figures)."""
-        if kind not in FRAME_FILES:
-            raise ValueError(f"a frame file is one of {', '.join(FRAME_FILES)}, not {kind!r}")
-        return self.folder / f"frame_{index:04d}.{kind}"
+        return self.folder / frame_file_name(index, kind)
 
     def thumbnail(self, index: int) -> Path:
         return self.folder / f"thumb_{index:04d}.png"

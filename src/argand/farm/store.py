@@ -14,15 +14,14 @@ from __future__ import annotations
 
 import errno
 import json
-import os
 import shutil
 import struct
-import uuid
 from pathlib import Path
 
 import numpy as np
 
 from argand.farm.layout import JobLayout
+from argand.media.atomic import write_atomic
 
 _MAGIC = b"ARGT1\n"
 
@@ -78,35 +77,17 @@ def is_store_error(exc: BaseException) -> bool:
 class FrameStore:
     def __init__(self, root: Path) -> None:
         self.root = Path(root)
-        self._dirs: set[Path] = set()
         self.root.mkdir(parents=True, exist_ok=True)
 
     def job(self, job_id: str) -> JobLayout:
         return JobLayout(self.root, job_id)
 
-    def _open_new(self, path: Path) -> int:
-        parent = path.parent
-        if parent not in self._dirs:
-            parent.mkdir(parents=True, exist_ok=True)
-            self._dirs.add(parent)
-        try:
-            return os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-        except FileNotFoundError:  # the folder was removed under us (job deleted, or frame done)
-            parent.mkdir(parents=True, exist_ok=True)
-            return os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-
     def write_atomic(self, path: Path, data) -> None:
         """Writes ``data`` (bytes, or a list of buffers written in order) to
-        ``path``: readers see the whole file or none."""
-        tmp = path.with_name(f"{path.name}.{uuid.uuid4().hex}.tmp")
-        try:
-            with os.fdopen(self._open_new(tmp), "wb") as f:
-                for part in data if isinstance(data, list) else [data]:
-                    f.write(part)
-            os.replace(tmp, path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)  # nothing half-written stays behind
-            raise
+        ``path``: readers see the whole file or none (argand.media.atomic;
+        a folder removed under the writer, a job deleted or a frame done,
+        is made again)."""
+        write_atomic(path, data)
 
     def prepare(self, path: Path) -> Path:
         """``path``, its folder made if missing: for OpenImageIO's EXR and PNG
@@ -138,17 +119,14 @@ class FrameStore:
                 folder.rmdir()
             except OSError:  # not empty (or gone): what is left belongs to someone
                 break
-            self._dirs.discard(folder)
 
     def remove_tiles(self, job_id: str, frame: int) -> None:
         """Drops a frame's tiles once the frame is assembled (its EXR holds them)."""
         folder = self.job(job_id).tiles(frame)
-        self._dirs.discard(folder)
         shutil.rmtree(folder, ignore_errors=True)
 
     def remove_job(self, job_id: str) -> None:
         folder = self.job(job_id).folder
-        self._dirs = {d for d in self._dirs if folder not in d.parents and d != folder}
         shutil.rmtree(folder, ignore_errors=True)
 
 

@@ -4,10 +4,10 @@ the frame's figures as JSON. (Animations: argand.media.gif.)"""
 from __future__ import annotations
 
 import json
-import uuid
 from pathlib import Path
 import numpy as np
 
+from argand.media.atomic import atomic_path, write_atomic
 from argand.render.frames import INTERLEAVED_CHANNELS, FrameResult, interleave
 
 EXR_CHANNELS = INTERLEAVED_CHANNELS
@@ -134,11 +134,8 @@ def write_png(pixels: np.ndarray, path: Path, level: int = PNG_LEVEL) -> None:
 
 
 def _write(oiio, path: Path, spec, pixels: np.ndarray) -> None:
-    # A name of its own per writer: two processes (or two requests) writing
-    # the same file at once each write their own temporary, and the last
-    # rename wins with a whole file.
-    tmp = path.with_name(f"{path.name}.{uuid.uuid4().hex[:12]}.tmp{path.suffix}")
-    try:
+    # Whole or not at all (argand.media.atomic): readers never see half a frame.
+    with atomic_path(path) as tmp:
         out = oiio.ImageOutput.create(str(tmp))
         if out is None or not out.open(str(tmp), spec):
             raise OSError(f"cannot write {path}: {oiio.geterror()}")
@@ -146,22 +143,37 @@ def _write(oiio, path: Path, spec, pixels: np.ndarray) -> None:
         out.close()
         if not ok:
             raise OSError(f"cannot write {path}: {out.geterror()}")
-        tmp.replace(path)  # atomic: readers never see half a frame
-    finally:
-        tmp.unlink(missing_ok=True)
+
+
+#: A frame's files: every AOV (EXR), the picture (PNG, sRGB), its figures (JSON).
+FRAME_FILES = ("exr", "png", "json")
+
+
+def frame_file_name(index: int, kind: str) -> str:
+    """frame_NNNN.exr|.png|.json: the names `argand render` and the farm's store give a frame's files."""
+    if kind not in FRAME_FILES:
+        raise ValueError(f"a frame file is one of {', '.join(FRAME_FILES)}, not {kind!r}")
+    return f"frame_{index:04d}.{kind}"
+
+
+def frame_json(result: FrameResult, index: int) -> bytes:
+    """frame_NNNN.json: the frame's figures and its index."""
+    return (json.dumps(dict(result.figures, index=index), indent=2) + "\n").encode()
 
 
 def write_frame(result: FrameResult, out_dir: Path, index: int, exr: np.ndarray | None = None,
-                srgb8: np.ndarray | None = None, compression: str = EXR_COMPRESSION) -> dict[str, Path]:
-    """Writes frame_NNNN.exr, .png and .json under out_dir (``exr`` and
-    ``srgb8``: buffers the caller made already)."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    stem = out_dir / f"frame_{index:04d}"
-    paths = {"exr": stem.with_suffix(".exr"), "png": stem.with_suffix(".png"), "json": stem.with_suffix(".json")}
-    write_exr(result, paths["exr"], exr, compression)
+                srgb8: np.ndarray | None = None, compression: str = EXR_COMPRESSION,
+                with_exr: bool = True) -> dict[str, Path]:
+    """Writes frame_NNNN.exr (unless not ``with_exr``: the farm writes it on
+    its first request), .png and .json under out_dir, each whole or not at
+    all: the one writer of a frame's files, for `argand render` and the
+    farm's assembler alike, so their files are the same bytes. ``exr`` and
+    ``srgb8``: buffers the caller made already."""
+    paths = {kind: Path(out_dir) / frame_file_name(index, kind) for kind in FRAME_FILES}
+    if with_exr:
+        write_exr(result, paths["exr"], exr, compression)
     write_png(to_srgb8(result.rgba) if srgb8 is None else srgb8, paths["png"])
-    figures = dict(result.figures, index=index)
-    paths["json"].write_text(json.dumps(figures, indent=2) + "\n")
+    write_atomic(paths["json"], frame_json(result, index))
     return paths
 
 

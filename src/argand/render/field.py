@@ -21,13 +21,12 @@ bit in a disc would be a false claim.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from argand.core import _core
+from argand.media.atomic import write_atomic
 
 MAGIC = b"ARGAND-ROOT-FIELD 1\n"
 
@@ -59,18 +58,7 @@ class RootField:
         rects = sorted(self.tiles, key=lambda r: (r[1], r[0]))
         head = {"fingerprint": self.fingerprint, "width": self.width, "height": self.height, "tile": self.tile,
                 "tiles": [[*r, len(self.tiles[r]), zlib.crc32(self.tiles[r])] for r in rects]}
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as f:
-                f.write(MAGIC)
-                f.write(json.dumps(head).encode() + b"\n")
-                for r in rects:
-                    f.write(self.tiles[r])
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return path
+        return write_atomic(path, [MAGIC, json.dumps(head).encode() + b"\n", *(self.tiles[r] for r in rects)])
 
     @classmethod
     def load(cls, path: str | Path) -> "RootField":

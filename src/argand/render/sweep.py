@@ -12,6 +12,7 @@ from typing import Any, Callable, Iterator, Sequence
 from argand.render.field import RootField
 from argand.render.frames import FrameParams, FrameResult, TileAOVs, render_bands
 from argand.frames.frame_set import FrameSet
+from argand.media.atomic import atomic_path, write_atomic
 from argand.media.frame_files import EXR_COMPRESSION
 
 
@@ -70,10 +71,11 @@ def render_sweep(
     if atlas:
         from argand.media.atlas import atlas_png
         from argand.media.contact_sheet import cell_size, scale_to_cell
-    mp4_tmp = out / "animation.mp4.tmp"
     if animated:
         out.mkdir(parents=True, exist_ok=True)
-    with oiio_threads(workers), (Mp4Encoder(mp4_tmp, fps) if animated and mp4 else nullcontext()) as video:
+    # The MP4 is encoded as the frames come, into a temporary renamed once whole.
+    with oiio_threads(workers), (atomic_path(out / "animation.mp4") if animated and mp4 else nullcontext()) as mp4_tmp, \
+            (Mp4Encoder(mp4_tmp, fps) if mp4_tmp is not None else nullcontext()) as video:
         field = RootField(0, 0, 0, 0)
         for index, result in enumerate(_frames(scene, params, tile, workers, on_tile, field)):
             p = result.params
@@ -89,11 +91,9 @@ def render_sweep(
                 cells[index] = scale_to_cell(srgb, cell_size(p.width, p.height))
             figures.append(result.figures)
     if previews:
-        _write_atomic(out / "animation.gif", gif.splice(previews, fps=fps))
-        if mp4:
-            mp4_tmp.replace(out / "animation.mp4")
+        write_atomic(out / "animation.gif", gif.splice(previews, fps=fps))
     if atlas:
-        _write_atomic(out / "atlas.png", atlas_png(grid, cells, params[0].width, params[0].height))
+        write_atomic(out / "atlas.png", atlas_png(grid, cells, params[0].width, params[0].height))
     if root_field is not None:
         if not field.tiles:
             raise ValueError("--root-field: the frames do not share their rays (they differ in more than σ and δ)")
@@ -123,7 +123,4 @@ def _frames(scene: Any, params: Sequence[FrameParams], tile: int, workers: int |
             yield from render_bands(scene, group, tile=tile, workers=workers, on_tile=on_tile)
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_bytes(data)
-    tmp.replace(path)
+
