@@ -81,7 +81,7 @@ void primary_ray_polynomial_run(const SurfaceSpec& s, const FramePlan::ObjectPla
                                 const double* dy, const double* dz, int cells, PrimaryRun& out,
                                 BatchIsa isa = BatchIsa::Auto);
 
-/// One row of samples of render.cpp's sample_direction: the camera and the
+/// One row of samples of render/camera.cpp's sample_direction: the camera and the
 /// row's sy (computed there).
 struct SampleRowInput {
     double forward[3], right[3], up[3];

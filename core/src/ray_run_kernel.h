@@ -6,7 +6,7 @@
 // Bit-identity contract. Every lane (cell) performs exactly the IEEE-754
 // binary64 operations of the scalar code it replaces, in the same order:
 // primary_impl<double> (ray_polynomial.cpp) for the sums and radii, and
-// render.cpp's sample_direction for the directions. Only +, -, *, /, sqrt
+// render/camera.cpp's sample_direction for the directions. Only +, -, *, /, sqrt
 // (correctly rounded in every instruction set), fabs and selects are used;
 // the build pins -ffp-contract=off (no fused multiply-add) and no fast math,
 // so the vector code computes the scalar code's bits lane by lane (the C++

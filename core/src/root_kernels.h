@@ -11,10 +11,9 @@
 
 #include "argand/arith.h"
 #include "argand/roots.h"
+#include "constants.h"
 
 namespace argand::detail {
-
-constexpr double kPi = 3.14159265358979323846;
 
 template <class T> constexpr double working_epsilon() { return kUnitRoundoff; }
 template <> constexpr double working_epsilon<DoubleDouble>() { return 0x1p-104; }

@@ -142,7 +142,7 @@ static void test_primary_run() {
 }
 
 static void test_sample_directions() {
-    // render.cpp's sample_direction, written out (the renderer's frames,
+    // render/camera.cpp's sample_direction, written out (the renderer's frames,
     // compared by the Python tests, check the real one).
     std::mt19937_64 rng(7);
     std::uniform_real_distribution<double> u(-1.0, 1.0);

@@ -1,7 +1,7 @@
 """The peers' inputs: a surf script and a POV-Ray scene whose camera rays are
 Argand's (to rounding), and the exact truth of a real pixel (sigma = delta = 0).
 
-Camera. Argand's ray of pixel (i, j) in a W x H frame (core/src/render.cpp,
+Camera. Argand's ray of pixel (i, j) in a W x H frame (core/src/render/camera.cpp,
 ``sample_direction``) is ``f + sx r + sy u`` from the eye, through the
 pixel's centre: ``sx = (2 (i + 1/2) / W - 1) tan(fov/2) W/H``,
 ``sy = (1 - 2 (j + 1/2) / H) tan(fov/2)``, with ``f`` the unit view direction,
@@ -59,7 +59,7 @@ def exact(x: float) -> flint.fmpq:
 
 
 # ---------------------------------------------------------------------------
-# The camera, as core/src/render.cpp plans it
+# The camera, as core/src/render/camera.cpp plans it
 # ---------------------------------------------------------------------------
 
 
@@ -89,7 +89,7 @@ class CameraFrame:
 
 def camera_frame(core_scene: Any) -> CameraFrame:
     """The planned camera of a ``_core.SceneSpec`` (the same double operations
-    as ``plan`` in core/src/render.cpp)."""
+    as ``plan_camera`` in core/src/render/camera.cpp)."""
     cam = core_scene.camera
     eye = [float(v) for v in cam.position]
     look = [float(v) for v in cam.look_at]

@@ -195,8 +195,8 @@ def _section_stability(report: dict, out_dir: Path, page: Path) -> list[str]:
              "The same frame rendered with `method=unverified` and `auto`; magenta marks the pixels that differ: "
              + "; ".join(f"{k}: {v['differing_pixels']} pixels ({100 * v['differing_share']:.2f}%), auto certifies "
                          f"{100 * v['auto_certified_share']:.1f}%" for k, v in pic.items()) + ". At δ = 0 the band is "
-             "the positive real axis, and a root lies in it exactly only when it is proven real (core/src/render.cpp, "
-             "`classify`): the unverified method has no such proof, so a root it finds with a tiny imaginary part "
+             "the positive real axis, and a root lies in it exactly only when it is proven real (core/src/render/decide.cpp, "
+             "`proven_real`): the unverified method has no such proof, so a root it finds with a tiny imaginary part "
              "falls outside the band and the pixel shows the background.", ""]
     return lines
 

@@ -1,0 +1,136 @@
+// render/decide.h: a pixel's decision: a band against the root field.
+// From the discs of every object along a ray (ObjectRoots), which root the
+// pixel shows and whether that is proven (PixelStatus), with the band,
+// clipping sphere and mirror predicates of pixel_decision.h. Internal header.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "argand/render.h"
+#include "../pixel_decision.h"
+#include "solve.h"
+#include "vec3.h"
+
+#pragma GCC visibility push(hidden)  // internal: binds within the library, as the file-local code did
+
+namespace argand::detail {
+
+/// Per-disc decisions of the current ray.
+struct DiscInfo {
+    int object;
+    int index;               // into the object's res.discs
+    double lo, hi;           // modulus bounds
+    bool real, at_origin, live, eligible;
+    Verdict band, clip;
+};
+
+struct HitInfo {
+    bool hit = false;
+    int object = -1;
+    RootDisc disc{};
+    double modulus = kInf;
+    int eligible = 0;
+    std::uint8_t status = kCertified;
+    std::uint8_t level = kLevelFirst;
+};
+
+/// Approximate band test of a disc's centre (for the picture of an
+/// undecided pixel only; proves nothing).
+bool centre_in_band(const RootDisc& d, double sigma, double delta, bool complex_space);
+
+/// The decisions of one band (the plan's sigma and delta) for the rays a
+/// Tracer traces: the fast path (decide_fast, decide_one) and the full one
+/// (decide_full, which keeps every disc's verdicts for refine and record).
+class Decider {
+public:
+    explicit Decider(const FramePlan& plan);
+
+    /// The pixel's decision from the current discs (see PixelStatus): the
+    /// fast path when it decides, else the full one.
+    HitInfo decide(ObjectRoots* roots, std::vector<DiscInfo>& infos) {
+        HitInfo h;
+        if (!recording && !full_only_ && decide_fast(roots, h)) return h;
+        return decide_full(roots, infos);
+    }
+
+    /// The fast path of decide, for the common pixel: every object's roots
+    /// complete (status Ok, every disc verified) and the result certified.
+    /// It makes decide_full's decisions with the same predicates
+    /// (detail::classify_discs_*: the *_fast forms of pixel_decision.h, four
+    /// discs per vector where AVX2 runs, which return exactly what
+    /// decide_full's references return), in the same order over the discs,
+    /// but keeps only the live discs (in a fixed array), decides realness
+    /// only where the band verdict depends on it, and uses moduli and the
+    /// sphere only for discs not proven out of the band (as decide_full).
+    /// True, with h (default-constructed by the caller) exactly
+    /// decide_full's result, when the pixel is
+    /// certified; false (h unspecified) for any other outcome (a blocked
+    /// choice, a cluster chosen, more live discs than the array holds, an
+    /// incomplete or degenerate object), which decide_full then decides
+    /// (and fills `infos` for refine / record). (chosen_ is left alone: only
+    /// record reads it, and record's pixels take the full path.)
+    bool decide_fast(const ObjectRoots* roots, HitInfo& h) const;
+
+    /// decide_fast for a scene of one object: the same decisions from the
+    /// discs' verdicts and choice (classify_discs_*, finish_choice).
+    bool decide_one(const ObjectRoots* roots, HitInfo& h) const {
+        const ObjectRoots& r = roots[0];
+        if (r.status != Status::Ok || !r.complete) return false;  // (degenerate or incomplete)
+        if (r.outside_sphere) {  // (no disc: a proven miss)
+            h.eligible = 0;
+            h.status = kCertified;
+            return true;
+        }
+        const RootDisc* discs = r.res.discs;
+        detail::DiscVerdicts v;
+        classify_(discs, r.res.n_discs, classify_plans_[0], r.ray, v);
+        if (v.best < 0) {
+            if (v.live != 0) return false;  // (a live disc blocks the miss)
+            h.eligible = 0;
+            h.status = kCertified;
+            return true;
+        }
+        if (discs[v.best].count > 1) return false;  // a cluster chosen
+        if (v.blockers != 0 && !blockers_are_twins(discs, r.res.n_discs, v.best, v.blockers)) return false;
+        h.eligible = v.count;
+        h.status = kCertified;
+        set_hit(roots, 0, v.best, h);
+        return true;
+    }
+
+    /// h shows disc `index` of object `object` (decide_fast and decide_full).
+    static void set_hit(const ObjectRoots* roots, int object, int index, HitInfo& h) {
+        h.hit = true;
+        h.object = object;
+        h.disc = roots[object].res.discs[index];
+        // hypot(x, +-0) is |x| (C99 F.9.4.3); NaN keeps the call.
+        h.modulus = h.disc.im == 0.0 && !std::isnan(h.disc.re) ? std::fabs(h.disc.re) : std::hypot(h.disc.re, h.disc.im);
+    }
+
+    /// The full decision, every disc's verdicts in `infos`.
+    HitInfo decide_full(ObjectRoots* roots, std::vector<DiscInfo>& infos);
+
+    /// DecideMode::Full: decide_full for every pixel (the reference).
+    bool full_only() const { return full_only_; }
+    /// The infos entry decide_full chose (-1: none), for record.
+    int chosen() const { return chosen_; }
+
+    bool recording = false;  // keep every disc's decisions (explain_pixel)
+
+private:
+    /// Each disc of `blockers` holds exactly the conjugate of best's root
+    /// (decide_full's proof for a disc not beyond best).
+    __attribute__((noinline)) static bool blockers_are_twins(const RootDisc* discs, int n, int best,
+                                                             std::uint64_t blockers);
+
+    const FramePlan& plan_;
+    int chosen_ = -1;
+    bool full_only_ = false;  // DecideMode::Full: decide_full for every pixel (the reference)
+    std::vector<detail::ClassifyPlan> classify_plans_;  // per object: band and sphere constants of decide_fast
+    detail::ClassifyDiscs classify_ = nullptr;  // decide_fast's verdicts (DecideMode::FastScalar: the scalar form)
+};
+
+}  // namespace argand::detail
+
+#pragma GCC visibility pop

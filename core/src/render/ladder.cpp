@@ -1,0 +1,202 @@
+// render/ladder.cpp: a ray's roots and the escalation ladder (LadderLevel):
+// while the pixel's decision is not proven, the batch's merged discs
+// settled, a retry without neighbour seeds, double-double ray coefficients
+// that shrink the deciding discs (refine), then (a primary ray, within the
+// tile's budget) the exact tier: an ExactSolver given by the caller decides
+// the pixel on the exact rational ray polynomial.
+#include <algorithm>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+#include "../refine_dd.h"
+#include "tracer.h"
+
+namespace argand::detail {
+
+Tracer::Tracer(const FramePlan& plan, const ExactSolver* exact, bool cull)
+    : plan_(plan), exact_(exact), cull_(cull), decider_(plan) {
+    const int levels = plan.params.max_depth + 2;
+    scratch_.resize(static_cast<std::size_t>(levels) * plan.scene.objects.size());
+    infos_.resize(static_cast<std::size_t>(levels));
+    for (const SurfaceSpec& s : plan.scene.objects)
+        seed_objects_ = seed_objects_ || (s.degree > 4 && plan.params.seed_from_neighbour);
+}
+
+HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds* seeds, int depth, PixelExplanation* trace,
+                          const BatchedCell* pre, bool filled) {
+    const int n_obj = static_cast<int>(plan_.scene.objects.size());
+    const int slot = std::min(depth, plan_.params.max_depth + 1);
+    ObjectRoots* roots = scratch_.data() + static_cast<std::size_t>(slot) * n_obj;
+    std::vector<DiscInfo>& infos = infos_[slot];
+    bool any_seeded = false;
+    std::uint8_t level = kLevelFirst;
+    decider_.recording = trace != nullptr;
+    for (int obj = 0; obj < n_obj; ++obj) {
+        const SurfaceSpec& s = plan_.scene.objects[obj];
+        ObjectRoots& r = roots[obj];
+        if (primary && pre != nullptr && pre->batch->batched(obj)) {
+            if (!filled) pre->batch->fill(obj, pre->cell, r, trace != nullptr);
+            if (!r.outside_sphere) ++root_calls;
+            r.have_dd = false;
+            if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
+            continue;
+        }
+        if (primary) detail::primary_ray_polynomial(s, plan_.objects[obj], d, r.poly, r.ray);
+        else detail::general_ray_polynomial(s, o, d, r.poly, r.ray);
+        r.origin_is_plan = primary;
+        r.have_dd = false;
+        if (cull_ && s.clip_radius > 0.0 && detail::ray_misses_sphere(r.ray, s.clip_radius)) {
+            r.set_outside_sphere();  // (not solved: no root call)
+            continue;
+        }
+        const bool use_seed = seeds && seeds[obj].valid && plan_.params.seed_from_neighbour && s.degree > 4;
+        solve(r, s.degree, use_seed ? seeds + obj : nullptr);
+        any_seeded = any_seeded || r.seeded;
+        if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
+    }
+    HitInfo h = filled ? decider_.decide_full(roots, infos) : decider_.decide(roots, infos);
+    if (h.status != kCertified && primary && pre != nullptr) {
+        // Discs a lane merged into clusters did not prove the pixel:
+        // the rows solved as find_roots_soa would without merging, and
+        // decided again (the batch's answer; not a ladder level).
+        bool settled = false;
+        for (int obj = 0; obj < n_obj; ++obj) {
+            ObjectRoots& r = roots[obj];
+            if (!r.provisional) continue;
+            pre->batch->settle(obj, pre->cell, r);
+            settled = true;
+            if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
+        }
+        if (settled) h = decider_.decide(roots, infos);
+    }
+    if (h.status != kCertified && any_seeded) {
+        level = kLevelUnseeded;
+        for (int obj = 0; obj < n_obj; ++obj)
+            if (roots[obj].seeded) solve(roots[obj], plan_.scene.objects[obj].degree, nullptr);
+        h = decider_.decide(roots, infos);
+    }
+    if (h.status != kCertified && primary && refine(roots, infos)) {
+        level = kLevelDoubleDouble;
+        h = decider_.decide(roots, infos);
+    }
+    const bool exact_tier = h.status != kCertified && primary && exact_ && *exact_ &&
+                            plan_.params.exact_pixels_per_tile > 0 && plan_.params.method != Method::Unverified &&
+                            (trace != nullptr || !explaining_);
+    bool exact_ran = false;
+    if (exact_tier) {
+        // Level 4: the exact tier, within the tile's budget (--explain
+        // runs it for its pixel whatever the budget).
+        if (trace == nullptr && exact_used_ >= plan_.params.exact_pixels_per_tile) {
+            level = kLevelExactOverCap;
+        } else {
+            ++exact_used_;
+            ExactQuery q{pixel_x_, pixel_y_, Ray{}, trace != nullptr};
+            for (int a = 0; a < 3; ++a) {
+                q.ray.origin[a] = o[a];
+                q.ray.direction[a] = d[a];
+            }
+            // (The answer, strings and all, exists only here: not
+            // made and destroyed for every ray.)
+            ExactAnswer answer = (*exact_)(plan_, q);
+            exact_ran = true;
+            level = answer.multiple ? kLevelExactMultiple : kLevelExact;
+            h.status = answer.status;
+            if (answer.decided) {
+                h.hit = answer.hit;
+                h.eligible = answer.eligible;
+                if (answer.hit) {
+                    h.object = answer.object;
+                    h.disc = RootDisc{answer.re, answer.im, 0.0, 1, true, answer.im == 0.0};
+                    h.modulus = answer.modulus;
+                } else {
+                    h.object = -1;
+                    h.modulus = kInf;
+                }
+            }
+            if (trace) trace->exact = std::move(answer);
+        }
+    }
+    if (h.hit && detail::wants_polish(h.disc)) {
+        double c[kMaxDegree + 1];
+        const int n = plan_.scene.objects[h.object].degree;
+        if (primary && pre != nullptr && pre->batch->batched(h.object)) pre->batch->coefficients(h.object, pre->cell, c);
+        else std::copy(roots[h.object].poly.c, roots[h.object].poly.c + n + 1, c);
+        polish(h, c, n);
+    }
+    h.level = level;
+    if (seeds && seed_objects_) {
+        // Only for the objects whose seeds a later sample may read: the
+        // scalar path's (intersect's use_seed: degree > 4 and
+        // seed_from_neighbour), and not those this batch solves (the
+        // batch's lanes take their seeds from its own arrays; a tile
+        // with a batch gives every primary sample its BatchedCell).
+        // Any other object's Seeds stay as they were, never read.
+        for (int obj = 0; obj < n_obj; ++obj) {
+            const int n = plan_.scene.objects[obj].degree;
+            if (n <= 4 || !plan_.params.seed_from_neighbour) continue;
+            if (primary && pre != nullptr && pre->batch->batched(obj)) continue;
+            const ObjectRoots& r = roots[obj];
+            int m = 0;
+            for (int i = 0; i < r.res.n_discs && m < n; ++i)
+                for (int c = 0; c < std::max(1, static_cast<int>(r.res.discs[i].count)) && m < n; ++c) {
+                    seeds[obj].re[m] = r.res.discs[i].re;
+                    seeds[obj].im[m] = r.res.discs[i].im;
+                    ++m;
+                }
+            seeds[obj].valid = r.status == Status::Ok && m == n && r.res.n_infinite == 0;
+        }
+    }
+    if (trace) {
+        record(roots, infos, h, trace);
+        trace->exact_ran = exact_ran;
+        if (!exact_ran) trace->exact = ExactAnswer{};
+        if (exact_ran && trace->exact.decided) trace->chosen = -1;  // the root is the exact tier's
+        trace->root_re = h.disc.re;
+        trace->root_im = h.disc.im;
+    }
+    return h;
+}
+
+bool Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos) {
+    bool changed = false;
+    auto ensure_dd = [&](int obj) {
+        ObjectRoots& r = roots[obj];
+        if (!r.have_dd) {
+            detail::primary_ray_polynomial_dd(plan_.scene.objects[obj], plan_.objects[obj], current_direction_,
+                                              r.poly_dd);
+            r.have_dd = true;
+        }
+    };
+    const int n_obj = static_cast<int>(plan_.scene.objects.size());
+    std::vector<bool> isolated(n_obj, false);
+    for (const DiscInfo& info : infos) {
+        ObjectRoots& r = roots[info.object];
+        if (!info.live || isolated[info.object] || !r.complete) continue;
+        if (r.res.discs[info.index].count < 2) continue;
+        ensure_dd(info.object);
+        const bool done = detail::isolate_dd(r.poly_dd, r.writable());
+        r.res.bind(r.own);  // (its header may have changed)
+        if (done) {
+            isolated[info.object] = true;
+            changed = true;
+        }
+    }
+    for (const DiscInfo& info : infos) {
+        if (!info.live || info.at_origin || isolated[info.object]) continue;
+        ObjectRoots& r = roots[info.object];
+        if (!r.complete || r.res.discs[info.index].count != 1) continue;
+        ensure_dd(info.object);
+        RootDisc& disc = r.writable().discs[info.index];
+        const bool real_before = info.real;
+        if (detail::refine_disc_dd(r.poly_dd, real_before, disc)) {
+            // A proven real root stays real: its disc is now centred on
+            // the axis (Newton on the real line) and symmetric.
+            if (real_before) disc.real = true;
+            changed = true;
+        }
+    }
+    return changed;
+}
+
+}  // namespace argand::detail

@@ -1,0 +1,128 @@
+// render/tracer.h: the Tracer, which follows one band's rays through the
+// pipeline: the roots of each object along a ray (solve.h), the pixel's
+// decision (decide.h), the escalation ladder while it is not proven
+// (ladder.cpp) and the shading of the root it shows (shade.h). One per band
+// and thread, reused from sample to sample (its scratch, counters and the
+// tile's exact-tier budget). Internal header.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "argand/render.h"
+#include "../polish.h"
+#include "decide.h"
+#include "shade.h"
+#include "solve.h"
+
+#pragma GCC visibility push(hidden)  // internal: binds within the library, as the file-local code did
+
+namespace argand::detail {
+
+class Tracer {
+public:
+    explicit Tracer(const FramePlan& plan, const ExactSolver* exact = nullptr, bool cull = true);
+
+    std::int64_t root_calls = 0;
+
+    /// Intersects a ray with every object and decides the pixel's root,
+    /// climbing the ladder while the decision is not proven. `primary`: the
+    /// ray is a primary ray (the plan's eye, the Taylor plan). `trace`
+    /// (optional) receives every decision.
+    /// `pre` (primary rays only): the sample's roots, solved in a batch, for
+    /// the objects the batch covers.
+    /// `filled` (with pre): intersect_batched has put the batch's roots in
+    /// the depth-0 slots already and decide_fast did not certify them: they
+    /// are not filled again, and decided in full straight away.
+    HitInfo intersect(const double* o, const double* d, bool primary, Seeds* seeds, int depth, PixelExplanation* trace,
+                      const BatchedCell* pre = nullptr, bool filled = false);
+
+    /// intersect for a primary ray whose objects the batch solved, every
+    /// one of them (pre), in the common case: decide_fast certifies the
+    /// pixel. Then it does what intersect does for that ray (the batch's
+    /// roots into the depth-0 slots, the level, decide's result, the root
+    /// calls counted) without the rest of the ladder, and returns true with
+    /// h (default-constructed by the caller) exactly intersect's result.
+    /// Otherwise false (nothing counted, h unspecified), with `filled` true
+    /// when the slots hold the batch's roots (decide_fast ran and did not
+    /// certify): the caller runs intersect with that, which decides them in
+    /// full without filling them again.
+    bool intersect_batched(const BatchedCell& pre, HitInfo& h, bool& filled) {
+        filled = false;
+        if (decider_.full_only()) return false;
+        const int n_obj = static_cast<int>(plan_.scene.objects.size());
+        ObjectRoots* roots = scratch_.data();  // (depth 0's slots)
+        std::uint8_t level = kLevelFirst;
+        decider_.recording = false;
+        int calls = 0;
+        for (int obj = 0; obj < n_obj; ++obj) {
+            ObjectRoots& r = roots[obj];
+            pre.batch->fill(obj, pre.cell, r, false);
+            r.have_dd = false;
+            calls += !r.outside_sphere;
+            if (r.res.escalation > 0) level = std::max<std::uint8_t>(level, kLevelRootTier);
+        }
+        // (decide_fast, for one object straight to its decide_one.)
+        filled = true;
+        if (!(n_obj == 1 ? decider_.decide_one(roots, h) : decider_.decide_fast(roots, h))) return false;
+        root_calls += calls;
+        if (h.hit && detail::wants_polish(h.disc)) {
+            double c[kMaxDegree + 1];
+            pre.batch->coefficients(h.object, pre.cell, c);
+            polish(h, c, plan_.scene.objects[h.object].degree);
+        }
+        h.level = level;
+        return true;
+    }
+
+    /// The hit's value (its disc's centre, which the AOVs and the shading
+    /// read) replaced by the disc's one root to double accuracy
+    /// (polish_root), where it settles; the disc's proof and the decision
+    /// stay. So a wide disc writes its root, not the solver's approximation.
+    static void polish(HitInfo& h, const double* c, int n) {
+        double re, im;
+        if (!detail::polish_root(c, n, h.disc, re, im)) return;
+        h.disc.re = re;
+        h.disc.im = im;
+        h.modulus = im == 0.0 && !std::isnan(re) ? std::fabs(re) : std::hypot(re, im);
+    }
+
+    /// Colour seen along a ray (recursion for real reflective / transparent
+    /// objects). `hit` is the already computed intersection.
+    void shade(const double* o, const double* d, const HitInfo& hit, int depth, double* rgb);
+
+    ShadePlan shading_;           // shade()'s per-frame data, built on its first hit
+    bool shading_ready_ = false;
+
+private:
+    /// find_roots on the object's ray polynomial (with its coefficient radii).
+    void solve(ObjectRoots& r, int degree, const Seeds* seed);
+
+    /// Level 3: double-double ray coefficients; a polynomial with a live
+    /// cluster is re-isolated from scratch (isolate_dd), and every live
+    /// verified count-1 disc is shrunk. True if any disc changed.
+    bool refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos);
+
+    void record(const ObjectRoots* roots, const std::vector<DiscInfo>& infos, const HitInfo& h, PixelExplanation* t) const;
+
+public:
+    double current_direction_[3] = {0, 0, 0};
+    int pixel_x_ = 0, pixel_y_ = 0;  // the pixel being traced (for the exact tier)
+    bool explaining_ = false;         // explain_pixel: the exact tier runs only for the traced pixel
+
+private:
+    const FramePlan& plan_;
+    const ExactSolver* exact_ = nullptr;
+    bool cull_ = true;  // ray_misses_sphere skips an object's roots (EngineOptions::cull)
+    int exact_used_ = 0;  // pixels of this tile sent to the exact tier
+    std::vector<ObjectRoots> scratch_;
+    std::vector<std::vector<DiscInfo>> infos_;
+    Decider decider_;  // the band's decisions (and the choice record reads)
+    bool seed_objects_ = false;  // some object's Seeds are kept (degree > 4, seed_from_neighbour)
+};
+
+}  // namespace argand::detail
+
+#pragma GCC visibility pop
