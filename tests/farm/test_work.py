@@ -102,7 +102,7 @@ def test_the_migrations_make_the_models_schema_and_a_second_upgrade_changes_noth
     eng = engine_for(url)
     with eng.connect() as c:
         assert compare_metadata(MigrationContext.configure(c), Base.metadata) == []
-        assert c.exec_driver_sql("select version_num from alembic_version").scalar() == "0003"
+        assert c.exec_driver_sql("select version_num from alembic_version").scalar() == "0004"
     assert "ix_tiles_key" in {i["name"] for i in inspect(eng).get_indexes("tiles")}
     upgrade(url)  # a second time: nothing to do, nothing fails
     with eng.connect() as c:
@@ -132,6 +132,11 @@ def test_the_grid_migration_keeps_earlier_jobs_frames_as_row_zero(tmp_path):
         assert [tuple(r) for r in rows] == [(0, 0.25, 0, 0), (1, 0.25, 0, 1), (2, 0.25, 0, 2)]
         assert c.exec_driver_sql("select count(*) from tiles").scalar() == 1
         assert "sigma" not in {col["name"] for col in inspect(eng).get_columns("jobs")}
+        # A job stored before jobs kept their engine options reads back as the defaults.
+        from argand.render.options import EngineOptions
+
+        assert c.exec_driver_sql("select engine from jobs where id = 'j'").scalar() is None
+        assert EngineOptions.from_stored(None) == EngineOptions()
 
 
 @pytest.fixture

@@ -26,6 +26,7 @@ from argand.farm.store import FrameStore, store_for
 from argand.media import gif
 from argand.media.atlas import atlas_png as draw_atlas
 from argand.media.contact_sheet import cell_size, scale_to_cell
+from argand.render.options import EngineOptions
 from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, STATUS_NAMES, FrameParams, FrameResult, frame_figures
 from argand.frames.frame_set import FrameSet, FramePoint
 from argand.media.atomic import atomic_path
@@ -116,7 +117,8 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     t_start = time.perf_counter()
     store, local = store_for(settings), local or {}
     with engine_for(settings.sqlalchemy_url).connect() as c:
-        job = c.execute(select(Job.width, Job.height, Job.tile, Job.method, Job.scene).where(Job.id == job_id)).one()
+        job = c.execute(select(Job.width, Job.height, Job.tile, Job.method, Job.scene, Job.engine)
+                        .where(Job.id == job_id)).one()
         sigma, delta = c.execute(select(Frame.sigma, Frame.delta).where(Frame.job_id == job_id, Frame.index == frame_index)).one()
         key = (Tile.job_id == job_id, Tile.frame_index == frame_index)
         if seconds is None:
@@ -127,7 +129,7 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     px = frame_px if frame_px is not None else np.empty((h, w, len(INTERLEAVED_CHANNELS)), np.float32)
     escalations, calls, stats = _gather(store, job_id, frame_index, rects, local, chunks, frame_px, px)
     params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method, samples=samples_of(job.scene),
-                         engine=settings.engine)
+                         engine=EngineOptions.from_stored(job.engine))
     aovs = {name: px[..., INTERLEAVED_CHANNELS.index(name)] for name in AOV_CHANNELS}
     result = FrameResult(params, px[..., :4], aovs, seconds, escalations, calls, stats=stats)
     result.figures = frame_figures(result)

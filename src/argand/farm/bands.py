@@ -42,6 +42,7 @@ from argand.render.arguments import argument_histogram
 from argand.render.convert import to_core_scene
 from argand.farm.store import store_for
 from argand.render.field import RootField, tape_of_stored
+from argand.render.options import EngineOptions
 from argand.render.frames import FrameParams, FrameResult, plan, render_bands, tiles
 from argand.scene import scene_from_dict
 
@@ -106,7 +107,7 @@ def band_params(settings: Settings, job_id: str, sigma_text: str, delta_text: st
     NoJob, JobNotDone, or ValueError naming what is wrong with σ or δ (the
     band rule, an angle that does not parse)."""
     with engine_for(settings.sqlalchemy_url).connect() as c:
-        job = c.execute(select(Job.status, Job.scene, Job.width, Job.height, Job.method, Job.tile)
+        job = c.execute(select(Job.status, Job.scene, Job.width, Job.height, Job.method, Job.tile, Job.engine)
                         .where(Job.id == job_id)).first()
     if job is None:
         raise NoJob(job_id)
@@ -115,7 +116,7 @@ def band_params(settings: Settings, job_id: str, sigma_text: str, delta_text: st
     sigma = _angle("sigma", sigma_text)
     delta = _angle("delta", delta_text)
     params = FrameParams(sigma=sigma, delta=delta, width=job.width, height=job.height, method=job.method,
-                         samples=samples_of(job.scene), engine=settings.engine)
+                         samples=samples_of(job.scene), engine=EngineOptions.from_stored(job.engine))
     return scene_from_dict(job.scene), params, job.tile
 
 
@@ -233,7 +234,8 @@ def frame_exr(settings: Settings, job_id: str, index: int) -> Path | None:
     if path.exists():
         return path
     with engine_for(settings.sqlalchemy_url).connect() as c:
-        job = c.execute(select(Job.scene, Job.width, Job.height, Job.method, Job.tile).where(Job.id == job_id)).first()
+        job = c.execute(select(Job.scene, Job.width, Job.height, Job.method, Job.tile, Job.engine)
+                        .where(Job.id == job_id)).first()
         frame = c.execute(select(Frame.status, Frame.sigma, Frame.delta)
                           .where(Frame.job_id == job_id, Frame.index == index)).first()
     if job is None or frame is None or frame.status != "done":
@@ -242,7 +244,7 @@ def frame_exr(settings: Settings, job_id: str, index: int) -> Path | None:
         if path.exists():
             return path
         params = FrameParams(sigma=frame.sigma, delta=frame.delta, width=job.width, height=job.height,
-                             method=job.method, samples=samples_of(job.scene), engine=settings.engine)
+                             method=job.method, samples=samples_of(job.scene), engine=EngineOptions.from_stored(job.engine))
         result, _source = render_band(settings, job_id, scene_from_dict(job.scene), params, job.tile)
         write_exr(result, store_for(settings).prepare(path), compression=settings.exr_compression)
     return path

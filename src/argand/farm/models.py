@@ -26,6 +26,12 @@ class Job(Base):
     height: Mapped[int] = mapped_column(Integer)
     tile: Mapped[int] = mapped_column(Integer)
     method: Mapped[str] = mapped_column(String(16), default="auto")
+    #: The engine's modes the job is rendered with (EngineOptions as a dict;
+    #: None: the defaults), fixed at submission from the submitting
+    #: process's settings: every worker host renders the job's tiles, and the
+    #: API decides its bands and on-request EXRs, with these, whatever its
+    #: own environment says, so a frame is one algorithm's bits.
+    engine: Mapped[dict | None] = mapped_column(JSON, nullable=True)
     priority: Mapped[int] = mapped_column(Integer, default=5)
     created: Mapped[float] = mapped_column(Float, default=time.time)
     started: Mapped[float | None] = mapped_column(Float, nullable=True)

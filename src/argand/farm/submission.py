@@ -20,6 +20,7 @@ from argand.farm.outbox import add_runs, try_drain
 from argand.farm.planning import batch_pixels, core_scene_of, frame_plan, plan_runs, tile_rects
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
+from argand.render.options import EngineOptions
 from argand.frames.frame_set import BandRuleError, FrameSet, angle_text, check_band_rule
 from argand.scene import Scene
 
@@ -88,7 +89,7 @@ def check_limits(settings: Settings, spec: JobSpec) -> None:
                          f"{settings.max_job_tiles}: use larger tiles or fewer frames")
 
 
-def check_renderable(spec: JobSpec) -> None:
+def check_renderable(spec: JobSpec, engine: EngineOptions = EngineOptions()) -> None:
     """Plans every distinct frame with the code a worker runs before its
     first tile (argand.farm.planning.frame_plan): a frame that breaks the
     band rule or cannot be planned (a camera or coefficient out of range) is
@@ -102,7 +103,7 @@ def check_renderable(spec: JobSpec) -> None:
         first.setdefault((p.sigma, p.delta), index)
     for (sigma, delta), index in sorted(first.items()):
         try:
-            frame_plan(core, sigma, delta, spec.width, spec.height, spec.method, spec.scene.samples)
+            frame_plan(core, sigma, delta, spec.width, spec.height, spec.method, spec.scene.samples, engine)
         except (ValueError, ArithmeticError, RuntimeError) as exc:
             at = f"σ = {angle_text(sigma)}, δ = {angle_text(delta)}"
             where = f"frame {index} ({at})" if len(first) > 1 else at
@@ -152,7 +153,7 @@ def create_job(settings: Settings, spec: JobSpec, send: bool = True, session: Se
     In ``session`` when given (a route's; committed here), else in one of
     its own. Returns the job's id."""
     check_limits(settings, spec)
-    check_renderable(spec)
+    check_renderable(spec, settings.engine)
     check_in_flight(settings, session)
     check_disk(settings)
     job_id = uuid.uuid4().hex[:12]
@@ -166,7 +167,8 @@ def create_job(settings: Settings, spec: JobSpec, send: bool = True, session: Se
         c = s.connection()
         c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=stored,
                                      width=spec.width, height=spec.height, tile=spec.tile,
-                                     method=spec.method, priority=spec.priority, created=time.time()))
+                                     method=spec.method, engine=settings.engine.stored(), priority=spec.priority,
+                                     created=time.time()))
         c.execute(insert(Frame), [dict(job_id=job_id, index=i, sigma=p.sigma, delta=p.delta, sigma_index=p.sigma_index,
                                        delta_index=p.delta_index, status="queued", tiles_total=len(rects), tiles_done=0)
                                   for i, p in enumerate(spec.frames.points)])

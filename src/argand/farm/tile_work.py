@@ -55,15 +55,16 @@ ACTIVITY: dict[str, Any] = {"tile": None, "done": 0, "hard_at": None, "run": Non
 #: Why a run stopped before its end because of its soft time limit.
 SOFT_LIMIT = "soft time limit"
 
-_plan_cache: dict[tuple[str, int, EngineOptions], Any] = {}
+_plan_cache: dict[tuple[str, int], Any] = {}
 _job_cache: dict[str, Any] = {}
 _marked: set[tuple[str, int]] = set()  # (job, frame) this process already marked as rendering
 
 
-def _frame_plan(url: str, job_id: str, frame_index: int, engine: EngineOptions):
+def _frame_plan(url: str, job_id: str, frame_index: int):
     """The frame's C++ plan, tile rectangles and tile count, built once per
-    worker process and frame (the job's scene is converted once per job)."""
-    key = (job_id, frame_index, engine)
+    worker process and frame (the job's scene is converted once per job),
+    with the job's engine options (Job.engine), not this worker's."""
+    key = (job_id, frame_index)
     if key not in _plan_cache:
         if len(_plan_cache) > 16:
             _plan_cache.clear()
@@ -71,12 +72,13 @@ def _frame_plan(url: str, job_id: str, frame_index: int, engine: EngineOptions):
             if job_id not in _job_cache:
                 if len(_job_cache) > 8:
                     _job_cache.clear()
-                job = c.execute(select(Job.scene, Job.width, Job.height, Job.tile, Job.method).where(Job.id == job_id)).one()
+                job = c.execute(select(Job.scene, Job.width, Job.height, Job.tile, Job.method, Job.engine)
+                                .where(Job.id == job_id)).one()
                 _job_cache[job_id] = (core_scene_of(job.scene), job.width, job.height, job.tile, job.method,
-                                      samples_of(job.scene))
+                                      samples_of(job.scene), EngineOptions.from_stored(job.engine))
             sigma, delta, tiles_total = c.execute(select(Frame.sigma, Frame.delta, Frame.tiles_total).where(
                 Frame.job_id == job_id, Frame.index == frame_index)).one()
-        core_scene, w, h, tile, method, samples = _job_cache[job_id]
+        core_scene, w, h, tile, method, samples, engine = _job_cache[job_id]
         _plan_cache[key] = (frame_plan(core_scene, sigma, delta, w, h, method, samples, engine), tile_rects(w, h, tile),
                             tiles_total)
     return _plan_cache[key]
@@ -302,7 +304,7 @@ def _run_claimed(settings: Settings, job_id: str, frame_index: int, worker: str,
 
 def _new_run(settings: Settings, job_id: str, frame_index: int, worker: str, claimed: list[int],
              started: float) -> TileRun:
-    fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index, settings.engine)
+    fplan, rects, total = _frame_plan(settings.sqlalchemy_url, job_id, frame_index)
     run = TileRun(settings, job_id, frame_index, worker, claimed, fplan, rects, total,
                   soft_at=started + settings.tile_soft_time_limit_s)
     # A run that holds the whole frame renders straight into the frame's

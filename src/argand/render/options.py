@@ -52,6 +52,21 @@ class EngineOptions:
         if not isinstance(self.cull, bool):
             raise ValueError(f"engine option cull={self.cull!r}: use True or False")
 
+    def stored(self) -> dict:
+        """The options as a JSON object (a job's row keeps them)."""
+        return asdict(self)
+
+    @classmethod
+    def from_stored(cls, value: Mapping[str, object] | None) -> "EngineOptions":
+        """EngineOptions from stored(); None (a job stored before jobs kept
+        their options) is the defaults. ValueError for anything else."""
+        if value is None:
+            return cls()
+        unknown = set(value) - {"kernel", "cull", "decide", "shade"}
+        if unknown:
+            raise ValueError(f"engine options: unknown field(s) {', '.join(sorted(unknown))}")
+        return cls(**value)
+
     def metadata(self) -> dict[str, str]:
         """The options as a frame's metadata (EXR attributes argand:engine:*)."""
         return {f"argand:engine:{k}": str(v).lower() if isinstance(v, bool) else v for k, v in asdict(self).items()}
