@@ -329,6 +329,12 @@ class _FramePlanes:
         return out
 
 
+def same_rays(a: FrameParams, b: FrameParams) -> bool:
+    """Whether two frames differ in their band (σ, δ) only: then they share
+    their rays and roots, and render_bands renders them together."""
+    return dataclasses.replace(b, sigma=a.sigma, delta=a.delta) == a
+
+
 def render_bands(
     scene: Any,
     params: Sequence[FrameParams],
@@ -355,7 +361,7 @@ def render_bands(
         return []
     first = params[0]
     for p in params[1:]:
-        if dataclasses.replace(p, sigma=first.sigma, delta=first.delta) != first:
+        if not same_rays(first, p):
             raise ValueError("render_bands: the frames must differ in sigma and delta only")
     start = time.perf_counter()
     core_scene = to_core_scene(scene)
@@ -454,7 +460,7 @@ def render_frames(
     batch: list[FrameParams] = []
     for p in params_list:
         if batch and (len(batch) == bands_at_once or
-                      dataclasses.replace(p, sigma=batch[0].sigma, delta=batch[0].delta) != batch[0]):
+                      not same_rays(batch[0], p)):
             yield from render_bands(scene, batch, tile=tile, workers=workers)
             batch = []
         batch.append(p)

@@ -4,13 +4,12 @@ against (the same frames and the same files, without the farm)."""
 
 from __future__ import annotations
 
-import dataclasses
 from contextlib import contextmanager, nullcontext
 from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 from argand.render.field import RootField
-from argand.render.frames import FrameParams, FrameResult, TileAOVs, render_bands
+from argand.render.frames import FrameParams, FrameResult, TileAOVs, render_bands, same_rays
 from argand.frames.frame_set import FrameSet
 from argand.media.atomic import atomic_path, write_atomic
 from argand.media.frame_files import EXR_COMPRESSION
@@ -119,7 +118,7 @@ def _frames(scene: Any, params: Sequence[FrameParams], tile: int, workers: int |
     ``field`` None: every group solves its own roots."""
     for first in range(0, len(params), BANDS_AT_ONCE):
         group = list(params[first:first + BANDS_AT_ONCE])
-        same = all(dataclasses.replace(p, sigma=params[0].sigma, delta=params[0].delta) == params[0] for p in group)
+        same = all(same_rays(params[0], p) for p in group)
         if first == 0 and same and field is not None:
             yield from render_bands(scene, group, tile=tile, workers=workers, on_tile=on_tile, record=field)
         elif field is not None and field.tiles and same:
