@@ -240,7 +240,9 @@ def markdown(report: dict, image: str = "bands.png") -> list[str]:
         lines += [f"One frame as a user runs it, `argand render SCENE --size {process['size']}x{process['size']}` (every "
                   f"core, every file written): the whole process's CPU, user + sys of every thread "
                   f"(cli_process_cpu_s, median of {process['runs']}): "
-                  + ", ".join(f"{scene} {cpu:.2f} s" for scene, cpu in figures.items()) + ".", ""]
+                  + ", ".join(f"{scene} {cpu:.2f} s" for scene, cpu in figures.items()) + ". (How it came down, "
+                  "round by round, and where the rest goes: docs/performance.md, \"One frame as a whole process\".)",
+                  ""]
     lines += [
               "The band route's work per request (the band on every core, then its PNG), random pairs, decided "
               "from the job's root field against solved from scratch (same pairs, interleaved; every channel "
