@@ -6,6 +6,7 @@ made on purpose), holding the data folder; Redis is a real embedded one."""
 
 from __future__ import annotations
 
+import errno
 import os
 import subprocess
 
@@ -34,14 +35,16 @@ def small_disk(tmp_path):
 
 
 def fill(folder) -> None:
-    """Writes a file until the disk is full."""
-    with open(folder / "filler", "wb") as f:
-        try:
-            while True:
-                f.write(b"\0" * (1 << 16))
-                f.flush()
-        except OSError:
-            pass
+    """Writes a file until the disk is full (unbuffered: a buffered file's
+    close would try the rest of its buffer again, and raise)."""
+    fd = os.open(folder / "filler", os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+    try:
+        while True:
+            os.write(fd, b"\0" * (1 << 16))
+    except OSError as exc:
+        assert exc.errno == errno.ENOSPC, exc
+    finally:
+        os.close(fd)
 
 
 def test_a_full_disk_answers_507_not_500(tmp_path, small_disk):
