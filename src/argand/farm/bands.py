@@ -141,7 +141,7 @@ def stored_field(settings: Settings, job_id: str, frame_plan, width: int, height
     other rays: the farm's engine options changed since)."""
     layout = store_for(settings).job(job_id)
     field = RootField(int(_core.rays_fingerprint(frame_plan)), width, height, tile)
-    for i, r in enumerate(tiles(width, height, tile)):
+    for i, r in enumerate(tiles(width, height, tile, any_size=True)):
         try:
             field.tiles[(r.x0, r.y0, r.x1, r.y1)] = tape_of_stored(layout.field_tile(i).read_bytes())
         except (OSError, ValueError):
@@ -182,12 +182,12 @@ def render_band(settings: Settings, job_id: str, scene, params: FrameParams, til
         field, source = _job_field(settings, job_id, scene, params, tile)
         if field is not None:
             try:
-                return render_bands(scene, [params], tile=tile, field=field)[0], source
+                return render_bands(scene, [params], tile=tile, field=field, any_tile=True)[0], source
             except ValueError:  # a field of other rays: solve again below
                 with _lock:
                     _fields.pop(key, None)
         recorded = RootField(0, 0, 0, 0)
-        result = render_bands(scene, [params], tile=tile, record=recorded)[0]
+        result = render_bands(scene, [params], tile=tile, record=recorded, any_tile=True)[0]
         _keep_field(key, recorded)
         return result, "solved"
 

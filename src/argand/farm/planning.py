@@ -52,9 +52,11 @@ def preview_order(n_frames: int, stride: int = 4, positions: Sequence[tuple[int,
 
 
 def tile_rects(width: int, height: int, tile: int) -> list[Rect]:
-    """The renderer's tiles (argand.render.frames.tiles, whose order gives
-    the tile indices) as (x0, y0, x1, y1)."""
-    return [(r.x0, r.y0, r.x1, r.y1) for r in tiles(width, height, tile)]
+    """A stored job's tiles (argand.render.frames.tiles, whose order gives
+    the tile indices) as (x0, y0, x1, y1). Any size a job was stored with
+    is taken (a job submitted before tiles were multiples of 8 goes on with
+    its own tiling); new jobs are checked at submission (check_tile)."""
+    return [(r.x0, r.y0, r.x1, r.y1) for r in tiles(width, height, tile, any_size=True)]
 
 
 def _area(rect: Rect) -> int:

@@ -20,6 +20,7 @@ from argand.farm.outbox import add_runs, try_drain
 from argand.farm.planning import batch_pixels, core_scene_of, frame_plan, plan_runs, tile_rects
 from argand.farm.settings import Settings
 from argand.farm.states import ENDED
+from argand.render.frames import check_tile
 from argand.render.options import EngineOptions
 from argand.frames.frame_set import BandRuleError, FrameSet, angle_text, check_band_rule
 from argand.scene import Scene
@@ -153,6 +154,10 @@ def create_job(settings: Settings, spec: JobSpec, send: bool = True, session: Se
     In ``session`` when given (a route's; committed here), else in one of
     its own. Returns the job's id."""
     check_limits(settings, spec)
+    try:
+        check_tile(spec.tile)
+    except ValueError as exc:
+        raise JobRefused(str(exc)) from None
     check_renderable(spec, settings.engine)
     check_in_flight(settings, session)
     check_disk(settings)

@@ -272,9 +272,16 @@ def check_tile(size: int) -> int:
     return size
 
 
-def tiles(width: int, height: int, size: int) -> list[TileRect]:
-    """The frame's tiles, row by row (ValueError for a size check_tile refuses)."""
-    check_tile(size)
+def tiles(width: int, height: int, size: int, any_size: bool = False) -> list[TileRect]:
+    """The frame's tiles, row by row (ValueError for a size check_tile
+    refuses, unless ``any_size``: a stored job's tiling from before tiles
+    were multiples of 8, kept so that its frames and bands stay the bits its
+    workers rendered)."""
+    if any_size:
+        if isinstance(size, bool) or not isinstance(size, int) or size < 1:
+            raise ValueError(f"tile size must be a positive integer, got {size!r}")
+    else:
+        check_tile(size)
     return [
         TileRect(x, y, min(x + size, width), min(y + size, height))
         for y in range(0, height, size)
@@ -343,6 +350,7 @@ def render_bands(
     on_tile: Callable[[TileAOVs], None] | None = None,
     field: RootField | None = None,
     record: RootField | None = None,
+    any_tile: bool = False,
 ) -> list[FrameResult]:
     """Renders frames that differ only in their band (σ, δ) together: each
     tile's primary roots are solved once for all of them (the roots do not
@@ -354,7 +362,9 @@ def render_bands(
     ``field``: a root field recorded for these rays with this tile size
     (RootField.covers): the roots are read from it, not solved (the same
     bits). ``record``: an empty RootField(fingerprint=0, ...) that receives
-    the tiles' fields as they are solved (its fingerprint and size set)."""
+    the tiles' fields as they are solved (its fingerprint and size set).
+    ``any_tile``: take a tile size that is not a multiple of TILE_MULTIPLE
+    (a stored job's, see tiles)."""
     from argand.render.convert import to_core_scene
 
     if not params:
@@ -367,7 +377,7 @@ def render_bands(
     core_scene = to_core_scene(scene)
     plans = [plan(core_scene, p) for p in params]
     frames = [_FramePlanes(p) for p in params]
-    rects = tiles(first.width, first.height, tile)
+    rects = tiles(first.width, first.height, tile, any_size=any_tile)
     n_workers = max(1, workers or os.cpu_count() or 1)
     if field is not None and not field.covers(plans[0], tile):
         raise ValueError("render_bands: the root field was recorded for other rays or another tile size")
