@@ -141,7 +141,7 @@ def stored_field(settings: Settings, job_id: str, frame_plan, width: int, height
     other rays: the farm's engine options changed since)."""
     layout = store_for(settings).job(job_id)
     field = RootField(int(_core.rays_fingerprint(frame_plan)), width, height, tile)
-    for i, r in enumerate(tiles(width, height, tile, any_size=True)):
+    for i, r in enumerate(tiles(width, height, tile)):
         try:
             field.tiles[(r.x0, r.y0, r.x1, r.y1)] = tape_of_stored(layout.field_tile(i).read_bytes())
         except (OSError, ValueError):

@@ -56,7 +56,7 @@ def tile_rects(width: int, height: int, tile: int) -> list[Rect]:
     the tile indices) as (x0, y0, x1, y1). Any size a job was stored with
     is taken (a job submitted before tiles were multiples of 8 goes on with
     its own tiling); new jobs are checked at submission (check_tile)."""
-    return [(r.x0, r.y0, r.x1, r.y1) for r in tiles(width, height, tile, any_size=True)]
+    return [(r.x0, r.y0, r.x1, r.y1) for r in tiles(width, height, tile)]
 
 
 def _area(rect: Rect) -> int:

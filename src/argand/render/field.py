@@ -100,4 +100,4 @@ def tape_of_stored(data: bytes) -> bytes:
 def _tile_rects(width: int, height: int, tile: int) -> list:
     from argand.render.frames import tiles
 
-    return tiles(width, height, tile, any_size=True)  # (a field may be a stored job's, of any tiling)
+    return tiles(width, height, tile)

@@ -272,16 +272,12 @@ def check_tile(size: int) -> int:
     return size
 
 
-def tiles(width: int, height: int, size: int, any_size: bool = False) -> list[TileRect]:
-    """The frame's tiles, row by row (ValueError for a size check_tile
-    refuses, unless ``any_size``: a stored job's tiling from before tiles
-    were multiples of 8, kept so that its frames and bands stay the bits its
-    workers rendered)."""
-    if any_size:
-        if isinstance(size, bool) or not isinstance(size, int) or size < 1:
-            raise ValueError(f"tile size must be a positive integer, got {size!r}")
-    else:
-        check_tile(size)
+def tiles(width: int, height: int, size: int) -> list[TileRect]:
+    """The frame's tiles of ``size`` pixels, row by row: geometry only (a
+    stored job keeps the tiling it was made with; what a new render may use
+    is check_tile's)."""
+    if isinstance(size, bool) or not isinstance(size, int) or size < 1:
+        raise ValueError(f"tile size must be a positive integer, got {size!r}")
     return [
         TileRect(x, y, min(x + size, width), min(y + size, height))
         for y in range(0, height, size)
@@ -364,7 +360,7 @@ def render_bands(
     bits). ``record``: an empty RootField(fingerprint=0, ...) that receives
     the tiles' fields as they are solved (its fingerprint and size set).
     ``any_tile``: take a tile size that is not a multiple of TILE_MULTIPLE
-    (a stored job's, see tiles)."""
+    (a job stored before tiles had to be, rendered again with its own tiling)."""
     from argand.render.convert import to_core_scene
 
     if not params:
@@ -377,7 +373,9 @@ def render_bands(
     core_scene = to_core_scene(scene)
     plans = [plan(core_scene, p) for p in params]
     frames = [_FramePlanes(p) for p in params]
-    rects = tiles(first.width, first.height, tile, any_size=any_tile)
+    if not any_tile:
+        check_tile(tile)
+    rects = tiles(first.width, first.height, tile)
     n_workers = max(1, workers or os.cpu_count() or 1)
     if field is not None and not field.covers(plans[0], tile):
         raise ValueError("render_bands: the root field was recorded for other rays or another tile size")

@@ -14,7 +14,7 @@ and each EXR records the options its frame was rendered with.
 from __future__ import annotations
 
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from typing import Mapping
 
 #: Root kernels of the primary rays: auto (the widest batched kernel this
@@ -62,7 +62,7 @@ class EngineOptions:
         their options) is the defaults. ValueError for anything else."""
         if value is None:
             return cls()
-        unknown = set(value) - {"kernel", "cull", "decide", "shade"}
+        unknown = set(value) - {f.name for f in fields(cls)}
         if unknown:
             raise ValueError(f"engine options: unknown field(s) {', '.join(sorted(unknown))}")
         return cls(**value)
