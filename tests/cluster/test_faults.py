@@ -252,7 +252,11 @@ def test_a_worker_host_whose_clock_is_30_s_behind(farm):
         figures = {"clock_offset_s": -30, "job_s": took, "w1_tiles": worker_tiles(farm, job_id, "w1"),
                    **check_job(farm, job_id), **probe.check()}
         with farm.client() as c:
-            assert [w["alive"] for w in c.get("/api/workers").json() if w["host"] == "host-w1"] == [True]
+            rows = [w for w in c.get("/api/workers").json() if w["host"] == "host-w1"]
+        # The process killed above (or one the restart loop replaced) keeps a
+        # dead row until the reaper's next round deletes it: the property is
+        # that the running process, behind in time, is seen alive, alone.
+        assert [w["alive"] for w in rows].count(True) == 1, rows
         assert figures["claimed_again"] == 0 and figures["w1_tiles"] > 0, figures
         record("worker host's clock 30 s behind", figures)
     finally:
