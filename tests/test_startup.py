@@ -62,6 +62,28 @@ def test_one_frame_loads_only_what_it_uses(tmp_path):
     assert out["openblas"] == "1"
 
 
+def test_numpy_is_loaded_with_one_blas_thread_whatever_the_options(tmp_path):
+    """OPENBLAS_NUM_THREADS=1 is set before numpy is loaded, not only by the
+    time the command ends: an option's callback (--tile's check) imports
+    numpy before the command's body runs, and OpenBLAS reads the variable
+    when it is loaded (its spinning threads cost about a quarter of a
+    one-frame process's CPU)."""
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    hook = ("import os, sys\nseen = {}\nclass Spy:\n"
+            "    def find_spec(self, name, path=None, target=None):\n"
+            "        if name == 'numpy' and 'at_numpy' not in seen:\n"
+            "            seen['at_numpy'] = os.environ.get('OPENBLAS_NUM_THREADS')\n"
+            "        return None\n"
+            "sys.meta_path.insert(0, Spy())\n")
+    for i, extra in enumerate(([], ["--tile", "16"], ["--deltas", "0:pi/9:2", "--tile", "8"])):
+        _, out = loaded_after(
+            hook + "from argand.cli import app\n"
+            f"sys.argv = ['argand', 'render', 'whitney', '--size', '16x16', *{extra!r}, '--out', {str(tmp_path / str(i))!r}]\n"
+            "try:\n    app()\nexcept SystemExit as exc:\n    assert not exc.code, exc.code\n"
+            "print(seen)\nos.environ['OPENBLAS_NUM_THREADS'] = str(seen.get('at_numpy'))", env=env)
+        assert out["openblas"] == "1", extra
+
+
 def test_one_frame_of_a_preset_does_without_pydantic(tmp_path):
     """typer's per-parameter pydantic adapters and the scene's pydantic
     models are most of a one-frame process's CPU after numpy: a preset's

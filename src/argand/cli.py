@@ -146,8 +146,13 @@ def _one_blas_thread() -> None:
     environment says otherwise. numpy's OpenBLAS starts a thread per core
     when it is loaded, each spinning about 0.1 s for work that roots, render
     and presets never give it (their matrices are at most 3x3): 0.07 s of
-    CPU per extra core, for a command of about 0.5 s (docs/benchmarks.md)."""
+    CPU per extra core, for a command of about 0.5 s (docs/benchmarks.md).
+    Called when this module is imported, since an option's callback (--tile's)
+    may import numpy before a command's body runs."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
+_one_blas_thread()
 
 
 # ---------------------------------------------------------------------------
