@@ -1,5 +1,6 @@
 """A full disk under the API: a PATCH (SQLite: "database or disk is full")
-and the first animation.mp4 (ENOSPC) answer 507 with the reason, not 500,
+a frame's first PNG and the first animation.mp4 (ENOSPC) answer 507 with the
+reason, not 500 (and publish no cut file),
 and /healthz says the store is below its free-space floor. The disk is a
 small tmpfs mounted by the test (root only: without root no full disk can be
 made on purpose), holding the data folder; Redis is a real embedded one."""
@@ -63,6 +64,12 @@ def test_a_full_disk_answers_507_not_500(tmp_path, small_disk):
                 fill(small_disk)
                 r = c.patch(f"/api/jobs/{job_id}", json={"priority": 7})
                 assert r.status_code == 507 and "disk is full" in r.json()["detail"], (r.status_code, r.text)
+                # A frame's first PNG (decided from the root field, written
+                # now): OpenImageIO's PNG writer reports no error on a full
+                # disk, and a cut file must not be published.
+                r = c.get(f"/api/jobs/{job_id}/frames/1.png")
+                assert r.status_code == 507 and "full" in r.json()["detail"], (r.status_code, r.text[:300])
+                assert not (settings.store_path / "jobs" / job_id / "frame_0001.png").exists()
                 r = c.get(f"/api/jobs/{job_id}/animation.mp4")
                 assert r.status_code == 507 and "full" in r.json()["detail"], (r.status_code, r.text[:300])
                 health = c.get("/healthz")
@@ -72,6 +79,8 @@ def test_a_full_disk_answers_507_not_500(tmp_path, small_disk):
                 (small_disk / "filler").unlink()
                 assert c.patch(f"/api/jobs/{job_id}", json={"priority": 7}).status_code == 200
                 assert c.get(f"/api/jobs/{job_id}/animation.mp4").status_code == 200
+                png = c.get(f"/api/jobs/{job_id}/frames/1.png")
+                assert png.status_code == 200 and png.content.endswith(b"IEND\xaeB`\x82")
         finally:
             server.should_exit = True
             thread.join(10)

@@ -21,6 +21,9 @@ if REASON:
 #: messages on the network. The assemblers write every frame's EXR (the
 #: checks read what the workers' tiles made).
 CLUSTER_ENV = {
+    # The assembler writes every frame's files from the workers' pixels
+    # (check_job compares those with a local render).
+    "ARGAND_FILES_ON_REQUEST": "false",
     "ARGAND_EXR_ON_REQUEST": "false",
     "ARGAND_HEARTBEAT_INTERVAL_S": "0.5",
     "ARGAND_HEARTBEAT_TIMEOUT_S": "4",

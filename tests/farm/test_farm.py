@@ -31,9 +31,10 @@ def free_port() -> int:
 class Farm:
     def __init__(self, data: Path, workers: int = 2, **env: str) -> None:
         self.data, self.workers, self.port = data, workers, free_port()
-        # The assembler writes every frame's EXR (the tests read what the
-        # workers' tiles made); test_frame_exr_on_request.py runs the default.
-        env = {"ARGAND_EXR_ON_REQUEST": "false", **env}
+        # The assembler writes every frame's files, EXR included (the tests
+        # read what the workers' tiles made); test_files_on_request.py and
+        # test_frame_exr_on_request.py run the defaults.
+        env = {"ARGAND_FILES_ON_REQUEST": "false", "ARGAND_EXR_ON_REQUEST": "false", **env}
         self.env = dict(os.environ, ARGAND_HEARTBEAT_INTERVAL_S="0.5", ARGAND_HEARTBEAT_TIMEOUT_S="3", **env)
         self.env.pop("ARGAND_REDIS_URL", None)
         self.proc: subprocess.Popen | None = None

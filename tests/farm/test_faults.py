@@ -178,7 +178,7 @@ from argand.farm import tile_work
 from argand.farm.settings import Settings
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG instead
 resource.setrlimit(resource.RLIMIT_FSIZE, (int(sys.argv[2]), int(sys.argv[2])))
-settings = Settings(data_dir=sys.argv[1], redis_url=sys.argv[3], exr_on_request=False)
+settings = Settings(data_dir=sys.argv[1], redis_url=sys.argv[3], exr_on_request=False, files_on_request=False)
 try:
     print(tile_work.run_tiles(settings, sys.argv[4], 0, list(range(int(sys.argv[5]))), "w-limited"))
 except OSError as exc:
@@ -202,7 +202,7 @@ def test_a_full_store_fails_the_job_cleanly_and_a_retry_finishes_it(tmp_path):
 
     redis_server = EmbeddedRedis(tmp_path / "redis" / "redis.sock").start()
     try:
-        settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, exr_on_request=False)
+        settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, exr_on_request=False, files_on_request=False)
         upgrade(settings.sqlalchemy_url)
         job_id = create_job(settings, JobSpec("steiner", load_scene("steiner"), frame_grid([0.0], [0.3]), 512, 512, 64))
         from argand.farm.database import engine_for
@@ -271,7 +271,7 @@ def test_an_unwritable_store_fails_the_job_cleanly_and_a_retry_finishes_it(tmp_p
     redis_server = EmbeddedRedis(tmp_path / "redis" / "redis.sock").start()
     how = None
     try:
-        settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, exr_on_request=False)
+        settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, exr_on_request=False, files_on_request=False)
         upgrade(settings.sqlalchemy_url)
         job_id = create_job(settings, JobSpec("steiner", load_scene("steiner"), frame_grid([0.0], [0.2]), 64, 64, 16))
         folder = settings.store_path / "jobs" / job_id

@@ -151,7 +151,7 @@ def farm_parts(tmp_path, monkeypatch):
     # One frame a run: these tests follow a frame's tiles run by run (tests/farm/test_siblings.py
     # runs the same tiles of several frames at once, as the farm does by default).
     settings = Settings(data_dir=tmp_path / "data", redis_url=redis_server.url, max_tile_attempts=2, bands_per_run=1,
-                        exr_on_request=False)
+                        exr_on_request=False, files_on_request=False)
     upgrade(settings.sqlalchemy_url)
     yield settings, redis_server
     redis_server.stop()

@@ -1,11 +1,16 @@
-"""Tiles -> a frame's files; frames -> the job's animation.
+"""Tiles -> a frame's figures (and files); frames -> the job's animation.
 
 The commit that completes a frame elects its assembler (compare-and-set on
-the frame's state); assembly (EXR with every channel, PNG, thumbnail, the
-frame's GIF fragment) is idempotent. The frame that completes the job
+the frame's state); assembly is idempotent. With Settings.files_on_request
+(the default) it adds up the tiles' figures and writes the frame's JSON:
+every picture file (PNG, thumbnail, EXR) and the animation are made on
+their first request from the job's root field (argand.farm.derived), so no
+encoding stands between the last tile and the job's end. Otherwise it
+writes the frame's EXR (unless exr_on_request), PNG, thumbnail and GIF
+fragment from the workers' tiles, and the frame that completes the job
 splices the animation from the fragments (argand.media.gif). The WebP, the
 MP4 and a grid's atlas.png are made from the frames' files on their first
-request, so no encoding stands between the last frame and the job's end."""
+request either way."""
 
 from __future__ import annotations
 
@@ -16,6 +21,7 @@ import numpy as np
 import OpenImageIO as oiio
 from sqlalchemy import func, select, update
 
+from argand.farm import derived
 from argand.farm.database import clock, engine_for
 from argand.farm.layout import JobLayout
 from argand.farm.models import Frame, Job, Tile
@@ -30,11 +36,8 @@ from argand.render.options import EngineOptions
 from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, STATUS_NAMES, FrameParams, FrameResult, frame_figures
 from argand.frames.frame_set import FrameSet, FramePoint
 from argand.media.atomic import atomic_path
-from argand.media.frame_files import to_srgb8, write_frame, write_png
+from argand.media.frame_files import frame_file_name, frame_json, to_srgb8, write_frame
 from argand.media.video import Mp4Encoder
-
-#: The thumbnail keeps every step-th pixel, step = max(width, height) // THUMBNAIL_SIZE.
-THUMBNAIL_SIZE = 160
 
 
 def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler: str = "reaper",
@@ -64,34 +67,44 @@ def finish_job_if_last(settings: Settings, job_id: str) -> None:
             Frame.job_id == job_id, Frame.status != "done")).scalar()
         status = c.execute(select(Job.status).where(Job.id == job_id)).scalar()
     if remaining == 0 and status is not None and JOB.allowed(status, "done"):
-        build_animation(settings, job_id)
+        if not settings.files_on_request:
+            build_animation(settings, job_id)
         with engine_for(url).begin() as c:
             c.execute(update(Job).where(Job.id == job_id, Job.status.in_(JOB.sources("done")))
                       .values(status="done", finished=time.time()))
 
 
 def _gather(store: FrameStore, job_id: str, frame_index: int, rects, local: dict[int, Any], chunks: dict[int, str | None],
-            frame_px: np.ndarray | None, px: np.ndarray) -> tuple[int, int, np.ndarray]:
-    """Copies every tile into ``px`` (unless it is ``frame_px`` already):
-    this process's tiles from memory, the others from their chunk files.
-    Returns (escalations, root calls, [pixels per status code, hits])."""
+            frame_px: np.ndarray | None, px: np.ndarray | None) -> tuple[int, int, np.ndarray, np.ndarray | None]:
+    """Copies every tile into ``px`` (unless it is ``frame_px`` already, or
+    None: the frame's figures only): this process's tiles from memory, the
+    others from their chunk files. Returns (escalations, root calls, [pixels
+    per status code, hits], pixels per ladder level or None where a tile did
+    not count them: a tile stored by an earlier version, which counted them
+    from the pixels)."""
     stored: dict[int, dict[str, np.ndarray]] = {}
     for name in {chunks[i] for i in chunks if i not in local and chunks[i]}:
         stored.update(store.read_chunk(job_id, frame_index, name))
     escalations = calls = 0
     stats = np.zeros(len(STATUS_NAMES) + 1, np.int64)
+    levels: np.ndarray | None = None
+    counted = True  # every tile counted its ladder levels
     for i, (x0, y0, x1, y1) in enumerate(rects):
         if i in local:
-            block, esc, n, st = local[i]
+            block, esc, n, st, lv = local[i]
         else:
             d = stored[i]
-            block, (esc, n), st = d["px"], d["meta"][:2], d["meta"][2:]
-        if frame_px is None:
+            block, (esc, n), st, lv = d.get("px"), d["meta"][:2], d["meta"][2:], d.get("levels")
+        if px is not None and frame_px is None:
             px[y0:y1, x0:x1] = block
         escalations += int(esc)
         calls += int(n)
         stats += st
-    return escalations, calls, stats
+        if lv is None:
+            counted = False
+        elif counted:
+            levels = np.array(lv, np.int64) if levels is None else levels + lv
+    return escalations, calls, stats, levels if counted else None
 
 
 def _write_files(settings: Settings, store: FrameStore, layout: JobLayout, index: int, result: FrameResult,
@@ -102,18 +115,17 @@ def _write_files(settings: Settings, store: FrameStore, layout: JobLayout, index
     # The frame's files as `argand render` writes them (the one writer).
     write_frame(result, layout.folder, index, exr=px, srgb8=srgb, compression=settings.exr_compression,
                 with_exr=not settings.exr_on_request)
-    h, w = srgb.shape[:2]
-    step = max(1, max(w, h) // THUMBNAIL_SIZE)
-    write_png(np.ascontiguousarray(srgb[::step, ::step]), layout.thumbnail(index))
+    derived.write_pictures(store, layout, index, srgb)
     store.write_atomic(store.prepare(layout.gif_fragment(index)), gif.encode_frame(srgb))
 
 
 def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dict[int, Any] | None = None,
                    seconds: float | None = None, commit: bool = True, frame_px: np.ndarray | None = None) -> dict:
-    """Tiles -> the frame's files (idempotent). Tiles this process rendered
-    are taken from memory, the others from the store; the EXR's interleaved
-    buffer is filled directly. With ``commit`` the frame is marked done and
-    its tile files dropped. Returns the frame's figures."""
+    """Tiles -> the frame's figures and files (idempotent; with
+    files_on_request the figures and the JSON only). Tiles this process
+    rendered are taken from memory, the others from the store; the EXR's
+    interleaved buffer is filled directly. With ``commit`` the frame is
+    marked done and its tile files dropped. Returns the frame's figures."""
     t_start = time.perf_counter()
     store, local = store_for(settings), local or {}
     with engine_for(settings.sqlalchemy_url).connect() as c:
@@ -126,15 +138,31 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
         rects = tile_rects(job.width, job.height, job.tile)
         chunks = {} if len(local) == len(rects) else dict(c.execute(select(Tile.tile_index, Tile.chunk).where(*key)).all())
     w, h = job.width, job.height
-    px = frame_px if frame_px is not None else np.empty((h, w, len(INTERLEAVED_CHANNELS)), np.float32)
-    escalations, calls, stats = _gather(store, job_id, frame_index, rects, local, chunks, frame_px, px)
     params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method, samples=samples_of(job.scene),
                          engine=EngineOptions.from_stored(job.engine))
-    aovs = {name: px[..., INTERLEAVED_CHANNELS.index(name)] for name in AOV_CHANNELS}
-    result = FrameResult(params, px[..., :4], aovs, seconds, escalations, calls, stats=stats)
-    result.figures = frame_figures(result)
-    t_encode = time.perf_counter()
-    _write_files(settings, store, store.job(job_id), frame_index, result, px)
+    layout = store.job(job_id)
+    lazy = settings.files_on_request
+    if lazy:
+        # The figures only: the tiles' counts (their pixels were not kept).
+        escalations, calls, stats, levels = _gather(store, job_id, frame_index, rects, local, chunks, None, None)
+        # (Tiles stored by an earlier version kept their pixels and no
+        # levels: that frame's files are written now, from its pixels.)
+        lazy = levels is not None
+    if lazy:
+        result = FrameResult(params, np.empty((0, 0, 4), np.float32), {}, seconds, escalations, calls, stats=stats,
+                             levels=levels)
+        result.figures = frame_figures(result)
+        t_encode = time.perf_counter()
+        store.write_atomic(store.prepare(layout.folder / frame_file_name(frame_index, "json")),
+                           frame_json(result, frame_index))
+    else:
+        px = frame_px if frame_px is not None else np.empty((h, w, len(INTERLEAVED_CHANNELS)), np.float32)
+        escalations, calls, stats, _levels = _gather(store, job_id, frame_index, rects, local, chunks, frame_px, px)
+        aovs = {name: px[..., INTERLEAVED_CHANNELS.index(name)] for name in AOV_CHANNELS}
+        result = FrameResult(params, px[..., :4], aovs, seconds, escalations, calls, stats=stats)
+        result.figures = frame_figures(result)
+        t_encode = time.perf_counter()
+        _write_files(settings, store, layout, frame_index, result, px)
     t_end = time.perf_counter()
     # Where the assembler's time went (argand bench farm reports it).
     figures = dict(result.figures, assembly_s=t_end - t_start, encode_s=t_end - t_encode)
@@ -158,10 +186,27 @@ def build_animation(settings: Settings, job_id: str, fps: float = 8.0) -> None:
     store.write_atomic(layout.animation("gif"), gif.splice(fragments, fps=fps))
 
 
-def _frame_pngs(layout: JobLayout, n_frames: int):
-    """The frames' PNGs as (h, w, 3) uint8, one at a time."""
-    for i in range(n_frames):
-        yield oiio.ImageBuf(str(layout.frame(i, "png"))).get_pixels(oiio.UINT8)[..., :3]
+def animation_gif(settings: Settings, job_id: str, n_frames: int, fps: float = 8.0) -> None:
+    """animation.gif of a done job, made on its first request where the
+    assembler did not splice it (files_on_request): each frame's GIF
+    fragment encoded from its PNG (made first where missing), then spliced
+    as build_animation splices the assembler's, so the file is the same
+    bytes either way. Two first requests at once each write a whole file;
+    the last rename wins."""
+    store = store_for(settings)
+    layout = store.job(job_id)
+    path = layout.animation("gif")
+    if path.exists():
+        return
+    fragments = [gif.encode_frame(picture) for picture in _frame_pngs(settings, job_id, n_frames)]
+    store.write_atomic(path, gif.splice(fragments, fps=fps))
+
+
+def _frame_pngs(settings: Settings, job_id: str, n_frames: int):
+    """The frames' PNGs as (h, w, 3) uint8, one at a time (each made first
+    where it is not yet: argand.farm.derived)."""
+    for path in derived.frame_files(settings, job_id, n_frames, "png"):
+        yield oiio.ImageBuf(str(path)).get_pixels(oiio.UINT8)[..., :3]
 
 
 def animation_webp(settings: Settings, job_id: str, n_frames: int, fps: float = 8.0) -> bool:
@@ -172,7 +217,7 @@ def animation_webp(settings: Settings, job_id: str, n_frames: int, fps: float = 
     path = layout.animation("webp")
     if path.exists():
         return True
-    data = gif.encode_animation_webp(list(_frame_pngs(layout, n_frames)), fps=fps)
+    data = gif.encode_animation_webp(list(_frame_pngs(settings, job_id, n_frames)), fps=fps)
     if data is None:
         return False
     store.write_atomic(path, data)
@@ -189,7 +234,7 @@ def animation_mp4(settings: Settings, job_id: str, n_frames: int, fps: float = 8
     if path.exists():
         return
     with atomic_path(path) as tmp, Mp4Encoder(tmp, fps) as encoder:
-        for picture in _frame_pngs(layout, n_frames):
+        for picture in _frame_pngs(settings, job_id, n_frames):
             encoder.add(picture)
 
 
@@ -209,8 +254,9 @@ def atlas_png(settings: Settings, job_id: str) -> bool:
     if path.exists():
         return True
     size = cell_size(job.width, job.height)
-    cells = {i: scale_to_cell(oiio.ImageBuf(str(layout.thumbnail(i))).get_pixels(oiio.UINT8)[..., :3], size)
-             for i in range(len(grid))}
+    thumbnails = derived.frame_files(settings, job_id, len(grid), "thumbnail")
+    cells = {i: scale_to_cell(oiio.ImageBuf(str(path)).get_pixels(oiio.UINT8)[..., :3], size)
+             for i, path in enumerate(thumbnails)}
     title = f"{job.scene_name}: {len(grid)} frames of {job.width}x{job.height}"
     store.write_atomic(path, draw_atlas(grid, cells, job.width, job.height, title=title))
     return True

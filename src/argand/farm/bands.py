@@ -32,7 +32,7 @@ from sqlalchemy import select
 
 from argand.core import _core
 from argand.farm.database import engine_for
-from argand.farm.models import Frame, Job
+from argand.farm.models import Job
 from argand.farm.planning import samples_of
 from argand.farm.settings import Settings
 from argand.frames.angles import parse_angle
@@ -217,37 +217,6 @@ def band(settings: Settings, job_id: str, sigma_text: str, delta_text: str, keep
     if keep_result:
         return Band(out.sigma, out.delta, png, figures, result=result)
     return out
-
-
-_exr_locks = KeyedLocks()  # one write per frame when its first requests come together
-
-
-def frame_exr(settings: Settings, job_id: str, index: int) -> Path | None:
-    """The path of frame ``index``'s EXR, written now if it is not yet
-    (Settings.exr_on_request): the frame decided again from the job's root
-    field with the job's scene, size, method, samples and tiling, which is
-    the frame the workers rendered, to the bit (the PNG beside it is made
-    from the same pixels). None while the frame is not done (or no such
-    frame)."""
-    layout = store_for(settings).job(job_id)
-    path = layout.frame(index, "exr")
-    if path.exists():
-        return path
-    with engine_for(settings.sqlalchemy_url).connect() as c:
-        job = c.execute(select(Job.scene, Job.width, Job.height, Job.method, Job.tile, Job.engine)
-                        .where(Job.id == job_id)).first()
-        frame = c.execute(select(Frame.status, Frame.sigma, Frame.delta)
-                          .where(Frame.job_id == job_id, Frame.index == index)).first()
-    if job is None or frame is None or frame.status != "done":
-        return None
-    with _exr_locks.hold((settings.sqlalchemy_url, job_id, index)):
-        if path.exists():
-            return path
-        params = FrameParams(sigma=frame.sigma, delta=frame.delta, width=job.width, height=job.height,
-                             method=job.method, samples=samples_of(job.scene), engine=EngineOptions.from_stored(job.engine))
-        result, _source = render_band(settings, job_id, scene_from_dict(job.scene), params, job.tile)
-        write_exr(result, store_for(settings).prepare(path), compression=settings.exr_compression)
-    return path
 
 
 def _png_bytes(result: FrameResult) -> bytes:

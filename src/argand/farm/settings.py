@@ -64,10 +64,18 @@ class Settings(BaseSettings):
     #: OpenEXR compression of the frames: none, rle, zip, zips, piz, and zstd
     #: where OpenImageIO's OpenEXR has it; "zip:N"/"zstd:N" give a level.
     exr_compression: str = EXR_COMPRESSION
-    #: A frame's EXR (every AOV, some 100 ms to encode at 512x512) is
-    #: written on its first request, decided from the job's root field, and
-    #: kept (argand.farm.bands.frame_exr); False: written by the assembler
-    #: with the frame's other files, as before.
+    #: A frame's files (PNG, thumbnail, channel previews, EXR) and the job's
+    #: animation are made on their first request, the frame decided again
+    #: from the job's root field (the bits the workers rendered), and kept
+    #: (argand.farm.derived): a job is done once its tiles are, with no
+    #: encoding of its frames in between, and its workers keep only each
+    #: tile's figures, not its pixels. False: the assembler writes the PNG,
+    #: thumbnail, figures and GIF fragment of each frame from the workers'
+    #: tiles (and the EXR unless exr_on_request).
+    files_on_request: bool = True
+    #: With files_on_request False: a frame's EXR (every AOV, some 100 ms
+    #: to encode at 512x512) is still written on its first request
+    #: (argand.farm.derived.frame_file); False: by the assembler too.
     exr_on_request: bool = True
 
     # Access: a bearer token for every state-changing route (None: no token,

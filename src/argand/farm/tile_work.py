@@ -197,6 +197,7 @@ def _render_claimed(runs: list[TileRun]) -> str | None:
     other workers while this one was frozen or cut off; or "gone"), or None."""
     run = runs[0]
     channels = len(INTERLEAVED_CHANNELS)
+    keep_figures_only = run.settings.files_on_request
     held = [set(r.claimed) for r in runs]
     last_check = last_commit = time.monotonic()
     for n, i in enumerate(run.claimed):
@@ -210,7 +211,9 @@ def _render_claimed(runs: list[TileRun]) -> str | None:
         ACTIVITY["tile"] = f"{run.job_id}/{run.frame_index}/{i}"
         group = [r for r, tiles in zip(runs, held) if i in tiles]
         x0, y0, x1, y1 = run.rects[i]
-        outs = [(r.frame_px, x0, y0) if r.frame_px is not None else
+        # (files_on_request: the frames' figures only; their pixels are
+        # decided again from the root field when a file is asked for.)
+        outs = [None if keep_figures_only else (r.frame_px, x0, y0) if r.frame_px is not None else
                 (np.empty((y1 - y0, x1 - x0, channels), np.float32), 0, 0) for r in group]
         start = time.perf_counter()
         store = store_for(run.settings)
@@ -220,9 +223,10 @@ def _render_claimed(runs: list[TileRun]) -> str | None:
         seconds = (time.perf_counter() - start) / len(group)
         if tape:
             _keep_field(run, store, field_path, tape[0])
-        for r, (block, _ox, _oy), (esc, calls, stats) in zip(group, outs, figures):
+        for r, out, (esc, calls, stats, levels) in zip(group, outs, figures):
             r.pending[i] = seconds
-            r.local[i] = (block[y0:y1, x0:x1] if r.frame_px is not None else block, esc, calls, stats)
+            block = None if out is None else out[0][y0:y1, x0:x1] if r.frame_px is not None else out[0]
+            r.local[i] = (block, esc, calls, stats, levels)
         if time.monotonic() - last_commit > COMMIT_INTERVAL_S:
             for r in runs:
                 r.commit()
@@ -308,8 +312,9 @@ def _new_run(settings: Settings, job_id: str, frame_index: int, worker: str, cla
     run = TileRun(settings, job_id, frame_index, worker, claimed, fplan, rects, total,
                   soft_at=started + settings.tile_soft_time_limit_s)
     # A run that holds the whole frame renders straight into the frame's
-    # buffer (the EXR's layout); otherwise each tile gets a block of its own.
-    if len(claimed) == total:
+    # buffer (the EXR's layout); otherwise each tile gets a block of its own
+    # (with files_on_request, neither: the tiles' figures only).
+    if len(claimed) == total and not settings.files_on_request:
         run.frame_px = np.empty((fplan.height, fplan.width, len(INTERLEAVED_CHANNELS)), np.float32)
     return run
 
@@ -365,11 +370,15 @@ def _finish_run(run: TileRun, stopped: str | None) -> str:
     return "rendered"
 
 
-def _tile_arrays(t: tuple[np.ndarray, int, int, np.ndarray]) -> dict[str, np.ndarray]:
-    """A tile as stored: its pixels, and meta = [escalations, root calls,
-    pixels per status code, hits]."""
-    block, esc, calls, stats = t
-    return {"px": np.ascontiguousarray(block), "meta": np.array([esc, calls, *stats], dtype=np.int64)}
+def _tile_arrays(t: tuple[np.ndarray | None, int, int, np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:
+    """A tile as stored: its pixels (unless files_on_request), meta =
+    [escalations, root calls, pixels per status code, hits], and its pixels
+    per ladder level."""
+    block, esc, calls, stats, levels = t
+    out = {"meta": np.array([esc, calls, *stats], dtype=np.int64), "levels": np.asarray(levels, np.int64)}
+    if block is not None:
+        out["px"] = np.ascontiguousarray(block)
+    return out
 
 
 def _still_held(run: TileRun, tiles) -> set[int]:

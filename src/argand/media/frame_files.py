@@ -133,6 +133,10 @@ def write_png(pixels: np.ndarray, path: Path, level: int = PNG_LEVEL) -> None:
     _write(oiio, path, spec, pixels)
 
 
+#: The last 12 bytes of every PNG: the IEND chunk (length 0, type, CRC).
+PNG_END = b"\x00\x00\x00\x00IEND\xaeB`\x82"
+
+
 def _write(oiio, path: Path, spec, pixels: np.ndarray) -> None:
     # Whole or not at all (argand.media.atomic): readers never see half a frame.
     with atomic_path(path) as tmp:
@@ -143,6 +147,27 @@ def _write(oiio, path: Path, spec, pixels: np.ndarray) -> None:
         out.close()
         if not ok:
             raise OSError(f"cannot write {path}: {out.geterror()}")
+        if tmp.suffix.lower() == ".png":
+            _check_png_end(tmp, path)
+
+
+def _check_png_end(tmp: Path, path: Path) -> None:
+    """OpenImageIO's PNG writer (libpng on stdio) reports no error when the
+    disk fills under it, and leaves a cut file: one that does not end with
+    its IEND chunk is refused here (ENOSPC where the disk has no room left,
+    so the API answers 507), before the rename would publish it."""
+    import errno
+    import shutil
+
+    with open(tmp, "rb") as f:
+        f.seek(0, 2)
+        size = f.tell()
+        f.seek(max(0, size - len(PNG_END)))
+        whole = f.read() == PNG_END
+    if not whole:
+        full = shutil.disk_usage(tmp.parent).free < (1 << 20)
+        code = errno.ENOSPC if full else errno.EIO
+        raise OSError(code, f"{path.name} was cut short while it was written ({size} bytes)", str(path))
 
 
 #: A frame's files: every AOV (EXR), the picture (PNG, sRGB), its figures (JSON).

@@ -149,19 +149,26 @@ class FrameResult:
         return np.bincount(st, minlength=len(STATUS_NAMES))
 
     @property
+    def pixels(self) -> int:
+        """The frame's pixel count (the shares' denominator; a result built
+        from counts alone, the farm's figures of a frame whose files are made
+        on request, holds no AOV to count)."""
+        return self.params.width * self.params.height
+
+    @property
     def hit_share(self) -> float:
         if self.stats is not None:
-            return float(self.stats[len(STATUS_NAMES)] / max(1, self.aovs["status"].size))
+            return float(self.stats[len(STATUS_NAMES)] / max(1, self.pixels))
         return float(np.mean(self.rgba[..., 3] > 0))
 
     @property
     def certified_share(self) -> float:
         """Share of pixels with status 0 (the measured figure; a sampled
         pixel is certified when every one of its samples is)."""
-        return float(self.status_counts[0] / max(1, self.aovs["status"].size))
+        return float(self.status_counts[0] / max(1, self.pixels))
 
     def status_shares(self) -> dict[str, float]:
-        n = max(1, self.aovs["status"].size)
+        n = max(1, self.pixels)
         return {name: float(self.status_counts[code] / n) for code, name in STATUS_NAMES.items()}
 
 
@@ -216,14 +223,16 @@ def render_tile_into(frame_plan: Any, rect: TileRect, out: np.ndarray, ox: int =
 
 
 def render_tile_bands_into(frame_plans: Sequence[Any], rect: TileRect,
-                           outs: Sequence[tuple[np.ndarray, int, int]],
-                           record: list | None = None) -> list[tuple[int, int, np.ndarray]]:
+                           outs: Sequence[tuple[np.ndarray, int, int] | None],
+                           record: list | None = None) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
     """render_tile_into for several bands of one tile at once (their plans
     differ in σ and δ only; _core.render_tile_bands solves the primary roots
     once): band b's pixels go into outs[b] = (out, ox, oy) as
-    render_tile_into writes them, the same bits. Returns each band's
-    (escalations, root_calls, stats). ``record``: a list the tile's root
-    field (bytes) is appended to."""
+    render_tile_into writes them, the same bits; outs[b] None: the band's
+    figures only (the farm's frames whose files are made on request keep no
+    pixels). Returns each band's (escalations, root_calls, stats, pixels per
+    ladder level). ``record``: a list the tile's root field (bytes) is
+    appended to."""
     h, w = rect.y1 - rect.y0, rect.x1 - rect.x0
     planes = [(np.empty((h, w, 4), np.float32),) + tuple(np.empty((h, w), AOV_DTYPES[n]) for n in AOV_CHANNELS)
               for _ in frame_plans]
@@ -233,12 +242,14 @@ def render_tile_bands_into(frame_plans: Sequence[Any], rect: TileRect,
         figures, tape = figures
         record.append(tape)
     out = []
-    for (block, ox, oy), band, (esc, calls, counts, hits, _levels) in zip(outs, planes, figures):
-        target = block[oy:oy + h, ox:ox + w]
-        target[..., :4] = band[0]
-        for k, plane in enumerate(band[1:]):
-            target[..., 4 + k] = plane
-        out.append((int(esc), int(calls), np.array([*counts, hits], np.int64)))
+    for target_at, band, (esc, calls, counts, hits, levels) in zip(outs, planes, figures):
+        if target_at is not None:
+            block, ox, oy = target_at
+            target = block[oy:oy + h, ox:ox + w]
+            target[..., :4] = band[0]
+            for k, plane in enumerate(band[1:]):
+                target[..., 4 + k] = plane
+        out.append((int(esc), int(calls), np.array([*counts, hits], np.int64), np.asarray(levels, np.int64)))
     return out
 
 

@@ -1,6 +1,8 @@
 """A job's files: each frame's PNG, EXR, thumbnail and channel previews, the
-animation (GIF; WebP and MP4 made on first request) and a grid's atlas.
-Paths: argand.farm.layout."""
+animation (GIF, WebP, MP4) and a grid's atlas. A frame's files are made on
+their first request from the job's root field where the assembler did not
+write them (argand.farm.derived), the animations and the atlas on theirs;
+all are kept. Paths: argand.farm.layout."""
 
 from __future__ import annotations
 
@@ -12,8 +14,8 @@ from sqlalchemy import func, select
 
 from argand.api.deps import JobIdDep, SessionDep, SettingsDep, job_or_404
 from argand.api.schemas import FramePage, frame_out
-from argand.farm.assembly import animation_mp4, animation_webp, atlas_png
-from argand.farm.bands import frame_exr
+from argand.farm.assembly import animation_gif, animation_mp4, animation_webp, atlas_png
+from argand.farm.derived import frame_file
 from argand.farm.database import session_scope
 from argand.farm.job_limits import MAX_PAGE
 from argand.farm.models import Frame, Job
@@ -26,12 +28,6 @@ router = APIRouter(prefix="/api/jobs/{job_id}", tags=["frames"])
 def binary(media: str, description: str) -> dict:
     """A route's documented answer: a file of this media type."""
     return {"response_class": Response, "responses": {200: {"content": {media: {}}, "description": description}}}
-
-
-def _file(path: Path, media: str) -> FileResponse:
-    if not path.exists():
-        raise HTTPException(404, detail=f"{path.name} is not ready")
-    return FileResponse(path, media_type=media)
 
 
 #: Frames in one page of GET /api/jobs/{id}/frames (a job has at most max_frames).
@@ -50,18 +46,25 @@ def frames_page(job_id: JobIdDep, s: SessionDep, page: int = Query(1, ge=1, le=M
     return FramePage(total=total, page=page, per_page=per_page, frames=[frame_out(base, f, status) for f in rows])
 
 
-@router.get("/frames/{index}.png", **binary("image/png", "The frame's PNG"))
-def frame_png(job_id: JobIdDep, index: int, settings: SettingsDep):
-    return _file(store_for(settings).job(job_id).frame(index, "png"), "image/png")
-
-
-def _exr(settings, job_id: str, index: int) -> Path:
-    """The frame's EXR, written now from the job's root field if it is not
-    yet (argand.farm.bands.frame_exr); 404 while the frame is not done."""
-    path = frame_exr(settings, job_id, index)
+def _derived(settings, job_id: str, index: int, kind: str) -> Path:
+    """The frame's file ``kind`` (png, thumbnail, exr), written now from
+    the job's root field if it is not yet (argand.farm.derived.frame_file);
+    404 while the frame is not done."""
+    path = frame_file(settings, job_id, index, kind)
     if path is None:
         raise HTTPException(404, detail=f"frame {index} of job {job_id} is not ready")
     return path
+
+
+@router.get("/frames/{index}.png", **binary("image/png", "The frame's PNG"))
+def frame_png(job_id: JobIdDep, index: int, settings: SettingsDep):
+    """The frame's picture (sRGB), made on its first request where the
+    assembler did not write it, and kept."""
+    return FileResponse(_derived(settings, job_id, index, "png"), media_type="image/png")
+
+
+def _exr(settings, job_id: str, index: int) -> Path:
+    return _derived(settings, job_id, index, "exr")
 
 
 @router.get("/frames/{index}.exr", **binary("image/x-exr", "The frame's EXR (every AOV)"))
@@ -74,7 +77,7 @@ def frame_exr_file(job_id: JobIdDep, index: int, settings: SettingsDep):
 
 @router.get("/frames/{index}/thumbnail.png", **binary("image/png", "A small copy of the frame's PNG"))
 def frame_thumbnail(job_id: JobIdDep, index: int, settings: SettingsDep):
-    return _file(store_for(settings).job(job_id).thumbnail(index), "image/png")
+    return FileResponse(_derived(settings, job_id, index, "thumbnail"), media_type="image/png")
 
 
 @router.get("/frames/{index}/{channel}.png", **binary("image/png", "The channel in false colour"))
@@ -84,7 +87,7 @@ def frame_channel(job_id: JobIdDep, index: int, channel: str, settings: Settings
         raise HTTPException(422, detail=f"channel must be one of {', '.join(PREVIEW_CHANNELS)}")
     layout = store_for(settings).job(job_id)
     if channel == "beauty":
-        return _file(layout.frame(index, "png"), "image/png")
+        return FileResponse(_derived(settings, job_id, index, "png"), media_type="image/png")
     out = layout.channel(channel, index)
     if out.exists():
         return FileResponse(out, media_type="image/png")
@@ -95,8 +98,14 @@ def frame_channel(job_id: JobIdDep, index: int, channel: str, settings: Settings
 
 
 @router.get("/animation.gif", **binary("image/gif", "The animation"))
-def animation_gif(job_id: JobIdDep, settings: SettingsDep):
-    return _file(store_for(settings).job(job_id).animation("gif"), "image/gif")
+def animation_as_gif(job_id: JobIdDep, settings: SettingsDep):
+    """The animation as GIF: spliced by the assembler when the job ended, or
+    made from the frames' PNGs on the first request, then kept."""
+    path = store_for(settings).job(job_id).animation("gif")
+    if not path.exists():
+        n = _done_frames(settings, job_id, "animation")
+        animation_gif(settings, job_id, n)
+    return FileResponse(path, media_type="image/gif")
 
 
 def _done_frames(settings, job_id: str, what: str) -> int:
