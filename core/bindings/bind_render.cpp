@@ -673,6 +673,7 @@ void init_render(py::module_& m) {
             std::vector<TileView> views(plans.size());
             std::vector<py::array> keep;
             for (std::size_t b = 0; b < plans.size(); ++b) {
+                if (outs[b].is_none()) continue;  // the band's figures only (a TileView without planes)
                 const py::tuple planes = outs[b].cast<py::tuple>();
                 if (planes.size() != 9) throw py::value_error("outs[" + std::to_string(b) + "] must hold 9 planes");
                 // Plane k (the rgba plane first): of its type, C-contiguous,
@@ -738,7 +739,8 @@ void init_render(py::module_& m) {
             return std::move(figures);
         },
         "Renders the tile [x0, x1) x [y0, y1) of every band of `plans` (FramePlans of one scene and camera that "
-        "differ in sigma and delta only), the primary roots solved once: band b into outs[b], a tuple of planes "
+        "differ in sigma and delta only), the primary roots solved once: band b into outs[b] (None: its figures "
+        "only, no pixel written), a tuple of planes "
         "(rgba (h, w, 4) float32; Z, arg, re, im (h, w) float32; count (h, w) int32; status, escalation (h, w) "
         "uint8; certified_share (h, w) float32; C-contiguous), the tile at (ox, oy) (default (x0, y0): frame-sized "
         "planes). Each band's pixels are the bits render_tile gives for its plan alone. Returns, per band, "

@@ -682,8 +682,9 @@ def bench_bands_cmd(
                       f"{1000 * r['p50_s']:.0f} ms, p95 {1000 * r['p95_s']:.0f} ms (solved: p50 "
                       f"{1000 * r['solved_p50_s']:.0f} ms, {r['p50_speedup']:.2f}x; same bits: {r['bit_identical']})")
     farm = report["farm"]
-    console.print(f"farm: {farm['frames']}-frame job {farm['exr_on_request']['over_one']:.1f}x a 1-frame job "
-                  f"(EXR written by the assembler: {farm['exr_written']['over_one']:.1f}x)")
+    console.print(f"farm: {farm['frames']}-frame job {farm['files_on_request']['over_one']:.1f}x a 1-frame job "
+                  f"(pictures by the assembler: {farm['exr_on_request']['over_one']:.1f}x; every file by the "
+                  f"assembler: {farm['exr_written']['over_one']:.1f}x)")
     console.print(f"wrote {out / 'bands.json'}, {out / 'bands.md'} and {out / 'bands.png'}")
 
 

@@ -56,6 +56,38 @@ def test_whole_frames_travel_as_one_message_when_there_are_enough_of_them():
     assert [len(r) for _, r in plan_runs({0: list(range(64))}, 1, rects, 512 * 512, 2)] == [8] * 8
 
 
+@pytest.mark.parametrize("seed", range(12))
+def test_windowed_runs_cover_every_queued_tile_through_one_leader(seed):
+    """With frames that keep only their figures, a run carries its tiles of
+    a window of frames (claim_siblings: the next window - 1 frames). Every
+    queued (frame, tile) must be reached by exactly one message: the one of
+    the first frame of its window where that tile is queued (whatever is
+    done already: a requeue after a crash, a census), and a whole job's
+    first frames are split so that every worker gets four runs or more."""
+    import random
+
+    rng = random.Random(seed)
+    width, height, tile = rng.choice([(96, 80, 16), (512, 512, 64), (200, 120, 40)])
+    rects = tile_rects(width, height, tile)
+    frames, window, workers = rng.randint(1, 40), rng.choice([2, 8, 32]), rng.randint(1, 3)
+    whole = seed % 3 == 0
+    by_frame = {f: [t for t in range(len(rects)) if whole or rng.random() < 0.5] for f in range(frames)}
+    runs = plan_runs(by_frame, frames, rects, 512 * 512, workers, window=window)
+    reached = {}
+    for f, run in runs:
+        assert run == sorted(run)
+        for t in run:
+            start = f - f % window
+            assert t in by_frame[f] and all(t not in by_frame[g] for g in range(start, f)), (f, t)
+            for g in range(f, min(frames, f - f % window + window, f + window)):
+                if t in by_frame[g]:
+                    assert (g, t) not in reached, (g, t)
+                    reached[(g, t)] = f
+    assert sorted(reached) == sorted((f, t) for f in range(frames) for t in by_frame[f])
+    if whole:
+        assert len(runs) >= min(4 * workers, len(rects) * -(-frames // window))
+
+
 def test_batch_runs_keeps_tile_order():
     rects = tile_rects(80, 8, 8)
     assert batch_runs(list(range(10)), rects, 160) == [[0, 1, 2], [3, 4, 5], [6, 7, 8], [9]]

@@ -140,3 +140,30 @@ def test_certified_pixels_of_bands_rendered_together_are_right(name):
         assert check.wrong == 0, (p.sigma, p.delta, check.disagreements[:3])
         checked += check.certified
     assert checked > 200
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+@pytest.mark.parametrize("samples", [1, 4])
+def test_a_bands_figures_without_its_pixels_are_the_rendered_ones(name, samples):
+    """A band given no planes (render_tile_bands_into's None: the farm's
+    frames whose files are made on request) is counted, not written: its
+    escalations, root calls, pixels per status, hits and pixels per ladder
+    level are the ones the band gets with its pixels, whether the other
+    bands of the tile keep theirs or not."""
+    from argand.render.frames import INTERLEAVED_CHANNELS, TileRect, render_tile_bands_into, tiles
+
+    scene = to_core_scene(load_scene(name))
+    params = [FrameParams(sigma=s, delta=d, width=40, height=24, samples=samples) for s, d in BANDS[:5]]
+    plans = [plan(scene, p) for p in params]
+    counted = 0
+    for r in tiles(40, 24, 16):
+        shape = (r.y1 - r.y0, r.x1 - r.x0, len(INTERLEAVED_CHANNELS))
+        full = render_tile_bands_into(plans, r, [(np.empty(shape, np.float32), 0, 0) for _ in plans])
+        only = render_tile_bands_into(plans, r, [None] * len(plans))
+        mixed = render_tile_bands_into(plans, r, [None if b % 2 else (np.empty(shape, np.float32), 0, 0)
+                                                  for b in range(len(plans))])
+        for a, b, c in zip(full, only, mixed):
+            for x in (b, c):
+                assert x[:2] == a[:2] and x[2].tolist() == a[2].tolist() and x[3].tolist() == a[3].tolist(), (r, name)
+            counted += int(a[2][:4].sum())
+    assert counted == 40 * 24 * len(plans)

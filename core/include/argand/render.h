@@ -265,6 +265,9 @@ struct TileAOVs {
 /// (x0, y0) with stride the frame's width, so render_tile writes straight
 /// into the frame (no tile arrays to allocate, fill and copy). Every pixel
 /// of the tile is written, every AOV (a miss included).
+/// (A view whose rgba is null holds no planes: the renderer counts its
+/// figures and writes no pixel, for a caller that needs a band's figures
+/// only, such as the farm's tiles whose frames are decided again on request.)
 struct TileView {
     int width = 0, height = 0;
     std::ptrdiff_t stride = 0;  // pixels per row of every plane

@@ -54,18 +54,21 @@ struct PixelAccumulator {
 
     /// Writes pixel i (y * out.stride + x) of the tile's AOVs (the one
     /// place that does).
+    /// A view without planes (rgba null: TileView's figures only) gets the
+    /// pixel's figures and nothing else.
     static void write_pixel(TileView& out, std::size_t i, const float* rgb, float alpha, std::uint8_t status,
                             std::uint8_t level, float certified_share, const HitInfo& shown, bool shown_hit) {
+        if (level > kLevelFirst) ++out.escalations;
+        ++out.by_status[status & 3];
+        ++out.by_level[level & 7];
+        out.hits += alpha > 0.0f;
+        if (out.rgba == nullptr) return;
         for (int a = 0; a < 3; ++a) out.rgba[4 * i + a] = rgb[a];
         out.rgba[4 * i + 3] = alpha;
         out.status[i] = status;
         out.escalation[i] = level;
         out.certified_share[i] = certified_share;
         out.count[i] = shown.eligible;
-        if (level > kLevelFirst) ++out.escalations;
-        ++out.by_status[status & 3];
-        ++out.by_level[level & 7];
-        out.hits += alpha > 0.0f;
         if (!shown_hit) {  // a miss (the planes come unset: every AOV is written here)
             out.modulus[i] = std::numeric_limits<float>::infinity();
             out.argument[i] = 0.0f;

@@ -160,17 +160,31 @@ def bench_band_route(scene_name: str, size: int, pairs: int, tile: int = 64) -> 
             "p50_speedup": pick(solved, 0.5) / pick(derived, 0.5), "bit_identical": same}
 
 
+#: How the farm writes a job's frames: (key, environment).
+FARM_MODES = (
+    ("files_on_request", {}),
+    ("exr_on_request", {"ARGAND_FILES_ON_REQUEST": "false"}),
+    ("exr_written", {"ARGAND_FILES_ON_REQUEST": "false", "ARGAND_EXR_ON_REQUEST": "false"}),
+)
+FARM_MODE_LABELS = {
+    "files_on_request": "every file on its first request (default)",
+    "exr_on_request": "PNG, thumbnail, GIF by the assembler; EXR on request",
+    "exr_written": "every file by the assembler",
+}
+
+
 def bench_farm_frames(size: int, frames: int, rounds: int) -> dict:
     """The farm (`argand serve --workers 2`): a job of `frames` frames of the
     Bicube against a 1-frame job, submit to done (the server's clock), the
-    jobs interleaved on one farm, medians; frames' EXRs written on request
-    (the default) and by the assembler (ARGAND_EXR_ON_REQUEST=false)."""
+    jobs interleaved on one farm, medians; for each way the farm writes the
+    frames' files (FARM_MODES: every file on request, the default; the EXR
+    only; none)."""
     import tempfile
 
     from argand.bench.farm import LocalFarm
 
     out: dict = {"size": size, "frames": frames, "rounds": rounds}
-    for mode, env in (("exr_on_request", {}), ("exr_written", {"ARGAND_EXR_ON_REQUEST": "false"})):
+    for mode, env in FARM_MODES:
         with tempfile.TemporaryDirectory(prefix="argand-bench-bands-") as tmp, \
                 LocalFarm(Path(tmp) / "farm", 2, env) as farm:
             one, many = [], []
@@ -262,9 +276,11 @@ def markdown(report: dict, image: str = "bands.png") -> list[str]:
     if farm:
         lines += ["", f"The farm (`argand serve --workers 2`), a {farm['frames']}-frame job of the Bicube at "
                   f"{farm['size']}² against a 1-frame job, submit to done (median of {farm['rounds']}):", "",
-                  "| frames' EXR | 1-frame job | " + f"{farm['frames']}-frame job | over one |", "|---|---:|---:|---:|"]
-        for mode, label in (("exr_on_request", "on request (default)"), ("exr_written", "written by the assembler")):
-            r = farm[mode]
+                  "| frames' files | 1-frame job | " + f"{farm['frames']}-frame job | over one |", "|---|---:|---:|---:|"]
+        for mode, label in FARM_MODE_LABELS.items():
+            r = farm.get(mode)
+            if r is None:  # (a report of an earlier version)
+                continue
             lines.append(f"| {label} | {r['one_frame_s']:.2f} s | {r['job_s']:.2f} s | {r['over_one']:.1f}× |")
     lines += ["", f"![bands: together against one by one]({image})"]
     return lines

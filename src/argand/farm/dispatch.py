@@ -40,9 +40,12 @@ def queue_job_tiles(conn, settings: Settings, job_id: str, workers: int, only_st
     by_frame: dict[int, list[int]] = {}
     for f, t in rows:
         by_frame.setdefault(f, []).append(t)
+    # (Frames that keep only their figures are sent a window of frames a
+    # run, split by tiles: each tile solved once for the window.)
+    window = settings.run_bands if settings.files_on_request else 1
     runs = plan_runs(by_frame, len(positions), tile_rects(job.width, job.height, job.tile),
                      batch_pixels(settings.batch_pixels, job.scene),
-                     max(1, workers), positions)
+                     max(1, workers), positions, window=window)
     add_runs(conn, job_id, runs, job.priority if priority is None else priority, not_before)
     return len(rows)
 

@@ -82,16 +82,39 @@ def batch_runs(tile_indices: list[int], rects: list[Rect], target_pixels: int) -
 
 
 def plan_runs(by_frame: dict[int, list[int]], n_frames: int, rects: list[Rect], batch_pixels: int,
-              workers: int, positions: Sequence[tuple[int, int]] | None = None) -> list[tuple[int, list[int]]]:
+              workers: int, positions: Sequence[tuple[int, int]] | None = None,
+              window: int = 1) -> list[tuple[int, list[int]]]:
     """The messages, in sending order, as (frame, tiles): frames in preview
     order, runs of at most ``batch_pixels``, small enough that every worker
     gets four or more; ``positions``: the frames' grid places (preview_order).
     (Cutting the last runs smaller, so that the workers
     finish together, was measured: the tiles' trip through the store costs
-    what the balance saves, 36 frames of 512x512 on two workers.)"""
-    pixels = sum(_area(rects[t]) for ts in by_frame.values() for t in ts)
-    target = max(1, min(batch_pixels, pixels // (4 * workers)))
-    return [(f, run) for f in preview_order(n_frames, positions=positions) for run in batch_runs(by_frame.get(f, []), rects, target)]
+    what the balance saves, 36 frames of 512x512 on two workers.)
+
+    ``window`` > 1 (the farm's frames keep only their figures, and a run
+    renders its tiles of ``window`` frames at once: settings.run_bands):
+    in each window of frames, a tile's message goes to the first frame of
+    the window where the tile is queued, and carries the same tile of the
+    window's later frames (claimed with it, tile_work.claim_siblings: one
+    solve a tile for the window). Every queued (frame, tile) is so covered
+    by one message, and the runs are cut so that every worker gets four or
+    more."""
+    if window <= 1:
+        pixels = sum(_area(rects[t]) for ts in by_frame.values() for t in ts)
+        target = max(1, min(batch_pixels, pixels // (4 * workers)))
+        return [(f, run) for f in preview_order(n_frames, positions=positions)
+                for run in batch_runs(by_frame.get(f, []), rects, target)]
+    leads: dict[int, list[int]] = {}
+    for start in range(0, n_frames, window):
+        first: dict[int, int] = {}
+        for f in range(start, min(n_frames, start + window)):
+            for t in by_frame.get(f, []):
+                first.setdefault(t, f)
+        for t, f in sorted(first.items()):
+            leads.setdefault(f, []).append(t)
+    pixels = sum(_area(rects[t]) for ts in leads.values() for t in ts)
+    target = max(1, min(max(1, batch_pixels * 4 // window), pixels // (4 * workers)))
+    return [(f, run) for f in sorted(leads) for run in batch_runs(leads[f], rects, target)]
 
 
 def batch_pixels(rays: int, scene: dict) -> int:

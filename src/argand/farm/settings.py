@@ -21,6 +21,13 @@ from argand.media.frame_files import EXR_COMPRESSION, check_exr_compression
 from argand.render.options import EngineOptions, engine_environment
 
 
+#: Settings.bands_per_run's default: frames a run renders at once when their
+#: tiles keep only their figures (files_on_request), and when they keep
+#: their pixels (a whole frame's buffer each, 14 floats a pixel).
+RUN_BANDS_FIGURES = 32
+RUN_BANDS_PIXELS = 8
+
+
 class Settings(BaseSettings):
     model_config = SettingsConfigDict(env_prefix="ARGAND_", extra="ignore")
 
@@ -92,8 +99,11 @@ class Settings(BaseSettings):
 
     # Work model.
     #: Frames a run renders at once: its own and the same tiles of the job's
-    #: next frames (their primary roots solved once); 1 renders one frame a run.
-    bands_per_run: int = Field(8, ge=1, le=64)
+    #: next frames (their primary roots solved once); 1 renders one frame a
+    #: run; 0 (the default): RUN_BANDS_FIGURES with files_on_request (a
+    #: band's tile is then its figures only, a few milliseconds after the
+    #: shared solve), else RUN_BANDS_PIXELS (each band keeps its pixels).
+    bands_per_run: int = Field(0, ge=0, le=64)
     tile_soft_time_limit_s: int = Field(120, ge=1)
     tile_hard_time_limit_s: int = Field(150, ge=2)
     heartbeat_interval_s: float = Field(2.0, gt=0)
@@ -179,6 +189,13 @@ class Settings(BaseSettings):
     @property
     def sqlalchemy_url(self) -> str:
         return self.database_url or f"sqlite:///{self.data_path / 'argand.db'}"
+
+    @property
+    def run_bands(self) -> int:
+        """The frames a run renders at once (bands_per_run, 0 resolved)."""
+        if self.bands_per_run:
+            return self.bands_per_run
+        return RUN_BANDS_FIGURES if self.files_on_request else RUN_BANDS_PIXELS
 
     @property
     def store_path(self) -> Path:

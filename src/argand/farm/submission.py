@@ -167,7 +167,8 @@ def create_job(settings: Settings, spec: JobSpec, send: bool = True, session: Se
     n_frames, positions = len(spec.frames), spec.frames.positions
     workers = max(1, alive_workers(settings))
     runs = plan_runs({f: list(range(len(rects))) for f in range(n_frames)}, n_frames, rects,
-                     batch_pixels(settings.batch_pixels, stored), workers, positions)
+                     batch_pixels(settings.batch_pixels, stored), workers, positions,
+                     window=settings.run_bands if settings.files_on_request else 1)
     with in_session(settings.sqlalchemy_url, session) as s:
         c = s.connection()
         c.execute(insert(Job).values(id=job_id, status="queued", scene_name=spec.scene_name, scene=stored,

@@ -150,19 +150,19 @@ def claim(settings: Settings, job_id: str, frame_index: int, tile_indices: list[
 
 def claim_siblings(settings: Settings, job_id: str, frame_index: int, tiles: list[int], worker: str,
                    sent_at: float | None = None) -> dict[int, list[int]]:
-    """The same tiles of the job's next frames (up to settings.bands_per_run
+    """The same tiles of the job's next frames (up to settings.run_bands
     frames in all, the run's own included), claimed by compare-and-set where
     they are queued: every frame of a job shares its rays, so one pass
     solves their primary roots once for all of them (render_tile_bands).
     The messages of those frames' tiles then find them taken or done. Their
     wait in the queue is counted from ``sent_at``, the run's own message's
     (a job's messages are sent together). Returns {frame: claimed tiles}."""
-    if settings.bands_per_run <= 1 or not tiles:
+    if settings.run_bands <= 1 or not tiles:
         return {}
     with engine_for(settings.sqlalchemy_url).begin() as c:
         now = clock(c)  # the reaper compares a tile's start with its own reading of this clock
         frames = c.execute(select(Frame.index).where(Frame.job_id == job_id, Frame.index > frame_index)
-                           .order_by(Frame.index).limit(settings.bands_per_run - 1)).scalars().all()
+                           .order_by(Frame.index).limit(settings.run_bands - 1)).scalars().all()
         if not frames:
             return {}
         rows = c.execute(

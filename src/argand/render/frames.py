@@ -234,8 +234,11 @@ def render_tile_bands_into(frame_plans: Sequence[Any], rect: TileRect,
     ladder level). ``record``: a list the tile's root field (bytes) is
     appended to."""
     h, w = rect.y1 - rect.y0, rect.x1 - rect.x0
-    planes = [(np.empty((h, w, 4), np.float32),) + tuple(np.empty((h, w), AOV_DTYPES[n]) for n in AOV_CHANNELS)
-              for _ in frame_plans]
+    # (A band whose pixels are not kept gets no planes: the core counts its
+    # figures without writing a pixel, some half of a band's cost.)
+    planes = [None if target_at is None else
+              (np.empty((h, w, 4), np.float32),) + tuple(np.empty((h, w), AOV_DTYPES[n]) for n in AOV_CHANNELS)
+              for target_at in outs]
     figures = _core.render_tile_bands(list(frame_plans), rect.x0, rect.y0, rect.x1, rect.y1, planes, 0, 0,
                                       exact=decide_pixel, record=record is not None)
     if record is not None:
