@@ -33,18 +33,34 @@ def _tiles(settings, job_id):
 
 
 def _frames_equal_local(settings, job_id, scene: str, deltas, size: int, tile: int) -> None:
+    """Every frame's pixels (the assembler's EXR, or with files_on_request
+    the one decided from the root field on request) and figures are the
+    local render's."""
+    from argand.farm import derived
+    from argand.render.frames import frame_figures
+
     for index, delta in enumerate(deltas):
-        names, px = read_exr(settings.store_path / "jobs" / job_id / f"frame_{index:04d}.exr")
         local = render_frame(load_scene(scene), FrameParams(delta=delta, width=size, height=size), tile=tile, workers=1)
+        if settings.files_on_request:
+            path = derived.frame_file(settings, job_id, index, "exr")
+            with session_scope(settings.sqlalchemy_url) as s:
+                figures = s.query(Frame).filter(Frame.job_id == job_id, Frame.index == index).one().figures
+            want = frame_figures(local)
+            for key in ("status_shares", "escalation_levels", "hit_share", "escalations", "root_calls"):
+                assert figures[key] == want[key], (index, key)
+        else:
+            path = settings.store_path / "jobs" / job_id / f"frame_{index:04d}.exr"
+        names, px = read_exr(path)
         for name in names:
             want = local.rgba[..., "RGBA".index(name)] if name in "RGBA" else local.aovs[name].astype(np.float32)
             assert px[..., names.index(name)].tobytes() == want.tobytes(), (index, name)
 
 
+@pytest.mark.parametrize("files_on_request", [False, True])
 @pytest.mark.parametrize("scene", ["whitney", "barth-sextic"])
-def test_one_run_renders_the_same_tiles_of_the_next_frames(farm_parts, scene):  # noqa: F811
+def test_one_run_renders_the_same_tiles_of_the_next_frames(farm_parts, scene, files_on_request):  # noqa: F811
     settings, redis_server = farm_parts
-    settings = settings.model_copy(update={"bands_per_run": 4})
+    settings = settings.model_copy(update={"bands_per_run": 4, "files_on_request": files_on_request})
     job_id = submit(settings, scene, DELTAS, 48, 48, 16)
     assert tile_work.run_tiles(settings, job_id, 0, list(range(9)), "w1") == "rendered"
     tiles = _tiles(settings, job_id)
@@ -62,9 +78,10 @@ def test_one_run_renders_the_same_tiles_of_the_next_frames(farm_parts, scene):  
     _frames_equal_local(settings, job_id, scene, DELTAS, 48, 16)
 
 
-def test_partial_runs_and_a_tile_taken_by_another_worker(farm_parts):  # noqa: F811
+@pytest.mark.parametrize("files_on_request", [False, True])
+def test_partial_runs_and_a_tile_taken_by_another_worker(farm_parts, files_on_request):  # noqa: F811
     settings, _redis = farm_parts
-    settings = settings.model_copy(update={"bands_per_run": 8})
+    settings = settings.model_copy(update={"bands_per_run": 8, "files_on_request": files_on_request})
     job_id = submit(settings, "steiner", DELTAS[:4], 48, 48, 16)
     # Another worker holds frame 2's tile 4: the sibling claim skips it.
     assert tile_work.run_tiles(settings, job_id, 2, [4], "other") == "rendered"

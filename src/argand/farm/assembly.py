@@ -59,6 +59,36 @@ def maybe_assemble(settings: Settings, job_id: str, frame_index: int, assembler:
     return True
 
 
+def maybe_assemble_many(settings: Settings, job_id: str, frames: list[tuple[int, dict[int, Any]]],
+                        assembler: str) -> set[int]:
+    """maybe_assemble for several frames of one job whose tiles this process
+    finished together (a run's window of frames): one compare-and-set
+    electing this process for those that are complete and nobody else
+    assembles, their assembly (the tiles in ``frames``' local dicts from
+    memory, the others from the store), one transaction marking them done,
+    then the job's end if they were its last. Returns the frames it assembled."""
+    if not frames:
+        return set()
+    with engine_for(settings.sqlalchemy_url).begin() as c:
+        since = clock(c)  # the reaper compares it with its own reading of this clock
+        won = set(c.execute(update(Frame).where(
+            Frame.job_id == job_id, Frame.index.in_([f for f, _ in frames]),
+            Frame.status.in_(FRAME.sources("assembling")), Frame.tiles_done >= Frame.tiles_total,
+        ).values(status="assembling", assembler=assembler, assembling_since=since).returning(Frame.index)).scalars())
+    figures = {f: assemble_frame(settings, job_id, f, local, commit=False) for f, local in frames if f in won}
+    if figures:
+        with engine_for(settings.sqlalchemy_url).begin() as c:
+            for f, fig in figures.items():
+                c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == f,
+                                              Frame.status == FRAME.step("assembling", "done"))
+                          .values(status="done", figures=fig, assembly_s=fig["assembly_s"], finished=time.time()))
+        store = store_for(settings)
+        for f in figures:
+            store.remove_tiles(job_id, f)
+        finish_job_if_last(settings, job_id)
+    return won
+
+
 def finish_job_if_last(settings: Settings, job_id: str) -> None:
     """When every frame is done: the animation, then the job is done."""
     url = settings.sqlalchemy_url

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from sqlalchemy import select, update
+from sqlalchemy import select, tuple_, update
 from sqlalchemy.exc import NoResultFound
 
 from argand.farm import assembly
@@ -55,6 +55,8 @@ ACTIVITY: dict[str, Any] = {"tile": None, "done": 0, "hard_at": None, "run": Non
 #: Why a run stopped before its end because of its soft time limit.
 SOFT_LIMIT = "soft time limit"
 
+#: Frames' plans kept per worker process (a run's window of frames: 32 by default).
+PLAN_CACHE = 128
 _plan_cache: dict[tuple[str, int], Any] = {}
 _job_cache: dict[str, Any] = {}
 _marked: set[tuple[str, int]] = set()  # (job, frame) this process already marked as rendering
@@ -66,7 +68,7 @@ def _frame_plan(url: str, job_id: str, frame_index: int):
     with the job's engine options (Job.engine), not this worker's."""
     key = (job_id, frame_index)
     if key not in _plan_cache:
-        if len(_plan_cache) > 16:
+        if len(_plan_cache) > PLAN_CACHE:
             _plan_cache.clear()
         with engine_for(url).connect() as c:
             if job_id not in _job_cache:
@@ -109,6 +111,8 @@ class TileRun:
     done: int = 0
     #: time.monotonic() after which no further tile is started (the soft time limit).
     soft_at: float = float("inf")
+    #: Its frame's assembly was tried with the window's (assembly.maybe_assemble_many).
+    assembled: bool = False
 
     def unrendered(self) -> list[int]:
         return [t for t in self.claimed if t not in self.local]
@@ -228,8 +232,7 @@ def _render_claimed(runs: list[TileRun]) -> str | None:
             block = None if out is None else out[0][y0:y1, x0:x1] if r.frame_px is not None else out[0]
             r.local[i] = (block, esc, calls, stats, levels)
         if time.monotonic() - last_commit > COMMIT_INTERVAL_S:
-            for r in runs:
-                r.commit()
+            _commit_all(runs)
             last_commit = time.monotonic()
     return None
 
@@ -285,6 +288,16 @@ def _run_claimed(settings: Settings, job_id: str, frame_index: int, worker: str,
         raise
     try:
         stopped = _render_claimed(runs)
+        if len(runs) > 1:
+            # The window's frames together: one transaction for their tiles,
+            # one election of their assemblers (a whole frame rendered here
+            # is left to _finish_run, which commits it with its assembly).
+            _commit_all([r for r in runs if not _whole_frame_here(r, stopped)])
+            ready = [r for r in runs if not stopped and not r.pending and r.local and r.done >= r.total]
+            assembly.maybe_assemble_many(run_settings(runs), runs[0].job_id,
+                                         [(r.frame_index, r.local) for r in ready], runs[0].worker)
+            for r in ready:
+                r.assembled = True  # (elected or not: another process assembles it)
         return [_finish_run(run, stopped) for run in runs][0]
     except (_Gone, NoResultFound):
         return _gone(settings, job_id)
@@ -364,7 +377,7 @@ def _finish_run(run: TileRun, stopped: str | None) -> str:
     if stopped:
         release(run.settings, run.job_id, run.frame_index, run.worker, run.unrendered(), resend=False)
         return stopped
-    if run.done >= run.total:  # a whole frame with commits on the way still assembles from its own buffer
+    if run.done >= run.total and not run.assembled:  # a whole frame with commits on the way still assembles from its own buffer
         whole = run.frame_px if run.frame_px is not None and len(run.local) == run.total else None
         assembly.maybe_assemble(run.settings, run.job_id, run.frame_index, run.worker, run.local, whole)
     return "rendered"
@@ -418,6 +431,82 @@ def _complete(run: TileRun) -> tuple[int, int]:
         raise _Gone(run.job_id)
     ACTIVITY["done"] += len(won)
     return row.tiles_done, row.tiles_total
+
+
+def run_settings(runs: list[TileRun]) -> Settings:
+    return runs[0].settings
+
+
+def _whole_frame_here(run: TileRun, stopped: str | None) -> bool:
+    """The run rendered its whole frame in one go (nothing committed yet):
+    _finish_run assembles it from memory and commits tiles and frame together."""
+    return bool(run.pending) and not stopped and len(run.local) == len(run.pending) == run.total
+
+
+def _commit_all(runs: list[TileRun]) -> None:
+    """_complete for several runs of one job (a window's frames, the same
+    tiles) at once: one query for the tiles this worker still holds, a
+    chunk file per frame, and one transaction that marks them done and adds
+    them to their frames' counters; a chunk that lost its race is removed.
+    Raises _Gone when the job was deleted."""
+    pending = [r for r in runs if r.pending]
+    if not pending:
+        return
+    if len(pending) == 1:
+        pending[0].commit()
+        return
+    first = pending[0]
+    settings, job_id, worker = first.settings, first.job_id, first.worker
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        held = set(map(tuple, c.execute(select(Tile.frame_index, Tile.tile_index).where(
+            Tile.job_id == job_id, Tile.frame_index.in_([r.frame_index for r in pending]), Tile.status == "running",
+            Tile.worker == worker)).all()))
+    for r in pending:
+        r.pending = {i: sec for i, sec in r.pending.items() if (r.frame_index, i) in held}
+    store = store_for(settings)
+    # One chunk name for the window (a file in each frame's folder), one
+    # statement for every tile, one per distinct count for the frames.
+    name = f"{min(min(r.pending) for r in pending if r.pending):05d}-{uuid.uuid4().hex[:10]}" \
+        if any(r.pending for r in pending) else None
+    ACTIVITY["writing"] = True  # the watchdog does not end the process between the writes and their outcome
+    try:
+        for r in pending:
+            if r.pending:
+                store.write_chunk(job_id, r.frame_index, name, {i: _tile_arrays(r.local[i]) for i in r.pending})
+        won: dict[int, list[int]] = {r.frame_index: [] for r in pending}
+        rows: dict[int, Any] = {}
+        with engine_for(settings.sqlalchemy_url).begin() as c:
+            if name:
+                seconds = [sec for r in pending for sec in r.pending.values()]
+                pairs = [(r.frame_index, i) for r in pending for i in r.pending]
+                for f, t in c.execute(
+                    update(Tile)
+                    .where(Tile.job_id == job_id, tuple_(Tile.frame_index, Tile.tile_index).in_(pairs),
+                           Tile.status == TILE.step("running", "done"), Tile.worker == worker)
+                    .values(status="done", seconds=sum(seconds) / len(seconds), renders=Tile.renders + 1, chunk=name)
+                    .returning(Tile.frame_index, Tile.tile_index)
+                ).all():
+                    won[f].append(t)
+            by_count: dict[int, list[int]] = {}
+            for f, tiles in won.items():
+                by_count.setdefault(len(tiles), []).append(f)
+            for n, frames in by_count.items():
+                for row in c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index.in_(frames))
+                                     .values(tiles_done=Frame.tiles_done + n)
+                                     .returning(Frame.index, Frame.tiles_done, Frame.tiles_total)).all():
+                    rows[row.index] = row
+        for r in pending:
+            if r.pending and not won[r.frame_index]:
+                store.discard_chunk(job_id, r.frame_index, name)
+    finally:
+        ACTIVITY["writing"] = False
+    for r in pending:
+        row = rows.get(r.frame_index)
+        if row is None:
+            raise _Gone(job_id)
+        ACTIVITY["done"] += len(won[r.frame_index])
+        r.done, r.total = row.tiles_done, row.tiles_total
+        r.pending = {}
 
 
 def _mark_done(c, run: TileRun, chunk: str) -> list[int]:
