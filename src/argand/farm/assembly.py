@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import OpenImageIO as oiio
 from sqlalchemy import func, select, update
+from sqlalchemy.exc import NoResultFound
 
 from argand.farm import derived
 from argand.farm.database import clock, engine_for
@@ -75,7 +76,9 @@ def maybe_assemble_many(settings: Settings, job_id: str, frames: list[tuple[int,
             Frame.job_id == job_id, Frame.index.in_([f for f, _ in frames]),
             Frame.status.in_(FRAME.sources("assembling")), Frame.tiles_done >= Frame.tiles_total,
         ).values(status="assembling", assembler=assembler, assembling_since=since).returning(Frame.index)).scalars())
-    figures = {f: assemble_frame(settings, job_id, f, local, commit=False) for f, local in frames if f in won}
+    known = _frames_known(settings, job_id, sorted(won)) if won else None
+    figures = {f: assemble_frame(settings, job_id, f, local, commit=False, known=known) for f, local in frames
+               if f in won}
     if figures:
         with engine_for(settings.sqlalchemy_url).begin() as c:
             for f, fig in figures.items():
@@ -149,8 +152,30 @@ def _write_files(settings: Settings, store: FrameStore, layout: JobLayout, index
     store.write_atomic(store.prepare(layout.gif_fragment(index)), gif.encode_frame(srgb))
 
 
+def _frames_known(settings: Settings, job_id: str, frames: list[int]) -> dict:
+    """What assembling ``frames`` of a job reads from the database, in four
+    queries for all of them: the job's row, each frame's (σ, δ), the sum of
+    its tiles' render seconds and its tiles' chunk names."""
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        job = c.execute(select(Job.width, Job.height, Job.tile, Job.method, Job.scene, Job.engine)
+                        .where(Job.id == job_id)).one()
+        bands = {i: (sg, dl) for i, sg, dl in c.execute(select(Frame.index, Frame.sigma, Frame.delta).where(
+            Frame.job_id == job_id, Frame.index.in_(frames))).all()}
+        mine = (Tile.job_id == job_id, Tile.frame_index.in_(frames))
+        seconds = {f: sec or 0.0 for f, sec in c.execute(
+            select(Tile.frame_index, func.sum(Tile.seconds)).where(*mine).group_by(Tile.frame_index)).all()}
+        chunks: dict[int, dict[int, str | None]] = {}
+        for f, t, name in c.execute(select(Tile.frame_index, Tile.tile_index, Tile.chunk).where(*mine)).all():
+            chunks.setdefault(f, {})[t] = name
+    missing = set(frames) - set(bands)
+    if missing:
+        raise NoResultFound(f"job {job_id} has no frame {min(missing)}")
+    return {"job": job, "bands": bands, "seconds": seconds, "chunks": chunks}
+
+
 def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dict[int, Any] | None = None,
-                   seconds: float | None = None, commit: bool = True, frame_px: np.ndarray | None = None) -> dict:
+                   seconds: float | None = None, commit: bool = True, frame_px: np.ndarray | None = None,
+                   known: dict | None = None) -> dict:
     """Tiles -> the frame's figures and files (idempotent; with
     files_on_request the figures and the JSON only). Tiles this process
     rendered are taken from memory, the others from the store; the EXR's
@@ -158,15 +183,14 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     marked done and its tile files dropped. Returns the frame's figures."""
     t_start = time.perf_counter()
     store, local = store_for(settings), local or {}
-    with engine_for(settings.sqlalchemy_url).connect() as c:
-        job = c.execute(select(Job.width, Job.height, Job.tile, Job.method, Job.scene, Job.engine)
-                        .where(Job.id == job_id)).one()
-        sigma, delta = c.execute(select(Frame.sigma, Frame.delta).where(Frame.job_id == job_id, Frame.index == frame_index)).one()
-        key = (Tile.job_id == job_id, Tile.frame_index == frame_index)
-        if seconds is None:
-            seconds = c.execute(select(func.sum(Tile.seconds)).where(*key)).scalar() or 0.0
-        rects = tile_rects(job.width, job.height, job.tile)
-        chunks = {} if len(local) == len(rects) else dict(c.execute(select(Tile.tile_index, Tile.chunk).where(*key)).all())
+    if known is None:
+        known = _frames_known(settings, job_id, [frame_index])
+    job = known["job"]
+    sigma, delta = known["bands"][frame_index]
+    if seconds is None:
+        seconds = known["seconds"].get(frame_index, 0.0)
+    rects = tile_rects(job.width, job.height, job.tile)
+    chunks = {} if len(local) == len(rects) else known["chunks"].get(frame_index, {})
     w, h = job.width, job.height
     params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method, samples=samples_of(job.scene),
                          engine=EngineOptions.from_stored(job.engine))
