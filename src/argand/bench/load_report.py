@@ -250,8 +250,9 @@ def causes(report: dict) -> list[str]:
             f"{loaded['workers']:.2f} cores under load against {idle['workers']:.2f} in the idle replay, and a frame "
             f"took {'an unmeasured' if per_frame != per_frame else f'{100 * per_frame:+.0f}%'} worker CPU. The API and the users' process took {loaded['api']:.2f} and "
             f"{loaded['users (locust)']:.2f} cores"
-            + (f"; other work on this shared machine {others:.2f} cores under load and {others_idle:.2f} during the "
-               "replay. Here the farm's own cost cannot be told apart from its neighbours'; on a machine of its "
+            + (f"; other work on this shared machine {others:.2f} cores under load"
+               + (f" and {others_idle:.2f} during the replay" if others_idle is not None else "")
+               + ". Here the farm's own cost cannot be told apart from its neighbours'; on a machine of its "
                "own the API's share is what the list fix reduces" if others is not None else "") + ".")
     return out
 

@@ -473,28 +473,8 @@ def _commit_all(runs: list[TileRun]) -> None:
         for r in pending:
             if r.pending:
                 store.write_chunk(job_id, r.frame_index, name, {i: _tile_arrays(r.local[i]) for i in r.pending})
-        won: dict[int, list[int]] = {r.frame_index: [] for r in pending}
-        rows: dict[int, Any] = {}
         with engine_for(settings.sqlalchemy_url).begin() as c:
-            if name:
-                seconds = [sec for r in pending for sec in r.pending.values()]
-                pairs = [(r.frame_index, i) for r in pending for i in r.pending]
-                for f, t in c.execute(
-                    update(Tile)
-                    .where(Tile.job_id == job_id, tuple_(Tile.frame_index, Tile.tile_index).in_(pairs),
-                           Tile.status == TILE.step("running", "done"), Tile.worker == worker)
-                    .values(status="done", seconds=sum(seconds) / len(seconds), renders=Tile.renders + 1, chunk=name)
-                    .returning(Tile.frame_index, Tile.tile_index)
-                ).all():
-                    won[f].append(t)
-            by_count: dict[int, list[int]] = {}
-            for f, tiles in won.items():
-                by_count.setdefault(len(tiles), []).append(f)
-            for n, frames in by_count.items():
-                for row in c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index.in_(frames))
-                                     .values(tiles_done=Frame.tiles_done + n)
-                                     .returning(Frame.index, Frame.tiles_done, Frame.tiles_total)).all():
-                    rows[row.index] = row
+            won, rows = _mark_window_done(c, pending, name)
         for r in pending:
             if r.pending and not won[r.frame_index]:
                 store.discard_chunk(job_id, r.frame_index, name)
@@ -507,6 +487,38 @@ def _commit_all(runs: list[TileRun]) -> None:
         ACTIVITY["done"] += len(won[r.frame_index])
         r.done, r.total = row.tiles_done, row.tiles_total
         r.pending = {}
+
+
+def _mark_window_done(c, pending: list[TileRun], name: str | None) -> tuple[dict[int, list[int]], dict[int, Any]]:
+    """In the caller's transaction: the runs' pending tiles that their
+    worker still holds become done, stored in chunk ``name`` (one UPDATE;
+    each tile's seconds the window's mean), and each frame's counter grows
+    by its count (one UPDATE per distinct count). Returns ({frame: tiles
+    won}, {frame: (index, tiles_done, tiles_total) row; none for a frame
+    that is gone})."""
+    first = pending[0]
+    won: dict[int, list[int]] = {r.frame_index: [] for r in pending}
+    rows: dict[int, Any] = {}
+    if name:
+        seconds = [sec for r in pending for sec in r.pending.values()]
+        pairs = [(r.frame_index, i) for r in pending for i in r.pending]
+        for f, t in c.execute(
+            update(Tile)
+            .where(Tile.job_id == first.job_id, tuple_(Tile.frame_index, Tile.tile_index).in_(pairs),
+                   Tile.status == TILE.step("running", "done"), Tile.worker == first.worker)
+            .values(status="done", seconds=sum(seconds) / len(seconds), renders=Tile.renders + 1, chunk=name)
+            .returning(Tile.frame_index, Tile.tile_index)
+        ).all():
+            won[f].append(t)
+    by_count: dict[int, list[int]] = {}
+    for f, tiles in won.items():
+        by_count.setdefault(len(tiles), []).append(f)
+    for n, frames in by_count.items():
+        for row in c.execute(update(Frame).where(Frame.job_id == first.job_id, Frame.index.in_(frames))
+                             .values(tiles_done=Frame.tiles_done + n)
+                             .returning(Frame.index, Frame.tiles_done, Frame.tiles_total)).all():
+            rows[row.index] = row
+    return won, rows
 
 
 def _mark_done(c, run: TileRun, chunk: str) -> list[int]:
