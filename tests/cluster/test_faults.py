@@ -229,6 +229,12 @@ def test_a_slow_lossy_worker_link_for_a_whole_job(farm):
         farm.heal("w1")
 
 
+def w1_rows(farm) -> list[dict]:
+    """The farm's worker rows of host-w1 (GET /api/workers)."""
+    with farm.client() as c:
+        return [w for w in c.get("/api/workers").json() if w["host"] == "host-w1"]
+
+
 def test_a_worker_host_whose_clock_is_30_s_behind(farm):
     """Heartbeats are written and judged by the database's clock: a worker
     host whose wall clock is 30 s behind (twice the heartbeat timeout and
@@ -238,25 +244,37 @@ def test_a_worker_host_whose_clock_is_30_s_behind(farm):
 
     from argand.worker.heartbeat import REAPER_KEY
 
+    before = {w["name"] for w in w1_rows(farm)}  # the identities of w1 so far (the running one among them)
     farm.stop_proc("w1", "worker", signal.SIGKILL)
     farm.start_worker("w1", clock_offset_s=-30)
     try:
         farm.wait(lambda: farm.worker_healthy("w1"), 60, "the worker on w1 (clock 30 s behind) is healthy")
         # The reaper runs on w2, the host with the right time, judging w1's heartbeats.
-        with farm.client() as c:
-            (w2,) = [w["name"] for w in c.get("/api/workers").json() if w["host"] == "host-w2" and w["alive"]]
+        with farm.client() as c:  # (the newest identity of w2: one killed by an earlier test may still count as alive)
+            w2 = max((w for w in c.get("/api/workers").json() if w["host"] == "host-w2" and w["alive"]),
+                     key=lambda w: w["heartbeat"])["name"]
         redis.Redis.from_url(farm.redis_url, socket_timeout=5).set(REAPER_KEY, w2, px=5000)
         job_id = submit(farm)
         with Prober(farm, job_id) as probe:
             took = wait_done(farm, job_id, 90)
         figures = {"clock_offset_s": -30, "job_s": took, "w1_tiles": worker_tiles(farm, job_id, "w1"),
                    **check_job(farm, job_id), **probe.check()}
-        with farm.client() as c:
-            rows = [w for w in c.get("/api/workers").json() if w["host"] == "host-w1"]
-        # The process killed above (or one the restart loop replaced) keeps a
-        # dead row until the reaper's next round deletes it: the property is
-        # that the running process, behind in time, is seen alive, alone.
-        assert [w["alive"] for w in rows].count(True) == 1, rows
+        # The process killed above counts as alive until its last heartbeat
+        # is heartbeat_timeout_s old, then keeps a dead row until the
+        # reaper's next round deletes it: the property is that, once that
+        # much time has passed, the one w1 identity alive is a new one (the
+        # process 30 s behind, or one its restart loop started).
+        seen: list[list[dict]] = []
+
+        def only_a_new_w1_alive() -> bool:
+            seen.append(w1_rows(farm))
+            alive = [w["name"] for w in seen[-1] if w["alive"]]
+            return len(alive) == 1 and alive[0] not in before
+
+        try:
+            farm.wait(only_a_new_w1_alive, 30, "one worker of host-w1 alive, a new one")
+        except AssertionError as exc:
+            raise AssertionError(f"{exc}; before: {sorted(before)}; last rows: {seen[-1:]}") from None
         assert figures["claimed_again"] == 0 and figures["w1_tiles"] > 0, figures
         record("worker host's clock 30 s behind", figures)
     finally:
