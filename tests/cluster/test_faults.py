@@ -69,8 +69,18 @@ def test_a_worker_host_cut_off_from_redis_past_the_visibility_timeout(farm):
 
 
 def test_a_worker_host_cut_off_from_postgresql(farm):
+    """The cut-off host holds the reaper's lease when the link goes (it
+    still reaches Redis): it must hand it on, or nobody gives its tiles back."""
+    import redis
+
+    from argand.worker.heartbeat import REAPER_KEY
+
     job_id = submit(farm)
     wait_tiles(farm, job_id, TILES // 5)
+    with farm.client() as c:
+        w1 = max((w for w in c.get("/api/workers").json() if w["host"] == "host-w1" and w["alive"]),
+                 key=lambda w: w["heartbeat"])["name"]
+    redis.Redis.from_url(farm.redis_url, socket_timeout=5).set(REAPER_KEY, w1, px=5000)
     farm.partition("w1", "db", PG_PORT)
     with Prober(farm, job_id) as probe:
         took = wait_done(farm, job_id, 60)

@@ -407,6 +407,38 @@ def test_one_worker_at_a_time_holds_the_reapers_lease(farm_parts, monkeypatch):
     assert heartbeat.holds_lease(client, "w2") and not heartbeat.holds_lease(client, "w1")
 
 
+def test_a_reaper_that_cannot_reach_the_database_hands_the_lease_on(farm_parts):
+    """A worker cut off from the database but not from Redis (its rounds
+    fail) gives the reaper's lease up at once and stands down, so a worker
+    that reaches the database reaps: the database here is a PostgreSQL
+    address on loopback where nothing listens (a real refused connection)."""
+    import socket
+
+    from argand.farm.queue import broker_client
+    from argand.farm.reaper import Reaper
+    from argand.worker import heartbeat
+
+    settings, _ = farm_parts
+    client = broker_client(settings)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    cut_off = settings.model_copy(update={"database_url": f"postgresql+psycopg://argand@127.0.0.1:{port}/argand"})
+    w1 = heartbeat.Heartbeat(cut_off, "w1")
+    with pytest.raises(Exception):
+        w1.reap_once(client, Reaper(cut_off))
+    assert client.get(heartbeat.REAPER_KEY) is None  # given up at once, not left to expire
+    w1.reap_once(client, Reaper(cut_off))  # standing down: takes no lease, runs no round
+    assert client.get(heartbeat.REAPER_KEY) is None
+    w2 = heartbeat.Heartbeat(settings, "w2")
+    w2.reap_once(client, Reaper(settings))
+    assert client.get(heartbeat.REAPER_KEY) == b"w2"
+    w1.reap_once(client, Reaper(cut_off))
+    assert client.get(heartbeat.REAPER_KEY) == b"w2"
+    heartbeat.release_lease(client, "w1")  # another's lease stays theirs
+    assert client.get(heartbeat.REAPER_KEY) == b"w2"
+
+
 def test_a_job_stays_typed_from_the_request_to_the_store(farm_parts):
     """A submission carries the validated scene and the FrameSet, not dicts:
     anything else is refused before a row is written, and the store keeps

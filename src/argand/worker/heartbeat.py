@@ -8,13 +8,17 @@ is needed exactly while the farm has workers; in a worker it runs under
 `argand serve` and under docker-compose alike without a process of its own,
 and the API stays HTTP only. A lease in Redis (a key that expires unless its
 holder renews it) keeps it to one worker at a time; when that worker dies,
-another takes the lease after REAPER_LEASE_S."""
+another takes the lease after REAPER_LEASE_S. A holder whose round fails
+(its host cut off from the database but not from Redis) gives the lease up
+at once and stands down for REAPER_STAND_DOWN_S, so that a worker that
+reaches the database reaps in its place."""
 
 from __future__ import annotations
 
 import os
 import sys
 import threading
+import time
 
 from argand.farm.queue import broker_client
 from argand.farm.reaper import Reaper
@@ -25,6 +29,20 @@ from argand.farm.workers import heartbeat
 REAPER_KEY = "argand:reaper-lease"
 REAPER_LEASE_S = 5.0
 REAPER_EVERY_S = 1.0
+
+
+#: A worker whose reaper round failed (its database out of reach) neither
+#: keeps nor takes the lease for this long, so a worker that can reach the
+#: database takes it over.
+REAPER_STAND_DOWN_S = 3 * REAPER_LEASE_S
+
+_RELEASE = "if redis.call('get', KEYS[1]) == ARGV[1] then return redis.call('del', KEYS[1]) end return 0"
+
+
+def release_lease(client, name: str) -> None:
+    """Gives the reaper's lease up if ``name`` holds it (atomically: a lease
+    another worker took meanwhile stays theirs)."""
+    client.eval(_RELEASE, 1, REAPER_KEY, name)
 
 
 def holds_lease(client, name: str) -> bool:
@@ -45,6 +63,7 @@ class Heartbeat:
     def __init__(self, settings: Settings, name: str) -> None:
         self.settings, self.name = settings, name
         self.stop_event = threading.Event()
+        self.standing_down_until = 0.0  # time.monotonic() before which it takes no lease (reap_once)
 
     def beat(self) -> None:
         heartbeat(self.settings, self.name, os.getpid(), ACTIVITY["tile"], ACTIVITY["done"])
@@ -56,12 +75,28 @@ class Heartbeat:
             except Exception as exc:  # the database may be briefly busy; next round
                 print(f"argand worker {self.name}: {exc!r}", file=sys.stderr)
 
+    def reap_once(self, client, reaper: Reaper) -> None:
+        """One round of the reaper if this worker holds (or takes) the lease.
+        A worker cut off from the database but not from Redis would
+        otherwise renew the lease forever, its rounds failing, and nobody
+        would give back a dead worker's tiles: a round that fails gives the
+        lease up (the error is raised on), and this worker stands down for
+        REAPER_STAND_DOWN_S."""
+        if time.monotonic() < self.standing_down_until or not holds_lease(client, self.name):
+            return
+        try:
+            reaper.round()
+            reaper.reconcile(client)
+        except Exception:
+            self.standing_down_until = time.monotonic() + REAPER_STAND_DOWN_S
+            release_lease(client, self.name)
+            raise
+
     def _reap_rounds(self) -> None:
         client, reaper = broker_client(self.settings), Reaper(self.settings)
+
         def step() -> None:
-            if holds_lease(client, self.name):
-                reaper.round()
-                reaper.reconcile(client)
+            self.reap_once(client, reaper)
 
         self._every(max(REAPER_EVERY_S, self.settings.heartbeat_interval_s), step)
 
