@@ -125,6 +125,12 @@ class FrameStore:
         folder = self.job(job_id).tiles(frame)
         shutil.rmtree(folder, ignore_errors=True)
 
+    def remove_all_tiles(self, job_id: str) -> None:
+        """Drops every frame's tile folder once the job's frames are all
+        done: a chunk a stale worker wrote after its frame was assembled
+        (its commit then lost, or never answered on a lossy link) goes too."""
+        shutil.rmtree(self.job(job_id).folder / "tiles", ignore_errors=True)
+
     def remove_job(self, job_id: str) -> None:
         folder = self.job(job_id).folder
         shutil.rmtree(folder, ignore_errors=True)
