@@ -518,6 +518,7 @@ void init_render(py::module_& m) {
             py::dict d;
             d["kernel"] = p.params.engine.kernel == BatchIsa::Auto ? "auto" : batch_isa_name(p.params.engine.kernel);
             d["cull"] = p.params.engine.cull;
+            d["real"] = p.params.engine.real;
             d["decide"] = decide_mode_name(p.params.engine.decide);
             d["shade"] = shade_mode_name(p.params.engine.shade);
             return d;
@@ -527,7 +528,7 @@ void init_render(py::module_& m) {
         [](const py::object& scene, double sigma, double delta, int width, int height, const std::string& method,
            int max_depth, bool hue_by_argument, bool seed_from_neighbour, int exact_pixels_per_tile,
            int exact_max_bits, int samples, const std::string& kernel, bool cull, const std::string& decide,
-           const std::string& shade) {
+           const std::string& shade, bool real) {
             const SceneSpec& spec =
                 instance_of<SceneSpec>(scene, "scene", "SceneSpec (argand.render.convert.to_core_scene makes one)");
             FrameParams fp;
@@ -545,6 +546,7 @@ void init_render(py::module_& m) {
             if (!batch_isa_from_name(kernel.c_str(), fp.engine.kernel))
                 throw py::value_error("kernel " + kernel + " names no root kernel: use auto, scalar, sse2, avx2 or avx512");
             fp.engine.cull = cull;
+            fp.engine.real = real;
             if (!decide_mode_from_name(decide, fp.engine.decide))
                 throw py::value_error("decide " + decide + " names no decision mode: use fast, fast-scalar or full");
             if (!shade_mode_from_name(shade, fp.engine.shade))
@@ -559,7 +561,7 @@ void init_render(py::module_& m) {
         py::arg("method") = "auto", py::arg("max_depth") = 3, py::arg("hue_by_argument") = false,
         py::arg("seed_from_neighbour") = true, py::arg("exact_pixels_per_tile") = FrameParams{}.exact_pixels_per_tile,
         py::arg("exact_max_bits") = FrameParams{}.exact_max_bits, py::arg("samples") = 1, py::arg("kernel") = "auto",
-        py::arg("cull") = true, py::arg("decide") = "fast", py::arg("shade") = "fast");
+        py::arg("cull") = true, py::arg("decide") = "fast", py::arg("shade") = "fast", py::arg("real") = false);
     m.def(
         "render_tile",
         [](const FramePlan& plan, int x0, int y0, int x1, int y1, const py::object& exact) {

@@ -766,7 +766,7 @@ def _farm_settings(data: Optional[Path], host: Optional[str], port: Optional[int
 
 
 def _engine_options():
-    """The engine's modes from ARGAND_KERNEL, ARGAND_CULL, ARGAND_DECIDE and
+    """The engine's modes from ARGAND_KERNEL, ARGAND_CULL, ARGAND_REAL, ARGAND_DECIDE and
     ARGAND_SHADE (argand.render.options), refused here, before any work, if wrong."""
     from argand.render.options import engine_options_from_environment
 

@@ -15,7 +15,7 @@ from argand.render.options import (DECIDE_MODES, ENVIRONMENT, KERNELS, SHADE_MOD
                                    engine_options_from_environment)
 from argand.scene import load_scene
 
-ALL = [EngineOptions(kernel=k, cull=c, decide=d, shade=s)
+ALL = [EngineOptions(kernel=k, cull=c, decide=d, shade=s, real=c)
        for k, c, d, s in itertools.product(KERNELS, (True, False), DECIDE_MODES, SHADE_MODES)]
 
 
@@ -46,7 +46,7 @@ def test_the_plan_carries_the_options_it_was_given():
             continue  # (an instruction set this CPU may not run: below)
         p = plan(scene, FrameParams(width=4, height=4, engine=options))
         assert p.engine == {"kernel": options.kernel, "cull": options.cull, "decide": options.decide,
-                            "shade": options.shade}
+                            "shade": options.shade, "real": options.real}
         resolved = _core.batch_kernel() if options.kernel == "auto" else options.kernel
         assert _core.render_kernel(p) == resolved
 

@@ -106,6 +106,14 @@ struct EngineOptions {
     /// object's roots (detail::ray_misses_sphere); false: every ray solved
     /// and decided disc by disc (the reference).
     bool cull = true;
+    /// The objects that need only real roots (every object when sigma =
+    /// delta = 0; an object with space: real always) isolate the real roots
+    /// in the ray's segment inside the clipping sphere (roots_real.h) instead
+    /// of every complex root, where that proves the pixel; false: every
+    /// root, always. Not used while a root field is recorded or replayed (a
+    /// field holds every root). Off by default: in scalar code it is still
+    /// slower than the batched complex kernel (docs/performance.md).
+    bool real = false;
     DecideMode decide = DecideMode::Fast;
     ShadeMode shade = ShadeMode::Fast;
 };

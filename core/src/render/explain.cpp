@@ -93,6 +93,9 @@ PixelExplanation explain_pixel(const FramePlan& plan, int x, int y, int row_star
     Tracer tracer(plan, exact, cull);
     tracer.explaining_ = true;
     PrimaryBatch batch(plan, resolved_kernel(plan.params.engine), cull);
+    // (The frame's own path: a lone band's tile takes the real path where
+    // render_tile does.)
+    if (plan.params.engine.real) batch.use_real_path(plan.params.sigma == 0.0 && plan.params.delta == 0.0);
     std::vector<Seeds> seeds(plan.scene.objects.size());
     PixelExplanation e;
     // A batched object's discs depend on its own ray and its seeds, the

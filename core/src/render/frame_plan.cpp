@@ -132,7 +132,7 @@ std::uint64_t rays_fingerprint(const FramePlan& a) {
     const FrameParams& p = a.params;
     mix(h, p.width), mix(h, p.height), mix(h, static_cast<int>(p.method)), mix(h, p.max_depth);
     mix(h, p.hue_by_argument), mix(h, p.seed_from_neighbour), mix(h, p.samples), mix(h, p.exact_pixels_per_tile);
-    mix(h, p.exact_max_bits), mix(h, static_cast<int>(p.engine.kernel)), mix(h, p.engine.cull);
+    mix(h, p.exact_max_bits), mix(h, static_cast<int>(p.engine.kernel)), mix(h, p.engine.cull), mix(h, p.engine.real);
     mix(h, static_cast<int>(p.engine.decide)), mix(h, static_cast<int>(p.engine.shade));
     mix(h, a.tan_half_fov), mix(h, a.scene_distance);
     for (int k = 0; k < 3; ++k) mix(h, a.eye[k]), mix(h, a.forward[k]), mix(h, a.right[k]), mix(h, a.up[k]);
@@ -154,6 +154,7 @@ bool same_rays(const FramePlan& a, const FramePlan& b) {
         p.hue_by_argument != q.hue_by_argument || p.seed_from_neighbour != q.seed_from_neighbour ||
         p.samples != q.samples || p.exact_pixels_per_tile != q.exact_pixels_per_tile ||
         p.exact_max_bits != q.exact_max_bits || p.engine.kernel != q.engine.kernel || p.engine.cull != q.engine.cull ||
+        p.engine.real != q.engine.real ||
         p.engine.decide != q.engine.decide || p.engine.shade != q.engine.shade)
         return false;
     if (a.tan_half_fov != b.tan_half_fov || a.scene_distance != b.scene_distance) return false;

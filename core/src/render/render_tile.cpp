@@ -147,6 +147,13 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
     }
     PrimaryBatch batch(plan, resolved_kernel(plan.params.engine), plan.params.engine.cull);
     batch.begin_tile(side * w);
+    // The real-root path (EngineOptions::real), for the objects every band
+    // here shows only real roots of; not while a root field is kept.
+    if (plan.params.engine.real && !record && !replay) {
+        bool real_bands = true;
+        for (const FramePlan* p : plans) real_bands = real_bands && p->params.sigma == 0.0 && p->params.delta == 0.0;
+        batch.use_real_path(real_bands);
+    }
     // The root field: recorded as the batch solves, or replayed instead of
     // solving (its header names the rays and the tile it holds).
     std::size_t at = 0;

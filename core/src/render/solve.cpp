@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "../root_kernels.h"
+#include "../roots_real.h"
 #include "tracer.h"
 
 namespace argand::detail {
@@ -19,6 +20,20 @@ void PrimaryBatch::solve(const double* dx, const double* dy, const double* dz, i
         if (!o.batched) continue;
         const int n = plan_.scene.objects[obj].degree;
         prepare(obj, dx, dy, dz, cells);
+        // The real path first (use_real_path): the cells it proves are not
+        // solved by the batch, and take its discs once the batch is done.
+        std::uint8_t skip_real[kCells];
+        RootDisc real_discs[kCells][kBatchKernelMaxDegree];
+        int real_n[kCells];
+        const std::uint8_t* skip = o.skip;
+        if (o.real) {
+            for (int c = 0; c < cells; ++c) {
+                o.real_done[c] = !o.skip[c] && solve_real(obj, c, real_discs[c], real_n[c]) ? 1 : 0;
+                skip_real[c] = o.skip[c] | o.real_done[c];
+                real_cells += o.real_done[c];
+            }
+            skip = skip_real;
+        }
         // The seeds are the above arrays themselves (structure of
         // arrays along the tile's row of samples; a NaN in root 0 marks
         // a cell without seeds, which find_roots_soa starts on the
@@ -29,7 +44,7 @@ void PrimaryBatch::solve(const double* dx, const double* dy, const double* dz, i
         rows.start_re = o.seeded ? o.above_re.data() + first : nullptr;
         rows.start_im = o.seeded ? o.above_im.data() + first : nullptr;
         rows.start_stride = row_cells_;
-        rows.skip = o.skip;
+        rows.skip = skip;
         rows.rows = cells;
         rows.stride = kCells;
         rows.n_coeffs = n + 1;
@@ -37,6 +52,18 @@ void PrimaryBatch::solve(const double* dx, const double* dy, const double* dz, i
         rows.lane_re = o.lane_re;
         rows.lane_im = o.lane_im;
         find_roots_soa(rows, plan_.params.method, o.res, o.status, isa_);
+        if (o.real)
+            for (int c = 0; c < cells; ++c) {
+                if (!o.real_done[c]) continue;
+                RootsResult& res = o.res[c];
+                res.n_discs = real_n[c];
+                res.n_infinite = 0;
+                res.wants_exact = false;
+                res.escalation = 0;
+                std::copy(real_discs[c], real_discs[c] + real_n[c], res.discs);
+                o.status[c] = Status::Ok;
+                o.provisional[c] = 0;
+            }
         // What fill's ObjectRoots::complete was (status Ok, every disc
         // verified), once per cell here.
         for (int c = 0; c < cells; ++c) {
@@ -237,6 +264,101 @@ void PrimaryBatch::prepare(int obj, const double* dx, const double* dy, const do
         }
     }
     for (int c = 0; c < cells; ++c) o.skip[c] = o.run.finite[c] == 0 || o.outside[c] != 0;
+}
+
+bool PrimaryBatch::solve_real(int obj, int c, RootDisc* discs, int& n_discs) const {
+    const Object& o = objects_[obj];
+    const detail::PrimaryRun& p = o.run;
+    const int n = p.n;
+    const double radius = plan_.scene.objects[obj].clip_radius;
+    detail::ObjectRay ray;
+    for (int a = 0; a < 3; ++a) {
+        ray.origin[a] = plan_.objects[obj].origin[a];
+        ray.direction[a] = Ball(p.dir[a][c], p.dir_rad[a][c]);
+    }
+    // The segment: for any o', d' in the ray's balls, |o' + t d'| <= R
+    // needs |o'| - R <= t |d'| <= |o'| + R, so t lies in [(|o| - so - R) /
+    // (|d| + sd), (|o| + so + R) / (|d| - sd)] (so, sd: the sums of the
+    // balls' radii, bounding the 2-norm of the offsets). Each bound is
+    // computed in double and widened by 2^-24 relative, which covers its
+    // few roundings (relative error below 16u) once |o| - so - R exceeds
+    // 2^-16 (|o| + R): a smaller gap (the eye on or inside the sphere)
+    // is left to the batch.
+    double oo = 0.0, dd = 0.0, so = 0.0, sd = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        oo += ray.origin[a].mid * ray.origin[a].mid;
+        dd += ray.direction[a].mid * ray.direction[a].mid;
+        so += ray.origin[a].rad;
+        sd += ray.direction[a].rad;
+    }
+    const double no = std::sqrt(oo), nd = std::sqrt(dd);
+    const double gap = no - so - radius;
+    if (!(gap > 0x1p-16 * (no + radius)) || !(nd - sd > 0.5 * nd)) return false;
+    double t_in = gap / (nd + sd) * (1.0 - 0x1p-24);
+    double t_out = (no + so + radius) / (nd - sd) * (1.0 + 0x1p-24);
+    if (!(t_in > 0.0) || !std::isfinite(t_out)) return false;
+    // Narrower: the chord. With b = o.d / |d|^2 and X = R^2 - (|o|^2 -
+    // (o.d)^2 / |d|^2) the sphere's points on the centre ray are t = -b +-
+    // sqrt(X) / |d|. The computed X errs by at most 16u (|o|^2 + R^2) (a few
+    // roundings of terms of that size, |o.d|^2 / |d|^2 <= |o|^2), and the
+    // balls move it by at most 4 (|o| + R)(so + t_out sd) for t <= t_out;
+    // |sqrt(x) - sqrt(y)| <= sqrt(|x - y|) bounds the half chord's error
+    // whatever X is (a grazing ray included), and the same sum bounds the
+    // centre's. The chord widened by four times that, intersected with the
+    // segment above, still holds every point inside the sphere.
+    {
+        double od = 0.0;
+        for (int a = 0; a < 3; ++a) od += ray.origin[a].mid * ray.direction[a].mid;
+        const double x = radius * radius - (oo - od * od / dd);
+        const double err = 16.0 * kUnitRoundoff * (oo + radius * radius) + 4.0 * (no + radius) * (so + t_out * sd);
+        const double margin = 4.0 * (std::sqrt(err) + std::fabs(od / dd) * 0x1p-40) / (nd - sd) + 0x1p-30 * t_out;
+        const double half = std::sqrt(std::max(x, 0.0)) / nd, mid = -od / dd;
+        if (std::isfinite(margin) && std::isfinite(half) && std::isfinite(mid)) {
+            t_in = std::max(t_in, (mid - half) - margin);
+            t_out = std::min(t_out, (mid + half) + margin);
+        }
+        if (!(t_out > t_in)) return false;
+    }
+    const double w = (t_out - t_in) * (1.0 + 0x1p-40);
+    double coeffs[kBatchKernelMaxDegree + 1], radii[kBatchKernelMaxDegree + 1];
+    for (int k = 0; k <= n; ++k) {
+        coeffs[k] = p.c[k][c];
+        radii[k] = p.r[k][c];
+    }
+    detail::RealIsolation iso;
+    if (!detail::real_roots_in(coeffs, radii, n, t_in, w, iso) || iso.n > kBatchKernelMaxDegree) return false;
+    // Each root's disc: its interval, narrowed where the clipping sphere's
+    // verdict needs it, and always for the first root kept (the one the
+    // pixel shows: its value goes to the AOVs). The verdicts are the
+    // decisions' own (modulus_bounds, inside_clip).
+    // A first root kept that Newton's iteration does not pin down (a root
+    // nearly double: a grazing ray) is left to the batch, whose ladder and
+    // polish give its value: the real path writes no rougher value.
+    bool first_kept = false;
+    for (int i = 0; i < iso.n; ++i) {
+        double lo = iso.lo[i], hi = iso.hi[i];
+        Verdict v = Verdict::Unknown;
+        bool tight = false;
+        for (int pass = 0; pass < 2; ++pass) {
+            RootDisc& d = discs[i];
+            d.re = 0.5 * lo + 0.5 * hi;
+            d.im = 0.0;
+            d.radius = next_up(std::max(d.re - lo, hi - d.re) * (1.0 + 4.0 * kUnitRoundoff));
+            d.count = 1;
+            d.verified = true;
+            d.real = true;
+            double mlo, mhi;
+            detail::modulus_bounds(d, mlo, mhi);
+            v = detail::inside_clip(ray, mlo, mhi, radius);
+            const bool wants_value = v == Verdict::Yes && !first_kept;
+            if ((v != Verdict::Unknown && !wants_value) || pass == 1) break;
+            if (!detail::narrow_real_root(coeffs, radii, n, lo, hi, &tight)) break;
+        }
+        if (v == Verdict::Unknown || (v == Verdict::Yes && !first_kept && !tight)) return false;
+        first_kept = first_kept || v == Verdict::Yes;
+    }
+    n_discs = iso.n;
+    return true;
 }
 
 void PrimaryBatch::put(std::vector<std::uint8_t>& tape, double v) {

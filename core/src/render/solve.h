@@ -184,6 +184,24 @@ public:
         }
     }
 
+    /// The real-root path (roots_real.h) for the objects that need only
+    /// real roots: every object when `real_bands` (every band traced is
+    /// sigma = delta = 0), else the objects with space: real. Only an object
+    /// solved in batches, with a clipping sphere and degree <= 12 takes it;
+    /// a cell the real path does not prove is solved by the batch as
+    /// before. Not with a root field (record, replay): a field holds every
+    /// root, for any band.
+    void use_real_path(bool real_bands) {
+        for (std::size_t obj = 0; obj < objects_.size(); ++obj) {
+            Object& o = objects_[obj];
+            const SurfaceSpec& s = plan_.scene.objects[obj];
+            o.real = o.batched && o.clipped && s.degree <= 12 && (real_bands || !s.complex_space);
+        }
+    }
+
+    /// Cells the real path proved, over this batch's solves.
+    std::int64_t real_cells = 0;
+
     /// True when some object is solved in batches.
     bool any() const { return any_; }
     bool batched(int obj) const { return objects_[obj].batched; }
@@ -245,6 +263,16 @@ private:
     /// or the ray provably misses the clipping sphere).
     void prepare(int obj, const double* dx, const double* dy, const double* dz, int cells);
 
+    /// The real path for cell c of object obj (o.real, not skipped): every
+    /// real root of the ray polynomial's family in a segment that holds the
+    /// ray's part inside the clipping sphere, as verified real discs of one
+    /// root each (ascending, disjoint), into discs[0..n_discs). The omitted
+    /// roots are proven not to matter: non-real ones lie outside the band
+    /// (the positive real axis), real ones outside the segment outside the
+    /// sphere. False (discs unspecified) where it proves less: the batch
+    /// solves the cell.
+    bool solve_real(int obj, int c, RootDisc* discs, int& n_discs) const;
+
     static void put(std::vector<std::uint8_t>& tape, double v);
 
     static void need(std::size_t size, std::size_t at, std::size_t bytes);
@@ -268,6 +296,8 @@ private:
         std::uint8_t provisional[kCells];  // SoaRows::provisional (its lane's merged discs)
         double lane_re[kCells * kBatchKernelMaxDegree], lane_im[kCells * kBatchKernelMaxDegree];  // (cell c's at c * n)
         bool clipped = false;  // a clipping sphere: the decisions read the ray
+        bool real = false;     // the real-root path first (use_real_path)
+        std::uint8_t real_done[kCells] = {};  // the cell's roots are the real path's
     };
     const FramePlan& plan_;
     BatchIsa isa_;

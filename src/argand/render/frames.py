@@ -188,6 +188,7 @@ def plan(core_scene: dict, params: FrameParams) -> Any:
         samples=int(params.samples),
         kernel=params.engine.kernel,
         cull=params.engine.cull,
+        real=params.engine.real,
         decide=params.engine.decide,
         shade=params.engine.shade,
     )

@@ -1,10 +1,11 @@
-"""The engine's modes (root kernel, culling, decision path, shading path) as
+"""The engine's modes (root kernel, culling, real-root path, decision path,
+shading path) as
 one checked value carried with a frame's parameters, and the one place
 where they are read from the environment.
 
 Every combination gives the same decisions (the status and hit of every
 pixel; tests/render/test_kernel.py, test_decide.py, test_cull.py and
-test_shade.py hold them to it); the alternatives to the defaults are the
+test_shade.py and test_real_path.py hold them to it); the alternatives to the defaults are the
 references those tests and the benchmarks compare against. The library
 never reads the environment itself: the CLI and the worker call
 :func:`engine_options_from_environment` once and pass the result down,
@@ -30,7 +31,10 @@ DECIDE_MODES = ("fast", "fast-scalar", "full")
 SHADE_MODES = ("fast", "reference")
 
 #: The environment variables the CLI and the worker read, and the field each sets.
-ENVIRONMENT = {"ARGAND_KERNEL": "kernel", "ARGAND_CULL": "cull", "ARGAND_DECIDE": "decide", "ARGAND_SHADE": "shade"}
+ENVIRONMENT = {"ARGAND_KERNEL": "kernel", "ARGAND_CULL": "cull", "ARGAND_DECIDE": "decide", "ARGAND_SHADE": "shade",
+               "ARGAND_REAL": "real"}
+#: The fields given as on | off in the environment.
+SWITCHES = ("cull", "real")
 
 
 @dataclass(frozen=True)
@@ -43,14 +47,21 @@ class EngineOptions:
     cull: bool = True
     decide: str = "fast"
     shade: str = "fast"
+    #: Objects that need only real roots (every object at sigma = delta = 0,
+    #: an object with space: real always) isolate just the real roots inside
+    #: their clipping sphere where that proves the pixel; False (the
+    #: default): every complex root, always. Off by default while it is
+    #: slower than the batched complex kernel (docs/performance.md).
+    real: bool = False
 
     def __post_init__(self) -> None:
         for field, allowed in (("kernel", KERNELS), ("decide", DECIDE_MODES), ("shade", SHADE_MODES)):
             value = getattr(self, field)
             if value not in allowed:
                 raise ValueError(f"engine option {field}={value!r}: use one of {', '.join(allowed)}")
-        if not isinstance(self.cull, bool):
-            raise ValueError(f"engine option cull={self.cull!r}: use True or False")
+        for field in SWITCHES:
+            if not isinstance(getattr(self, field), bool):
+                raise ValueError(f"engine option {field}={getattr(self, field)!r}: use True or False")
 
     def stored(self) -> dict:
         """The options as a JSON object (a job's row keeps them)."""
@@ -73,8 +84,8 @@ class EngineOptions:
 
 
 def engine_options_from_environment(environ: Mapping[str, str] | None = None) -> EngineOptions:
-    """EngineOptions from ARGAND_KERNEL, ARGAND_CULL (on | off),
-    ARGAND_DECIDE and ARGAND_SHADE; an unset or empty variable keeps the
+    """EngineOptions from ARGAND_KERNEL, ARGAND_CULL and ARGAND_REAL (on |
+    off), ARGAND_DECIDE and ARGAND_SHADE; an unset or empty variable keeps the
     default. Raises ValueError naming the variable for a bad value, so a
     mistake stops the CLI or the worker at start, not a job mid-way."""
     env = os.environ if environ is None else environ
@@ -83,7 +94,7 @@ def engine_options_from_environment(environ: Mapping[str, str] | None = None) ->
         raw = env.get(name, "")
         if raw == "":
             continue
-        if field == "cull":
+        if field in SWITCHES:
             if raw not in ("on", "off"):
                 raise ValueError(f"{name}={raw}: use on or off")
             values[field] = raw == "on"
@@ -101,4 +112,5 @@ def engine_environment(options: EngineOptions) -> dict[str, str]:
     """The variables that give a child process (a worker started by `argand
     serve`) these options: engine_options_from_environment's inverse."""
     return {"ARGAND_KERNEL": options.kernel, "ARGAND_CULL": "on" if options.cull else "off",
-            "ARGAND_DECIDE": options.decide, "ARGAND_SHADE": options.shade}
+            "ARGAND_DECIDE": options.decide, "ARGAND_SHADE": options.shade,
+            "ARGAND_REAL": "on" if options.real else "off"}
