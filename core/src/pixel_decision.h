@@ -365,7 +365,7 @@ inline ClipSums clip_sums(const ObjectRay& ray) {
     return c;
 }
 
-/// inside_clip(ray, mod_lo, mod_hi, radius) (sums = clip_sums(ray)).
+/// clip_fast and clip_quick (sums = clip_sums(ray)).
 ///
 /// inside_clip's first test (clip_verdict_fast) says Yes iff next_up(fl(norm
 /// (1 + 4u)) + e) <= fl(radius (1 - 2u)) and No iff next_down(fl(norm (1 -
@@ -386,7 +386,11 @@ inline ClipSums clip_sums(const ObjectRay& ray) {
 /// the test with e1 is a Yes (No) of the test with e, which the reference
 /// returns (before its exact test). Neither: the reference itself. (e1 inf
 /// or NaN passes neither test.)
-__attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, const ClipSums& sums, double mod_lo,
+///
+/// clip_quick is that first test alone: its Yes and No, Unknown where
+/// clip_fast goes on to inside_clip (for a caller that would rather narrow
+/// the disc first: the real-root path).
+__attribute__((always_inline)) inline Verdict clip_quick(const ObjectRay& ray, const ClipSums& sums, double mod_lo,
                                                         double mod_hi, double radius) {
     constexpr double kU = kUnitRoundoff;
     const double m = 0.5 * (mod_lo + mod_hi);
@@ -405,7 +409,15 @@ __attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, co
     // which may fail where v > c holds.)
     if (norm * (1.0 + 4.0 * kU) + e1 < radius * (1.0 - 2.0 * kU)) return Verdict::Yes;
     if (next_down(norm * (1.0 - 4.0 * kU) - e1) > radius * (1.0 + 2.0 * kU)) return Verdict::No;
-    return inside_clip(ray, mod_lo, mod_hi, radius);
+    return Verdict::Unknown;
+}
+
+/// inside_clip(ray, mod_lo, mod_hi, radius) (sums = clip_sums(ray)):
+/// clip_quick, and the reference where it says Unknown (see above).
+__attribute__((always_inline)) inline Verdict clip_fast(const ObjectRay& ray, const ClipSums& sums, double mod_lo,
+                                                        double mod_hi, double radius) {
+    const Verdict v = clip_quick(ray, sums, mod_lo, mod_hi, radius);
+    return v != Verdict::Unknown ? v : inside_clip(ray, mod_lo, mod_hi, radius);
 }
 
 /// The decisions of one polynomial's discs (decide_fast's per-disc part):

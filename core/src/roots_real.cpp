@@ -52,7 +52,15 @@ constexpr int kMaxN = 12;            // degrees the real path takes (the batched
 constexpr int kMaxDepth = 44;        // halvings of the segment
 constexpr int kMaxNodes = 160;       // subintervals examined per segment
 
-constexpr double gamma(int k) { return k * kU / (1.0 - k * kU); }
+/// gamma(k) = k u / (1 - k u), tabled for k < 64 (the callers' k <= 2n + 4 <= 28).
+struct Gammas {
+    double v[64];
+    constexpr Gammas() : v() {
+        for (int k = 0; k < 64; ++k) v[k] = k * kU / (1.0 - k * kU);
+    }
+};
+constexpr Gammas kGammas{};
+inline double gamma(int k) { return kGammas.v[k]; }
 
 /// beta(n, i, k) = C(i, k) / C(n, k), rounded to nearest, for n <= kMaxN.
 struct Betas {
@@ -123,9 +131,10 @@ bool real_roots_in(const double* c, const double* r, int n, double a, double w, 
             f[j] = f[j] + aa * f[j + 1];
         }
     double g[kMaxN + 1], sum_err = 0.0, sum_abs = 0.0, pw = 1.0;
+    const double grow_f = 1.0 + gamma(2 * n + 3), grow_pw = 1.0 + gamma(n + 1), g_n2 = gamma(n + 2);
     for (int k = 0; k <= n; ++k) {
         g[k] = t[k] * pw;
-        sum_err += f[k] * (1.0 + gamma(2 * n + 3)) * (pw * (1.0 + gamma(n + 1))) + gamma(n + 2) * std::fabs(g[k]);
+        sum_err += f[k] * grow_f * (pw * grow_pw) + g_n2 * std::fabs(g[k]);
         sum_abs += std::fabs(g[k]);
         pw = pw * w;
     }
@@ -144,8 +153,9 @@ bool real_roots_in(const double* c, const double* r, int n, double a, double w, 
         if (!std::isfinite(s)) return false;
     }
     int nodes = 0;
+    const double split_growth = gamma(n + 1) * (1.0 + gamma(n + 1));
     while (top > 0) {
-        const Node nd = stack[--top];
+        const Node& nd = stack[--top];  // (its slot is reused by its halves below, after the last read)
         if (++nodes > kMaxNodes) return false;
         int sg[kMaxN + 1];
         bool all_pos = true, all_neg = true;
@@ -162,10 +172,16 @@ bool real_roots_in(const double* c, const double* r, int n, double a, double w, 
             for (int j = k + 1; j <= n; ++j) one &= sg[j] == sg[n];
             if (one) {  // exactly one root, simple, in the open subinterval
                 if (out.n >= kMaxDegree) return false;
-                const double s1 = nd.s0 + std::ldexp(1.0, -nd.depth);
+                const double h = std::ldexp(1.0, -nd.depth), s1 = nd.s0 + h;
                 // t = a + w s, s exact (dyadic): one rounding each end, then outward.
                 out.lo[out.n] = next_down(std::fma(w, nd.s0, a));
                 out.hi[out.n] = next_up(std::fma(w, s1, a));
+                // Newton's start: where the control polygon crosses zero
+                // (between b_(k-1) and b_k, or at b_k where it is unproven).
+                const double bl = nd.b[k - 1], br = nd.b[k];
+                const double f = (k - 1 + (bl != br ? bl / (bl - br) : 0.5)) / n;
+                out.guess[out.n] = std::fma(w, nd.s0 + h * std::min(1.0, std::max(0.0, f)), a);
+                out.end_sign[out.n] = sg[n];
                 ++out.n;
                 continue;
             }
@@ -175,11 +191,13 @@ bool real_roots_in(const double* c, const double* r, int n, double a, double w, 
         // (the nearer roots) is examined first and the roots come ascending.
         double m = 0.0;
         for (int i = 0; i <= n; ++i) m = std::max(m, std::fabs(nd.b[i]));
-        const double e = nd.e + gamma(n + 1) * m * (1.0 + gamma(n + 1)) + (n + 1) * kTiny;
-        Node& right = stack[top++];
-        Node& left = stack[top++];
+        const double e = nd.e + split_growth * m + (n + 1) * kTiny;
         double tmp[kMaxN + 1];
         for (int i = 0; i <= n; ++i) tmp[i] = nd.b[i];
+        const double s0 = nd.s0;
+        const int depth = nd.depth;
+        Node& right = stack[top++];  // (nd's slot: nd is not read below)
+        Node& left = stack[top++];
         left.b[0] = tmp[0];
         right.b[n] = tmp[n];
         for (int j = 1; j <= n; ++j) {
@@ -187,15 +205,30 @@ bool real_roots_in(const double* c, const double* r, int n, double a, double w, 
             left.b[j] = tmp[0];
             right.b[n - j] = tmp[n - j];
         }
-        left.depth = right.depth = nd.depth + 1;
-        left.s0 = nd.s0;
-        right.s0 = nd.s0 + std::ldexp(1.0, -(nd.depth + 1));
+        left.depth = right.depth = depth + 1;
+        left.s0 = s0;
+        right.s0 = s0 + std::ldexp(1.0, -(depth + 1));
         left.e = right.e = e;
     }
-    // Adjacent subintervals share an end, widened outward by a step each:
-    // the roots' intervals must not meet (narrow them apart, or give up).
+    // Adjacent subintervals share an end T (a dyadic point, not a double),
+    // widened outward by a step each: the roots' intervals must not meet.
+    // m1 < T < m2 are the doubles either side of T's rounding. p's sign s
+    // at T is proven (the left subinterval's last coefficient, p(T)): where
+    // p has sign s at m1 too, the left root (the only root in its
+    // subinterval, simple) is not in [m1, T] (it would change the sign
+    // once), so it lies below m1; likewise, with sign s at m2, the right root
+    // above m2. Otherwise narrow both apart, or give up.
     for (int i = 0; i + 1 < out.n; ++i) {
         if (out.hi[i] < out.lo[i + 1]) continue;
+        const double m = next_up(out.lo[i + 1]);  // fl(T) (lo = next_down(fl(T)))
+        const double m1 = next_down(m), m2 = next_up(m);
+        const int s = out.end_sign[i];
+        if (m == next_down(out.hi[i]) && s != 0 && sign_at(c, r, n, m1) == s && sign_at(c, r, n, m2) == s &&
+            out.lo[i] < m1 && m2 < out.hi[i + 1]) {
+            out.hi[i] = m1;
+            out.lo[i + 1] = m2;
+            continue;
+        }
         if (!narrow_real_root(c, r, n, out.lo[i], out.hi[i]) ||
             !narrow_real_root(c, r, n, out.lo[i + 1], out.hi[i + 1]) || !(out.hi[i] < out.lo[i + 1]))
             return false;
@@ -203,41 +236,48 @@ bool real_roots_in(const double* c, const double* r, int n, double a, double w, 
     return true;
 }
 
-bool narrow_real_root(const double* c, const double* r, int n, double& lo, double& hi, bool* tight) {
+bool narrow_real_root(const double* c, const double* r, int n, double& lo, double& hi, bool* tight, double start) {
     if (tight) *tight = false;
-    const int sl = sign_at(c, r, n, lo), sh = sign_at(c, r, n, hi);
-    if (sl == 0 || sh != -sl) return false;
-    // Newton in double from the middle, kept inside (lo, hi).
-    double x = 0.5 * (lo + hi);
-    double dp = 0.0, last = INFINITY;
+    if (n < 1 || n > kMaxN || !(lo < hi)) return false;
+    // Newton in double from `start` (or the middle), kept inside (lo, hi),
+    // with eval_bounded's error bound computed alongside (independent
+    // chains: no extra latency).
+    const double g = gamma(2 * n + 2);
+    double f[kMaxN + 1];
+    for (int k = 0; k <= n; ++k) f[k] = g * std::fabs(c[k]) + r[k];
+    double x = start > lo && start < hi ? start : 0.5 * (lo + hi);
+    double dp = 0.0, bound = INFINITY, last = INFINITY;
+    const double grow = 1.0 + gamma(2 * n + 4);
     for (int step = 0; step < 24; ++step) {
-        double p = c[n];
+        const double ax = std::fabs(x);
+        double p = c[n], s = f[n];
         dp = 0.0;
         for (int k = n - 1; k >= 0; --k) {
             dp = dp * x + p;
             p = p * x + c[k];
+            s = s * ax + f[k];
         }
+        bound = s * grow + (2 * n + 2) * kTiny;
         if (!(dp != 0.0) || !std::isfinite(p) || !std::isfinite(dp)) break;
         double nx = x - p / dp;
         if (!(nx > lo && nx < hi)) nx = 0.5 * (x + (nx <= lo ? lo : hi));
         const double size = std::fabs(nx - x);
-        // Settled: a step of a few ulps, or one hardly smaller than the last
-        // (the evaluation's noise, not the distance to the root; near a
-        // double root the steps halve).
-        const bool settled = size <= 4.0 * kU * std::fabs(x) || size > 0.9 * last;
-        last = size;
         x = nx;
-        if (settled) break;
+        // Settled: a step below 2^-26 of the root (the next error is of
+        // its square), or one hardly smaller than the last (the
+        // evaluation's noise; near a double root the steps halve).
+        if (size <= 0x1p-26 * std::fabs(x) || size > 0.9 * last) break;
+        last = size;
     }
-    // Proven signs either side of x, from a few ulps out.
-    double v, b;
-    eval_bounded(c, r, n, x, v, b);
+    // Proven opposite signs a few rounding errors either side of x (the
+    // interval's only root lies between).
     double eps = 4.0 * kU * std::fabs(x);
-    if (std::isfinite(b) && std::fabs(dp) > 0.0 && std::isfinite(dp)) eps = std::max(eps, 2.0 * (b + std::fabs(v)) / std::fabs(dp));
+    if (std::isfinite(bound) && std::fabs(dp) > 0.0 && std::isfinite(dp)) eps = std::max(eps, 2.0 * bound / std::fabs(dp));
     for (int tries = 0; tries < 4; ++tries, eps *= 8.0) {
         const double l = x - eps, h = x + eps;
         if (!(l >= lo && h <= hi)) break;  // (equal: an interval this narrowed before)
-        if (sign_at(c, r, n, l) == sl && sign_at(c, r, n, h) == sh) {
+        const int sl = sign_at(c, r, n, l);
+        if (sl != 0 && sign_at(c, r, n, h) == -sl) {
             lo = l;
             hi = h;
             if (tight) *tight = true;
@@ -245,6 +285,8 @@ bool narrow_real_root(const double* c, const double* r, int n, double& lo, doubl
         }
     }
     // Bisection on proven signs.
+    const int sl = sign_at(c, r, n, lo), sh = sign_at(c, r, n, hi);
+    if (sl == 0 || sh != -sl) return false;
     bool narrowed = false;
     for (int step = 0; step < 12; ++step) {
         const double m = 0.5 * (lo + hi);

@@ -16,6 +16,8 @@
 // complex way (find_roots and its ladder). Internal header.
 #pragma once
 
+#include <cmath>
+
 #include "argand/roots.h"
 
 namespace argand::detail {
@@ -28,6 +30,8 @@ struct RealIsolation {
     int n = 0;
     double lo[kMaxDegree];
     double hi[kMaxDegree];
+    double guess[kMaxDegree];  // in (lo, hi): where the control polygon crosses zero (proves nothing)
+    int end_sign[kMaxDegree];  // the proven sign of p at the (exact, dyadic) right end of root i's subinterval
 };
 
 /// Isolates every real root in [a, a + w] (a, w finite doubles, w > 0; the
@@ -40,15 +44,17 @@ struct RealIsolation {
 /// rounding errors).
 bool real_roots_in(const double* c, const double* r, int n, double a, double w, RealIsolation& out);
 
-/// Narrows root i of `iso` to [lo, hi] (lo <= hi) by Newton's iteration
-/// in double from the interval's middle, kept only where the signs of p at
-/// lo and hi are proven opposite for the whole family (then the root, being
-/// the interval's only one, lies in [lo, hi]); otherwise by bisection on
-/// proven signs. The interval never widens; returns false (lo, hi as they
-/// were) where nothing narrower was proven. `tight` (optional): set true
-/// only where Newton's iterate was proven within a few rounding errors of
-/// the root (the interval's middle is then the root to about what a double
-/// evaluation of p can tell), false after the bisection.
-bool narrow_real_root(const double* c, const double* r, int n, double& lo, double& hi, bool* tight = nullptr);
+/// Narrows [lo, hi], an interval holding exactly one root of every family
+/// member, simple (a RealIsolation interval), by Newton's iteration in
+/// double from `start` (where it lies in (lo, hi); else the middle): kept
+/// where the signs of p a few rounding errors either side of the iterate
+/// are proven opposite for the whole family (the one root lies between).
+/// Otherwise by bisection on proven signs. The interval never widens;
+/// returns false (lo, hi as they were) where nothing narrower was proven.
+/// `tight` (optional): set true only in the first case (the interval's
+/// middle is then the root to about what a double evaluation of p can
+/// tell), false after the bisection.
+bool narrow_real_root(const double* c, const double* r, int n, double& lo, double& hi, bool* tight = nullptr,
+                      double start = NAN);
 
 }  // namespace argand::detail

@@ -330,11 +330,13 @@ bool PrimaryBatch::solve_real(int obj, int c, RootDisc* discs, int& n_discs) con
     // Each root's disc: its interval, narrowed where the clipping sphere's
     // verdict needs it, and always for the first root kept (the one the
     // pixel shows: its value goes to the AOVs). The verdicts are the
-    // decisions' own (modulus_bounds, inside_clip).
+    // decisions' own (modulus_fast, clip_fast: modulus_bounds' and
+    // inside_clip's answers).
     // A first root kept that Newton's iteration does not pin down (a root
     // nearly double: a grazing ray) is left to the batch, whose ladder and
     // polish give its value: the real path writes no rougher value.
     bool first_kept = false;
+    const detail::ClipSums sums = detail::clip_sums(ray);
     for (int i = 0; i < iso.n; ++i) {
         double lo = iso.lo[i], hi = iso.hi[i];
         Verdict v = Verdict::Unknown;
@@ -348,11 +350,13 @@ bool PrimaryBatch::solve_real(int obj, int c, RootDisc* discs, int& n_discs) con
             d.verified = true;
             d.real = true;
             double mlo, mhi;
-            detail::modulus_bounds(d, mlo, mhi);
-            v = detail::inside_clip(ray, mlo, mhi, radius);
+            detail::modulus_fast(d, mlo, mhi);
+            // (A wide disc the quick test leaves open is narrowed first.)
+            v = pass == 0 ? detail::clip_quick(ray, sums, mlo, mhi, radius)
+                          : detail::clip_fast(ray, sums, mlo, mhi, radius);
             const bool wants_value = v == Verdict::Yes && !first_kept;
             if ((v != Verdict::Unknown && !wants_value) || pass == 1) break;
-            if (!detail::narrow_real_root(coeffs, radii, n, lo, hi, &tight)) break;
+            if (!detail::narrow_real_root(coeffs, radii, n, lo, hi, &tight, iso.guess[i])) break;
         }
         if (v == Verdict::Unknown || (v == Verdict::Yes && !first_kept && !tight)) return false;
         first_kept = first_kept || v == Verdict::Yes;
