@@ -101,6 +101,17 @@ def main(path: str) -> int:
     if not (np.array_equal(batched.aovs["status"], scalar.aovs["status"])
             and np.array_equal(batched.rgba[..., 3] > 0, scalar.rgba[..., 3] > 0)):
         problems.append("endrass: the batched kernel's decisions differ from the scalar kernel's")
+    # The real-root path (Bernstein subdivision, its stack of subintervals,
+    # Newton and the fallback to the batch): the complex path's decisions,
+    # on a degree-8 preset and on views whose centre row grazes a double line.
+    for name, scene in (("endrass", endrass), ("steiner", load_scene("steiner"))):
+        for size in (32, 33):
+            p = FrameParams(delta=0.0, width=size, height=size)
+            complex_ = render_frame(scene, p, workers=1)
+            real = render_frame(scene, replace(p, engine=EngineOptions(real=True)), workers=1)
+            if not (np.array_equal(complex_.aovs["status"], real.aovs["status"])
+                    and np.array_equal(complex_.rgba[..., 3] > 0, real.rgba[..., 3] > 0)):
+                problems.append(f"{name} {size}: the real path's decisions differ from the complex path's")
     # Bands rendered together (render_tile_bands: one solve, a tracer per
     # band, staging tiles of their own): each band the frame rendered alone.
     from argand.render.frames import render_bands
