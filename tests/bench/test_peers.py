@@ -92,8 +92,9 @@ def test_smoke_run_writes_its_files_and_finds_the_peers_wrong_pixels(tmp_path):
     assert set(rows) == {("bicube", 96), ("steiner", 96), ("steiner-axes", 95), ("torus-tangent", 95)}
     for r in data["rows"]:
         assert r["argand"]["wrong"] == 0, r  # no certified pixel of Argand's is contradicted
-        for key in ("surf", "povray", "povray-sturm", "argand", "argand_process"):
+        for key in ("surf", "povray", "povray-sturm", "argand", "argand_process", "argand_real"):
             assert r["cpu_s"][key] is not None and r["cpu_s"][key] >= 0, (r["case"], key)
+        assert r["real_path_differs"] == 0, r["case"]  # the real-root path decides every pixel alike
         assert r["cpu_s"]["argand_process"] > r["cpu_s"]["argand"]
         for p in peers.PEERS:
             e = r["peers"][p]
@@ -119,6 +120,7 @@ def test_smoke_run_writes_its_files_and_finds_the_peers_wrong_pixels(tmp_path):
     assert data["totals"]["96"]["argand"]["wrong"] == 0
     text = (tmp_path / "peers.md").read_text()
     assert "![peers: speed against wrong pixels](peers.png)" in text and "steiner-axes" in text
+    assert "real-root path" in text and "Argand real path ms" in text
 
 
 def test_a_missing_peer_is_reported_unavailable(tmp_path, monkeypatch):

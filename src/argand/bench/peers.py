@@ -36,7 +36,6 @@ peers_side.png (Argand / surf / POV-Ray side by side, wrong pixels marked).
 from __future__ import annotations
 
 import json
-import math
 import os
 import re
 import resource
@@ -170,11 +169,13 @@ def run_povray(core_scene: Any, size: int, sturm: bool, work: Path) -> tuple[Any
     return hit, float(m.group(2)), cpu
 
 
-def run_argand(scene: Any, size: int) -> tuple[Any, float]:
-    """(the FrameResult, CPU seconds of render_frame on one worker)."""
+def run_argand(scene: Any, size: int, real: bool = False) -> tuple[Any, float]:
+    """(the FrameResult, CPU seconds of render_frame on one worker); `real`:
+    with the real-root path (EngineOptions(real=True))."""
     from argand.render import FrameParams, render_frame
+    from argand.render.options import EngineOptions
 
-    params = FrameParams(sigma=0.0, delta=0.0, width=size, height=size)
+    params = FrameParams(sigma=0.0, delta=0.0, width=size, height=size, engine=EngineOptions(real=real))
     start = time.process_time()
     result = render_frame(scene, params, workers=1)
     return result, time.process_time() - start
@@ -317,7 +318,8 @@ def bench_peers(out_dir: Path = Path("docs/bench"), smoke: bool = False, runs: i
         os.sched_setaffinity(0, {min(affinity)})  # one core, inherited by every child
     times: dict[tuple, dict[str, list[float]]] = {(c, s): {k: [] for k in
                                                           ("surf", "povray", "povray-sturm", "povray_process",
-                                                           "povray-sturm_process", "argand", "argand_process")}
+                                                           "povray-sturm_process", "argand", "argand_process",
+                                                           "argand_real")}
                                                   for c, s, _ in cases}
     last: dict[tuple, dict] = {}
     errors: dict[str, str] = {}
@@ -350,8 +352,17 @@ def bench_peers(out_dir: Path = Path("docs/bench"), smoke: bool = False, runs: i
                     result, cpu = run_argand(scene, size)
                     t["argand"].append(cpu)
                     t["argand_process"].append(run_argand_process(case, size, work))
+                    real, cpu = run_argand(scene, size, real=True)
+                    t["argand_real"].append(cpu)
                     if round_ == 0:
-                        last[(case, size)] = {"result": result, "masks": masks, "surf_info": info}
+                        # The real-root path must decide every pixel as the
+                        # complex path does (status and hit).
+                        import numpy as np
+
+                        differ = int(((np.asarray(real.aovs["status"]) != np.asarray(result.aovs["status"]))
+                                      | ((real.rgba[..., 3] > 0) != (result.rgba[..., 3] > 0))).sum())
+                        last[(case, size)] = {"result": result, "masks": masks, "surf_info": info,
+                                              "real_differs": differ}
     finally:
         if affinity is not None:
             os.sched_setaffinity(0, affinity)
@@ -368,7 +379,7 @@ def bench_peers(out_dir: Path = Path("docs/bench"), smoke: bool = False, runs: i
         t = times[(case, size)]
         med = {k: _median(v) for k, v in t.items()}
         row = {"case": case, "size": size, "special": sp, "degree": max(o.polynomial.degree for o in _scene(case).objects),
-               "cpu_s": med, "runs": runs, **cmp}
+               "cpu_s": med, "runs": runs, "real_path_differs": keep["real_differs"], **cmp}
         if sp:
             row["note"] = SPECIAL_NOTES[case]
         if keep["surf_info"]:
@@ -389,6 +400,8 @@ def bench_peers(out_dir: Path = Path("docs/bench"), smoke: bool = False, runs: i
             entry[who] = {"cpu_s": sum(cpu), "wrong": sum(wrong)}
         entry["argand"]["uncertified"] = sum(r["argand"]["uncertified"] for r in sel)
         entry["argand_process"] = {"cpu_s": sum(r["cpu_s"]["argand_process"] for r in sel)}
+        entry["argand_real"] = {"cpu_s": sum(r["cpu_s"]["argand_real"] for r in sel),
+                                "differs": sum(r["real_path_differs"] for r in sel)}
         for who in PEERS:
             if who in entry:
                 entry[who]["over_argand"] = entry[who]["cpu_s"] / entry["argand"]["cpu_s"]
@@ -401,7 +414,8 @@ def bench_peers(out_dir: Path = Path("docs/bench"), smoke: bool = False, runs: i
         "timing": {"surf": "whole surf process, CPU (getrusage of children)",
                    "povray": "POV-Ray's own Trace Time CPU-seconds (+WT1; parse excluded); *_process: the whole process",
                    "argand": "render_frame(workers=1), time.process_time",
-                   "argand_process": "`argand render SCENE --size WxH --workers 1`, CPU of the child"},
+                   "argand_process": "`argand render SCENE --size WxH --workers 1`, CPU of the child",
+                   "argand_real": "render_frame(workers=1) with EngineOptions(real=True), time.process_time"},
         "rows": rows, "totals": totals, "errors": errors,
     }
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -521,7 +535,9 @@ def markdown(report: dict, chart_path: str = "peers.png", side_path: str = "peer
              "src/argand/bench/peers_scenes.py), flat white on black. One core; medians of "
              f"{report['runs']} interleaved round(s). CPU times: surf's whole process, POV-Ray's own trace time "
              "(parse excluded), Argand's `render_frame(workers=1)` alone and its whole `argand render --workers 1` "
-             "process (which also writes the EXR, PNG and JSON). Every pixel where a peer disagrees with Argand, and "
+             "process (which also writes the EXR, PNG and JSON), and its render with the real-root path "
+             "(`EngineOptions(real=True)`, `ARGAND_REAL=on`; docs/rendering.md), which must decide every pixel as the "
+             "default path does. Every pixel where a peer disagrees with Argand, and "
              "every pixel Argand did not certify, is decided by the exact truth (python-flint on the exact rational "
              "ray polynomial); **wrong** counts the pixels it contradicts.", ""]
     if report.get("smoke"):
@@ -535,19 +551,24 @@ def markdown(report: dict, chart_path: str = "peers.png", side_path: str = "peer
             continue
         a = entry["argand"]
         what = "centre-row views" if entry["special"] else "presets"
+        real = entry.get("argand_real")
+        real_text = (f", real-root path {real['cpu_s']:.2f} s ({a['cpu_s'] / real['cpu_s']:.2f}× the default's speed, "
+                     f"{real['differs']} pixels decided otherwise)" if real and real["cpu_s"] else "")
         lines += [f"The {entry['cases']} {what} at {entry['size']}×{entry['size']}: Argand {a['cpu_s']:.2f} s CPU "
-                  f"(whole process {entry['argand_process']['cpu_s']:.2f} s), {a['wrong']} wrong, "
+                  f"(whole process {entry['argand_process']['cpu_s']:.2f} s{real_text}), {a['wrong']} wrong, "
                   f"{a['uncertified']} not certified; "
                   + "; ".join(f"{PEER_LABELS[p]} {entry[p]['cpu_s']:.2f} s ({entry[p]['over_argand']:.2f}× Argand's "
                               f"render), {entry[p]['wrong']} wrong" for p in PEERS if p in entry) + ".", ""]
-    lines += ["| surface | size | degree | Argand ms | Argand process ms | surf ms | POV-Ray ms | POV-Ray sturm ms "
-              "| Argand uncertified | surf wrong | POV-Ray wrong | POV-Ray sturm wrong |",
-              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    lines += ["| surface | size | degree | Argand ms | Argand process ms | Argand real path ms | surf ms | POV-Ray ms "
+              "| POV-Ray sturm ms | Argand uncertified | surf wrong | POV-Ray wrong | POV-Ray sturm wrong |",
+              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in report["rows"]:
         c = r["cpu_s"]
         wrong = [str(r["peers"][p]["wrong"]) if p in r["peers"] else "–" for p in PEERS]
         aw = r["argand"]["wrong"]
+        differs = r.get("real_path_differs", 0)
         lines.append(f"| {r['case']} | {r['size']} | {r['degree']} | {_fmt(c['argand'])} | {_fmt(c['argand_process'])} | "
+                     f"{_fmt(c.get('argand_real'))}{f' ({differs} decided otherwise!)' if differs else ''} | "
                      f"{_fmt(c['surf'])} | {_fmt(c['povray'])} | {_fmt(c['povray-sturm'])} | "
                      f"{r['argand']['uncertified']}{f' ({aw} wrong!)' if aw else ''} | " + " | ".join(wrong) + " |")
     lines += ["", "What the wrong pixels are (spurious hit / missed on a multiple root / missed on a simple root; "
