@@ -141,4 +141,7 @@ def test_a_frame_that_is_not_done_has_no_files(lazy_farm):
         r = httpx.get(f"{lazy_farm.url}/api/jobs/{job_id}/{path}", timeout=30)
         assert r.status_code == 404 and "not ready" in r.json()["detail"], path
     assert not list((lazy_farm.data / "store" / "jobs" / job_id).glob(f"*_{i:04d}.png"))
+    assert not (lazy_farm.data / "store" / "jobs" / job_id / f"frame_{i:04d}.exr").exists()
+    # (A frame the job does not have: 404 too.)
+    assert httpx.get(f"{lazy_farm.url}/api/jobs/{job_id}/frames/99.exr", timeout=30).status_code == 404
     assert httpx.delete(f"{lazy_farm.url}/api/jobs/{job_id}", timeout=30).status_code == 204

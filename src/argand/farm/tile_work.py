@@ -294,7 +294,7 @@ def _run_claimed(settings: Settings, job_id: str, frame_index: int, worker: str,
             # is left to _finish_run, which commits it with its assembly).
             _commit_all([r for r in runs if not _whole_frame_here(r, stopped)])
             ready = [r for r in runs if not stopped and not r.pending and r.local and r.done >= r.total]
-            assembly.maybe_assemble_many(run_settings(runs), runs[0].job_id,
+            assembly.maybe_assemble_many(runs[0].settings, runs[0].job_id,
                                          [(r.frame_index, r.local) for r in ready], runs[0].worker)
             for r in ready:
                 r.assembled = True  # (elected or not: another process assembles it)
@@ -431,10 +431,6 @@ def _complete(run: TileRun) -> tuple[int, int]:
         raise _Gone(run.job_id)
     ACTIVITY["done"] += len(won)
     return row.tiles_done, row.tiles_total
-
-
-def run_settings(runs: list[TileRun]) -> Settings:
-    return runs[0].settings
 
 
 def _whole_frame_here(run: TileRun, stopped: str | None) -> bool:
