@@ -236,38 +236,51 @@ bool real_roots_in(const double* c, const double* r, int n, double a, double w, 
     return true;
 }
 
-bool narrow_real_root(const double* c, const double* r, int n, double& lo, double& hi, bool* tight, double start) {
+bool narrow_real_root(const double* c, const double* r, int n, double& lo, double& hi, bool* tight, double start,
+                      double* value) {
     if (tight) *tight = false;
     if (n < 1 || n > kMaxN || !(lo < hi)) return false;
     // Newton in double from `start` (or the middle), kept inside (lo, hi),
-    // with eval_bounded's error bound computed alongside (independent
-    // chains: no extra latency).
+    // with eval_bounded's error bound computed alongside, for the family
+    // (f: with the radii) and for the centres alone (e: the rounding noise
+    // of p's evaluation); independent chains, no extra latency.
     const double g = gamma(2 * n + 2);
-    double f[kMaxN + 1];
-    for (int k = 0; k <= n; ++k) f[k] = g * std::fabs(c[k]) + r[k];
+    double f[kMaxN + 1], e[kMaxN + 1];
+    for (int k = 0; k <= n; ++k) {
+        e[k] = g * std::fabs(c[k]);
+        f[k] = e[k] + r[k];
+    }
     double x = start > lo && start < hi ? start : 0.5 * (lo + hi);
-    double dp = 0.0, bound = INFINITY, last = INFINITY;
+    double dp = 0.0, bound = INFINITY;
     const double grow = 1.0 + gamma(2 * n + 4);
-    for (int step = 0; step < 24; ++step) {
+    bool settled = false;
+    for (int step = 0; step < 48; ++step) {
         const double ax = std::fabs(x);
-        double p = c[n], s = f[n];
+        double p = c[n], s = f[n], q = e[n];
         dp = 0.0;
         for (int k = n - 1; k >= 0; --k) {
             dp = dp * x + p;
             p = p * x + c[k];
             s = s * ax + f[k];
+            q = q * ax + e[k];
         }
         bound = s * grow + (2 * n + 2) * kTiny;
         if (!(dp != 0.0) || !std::isfinite(p) || !std::isfinite(dp)) break;
+        // At the noise, |p| below its evaluation's error: this last step
+        // (within that error over |p'|) is as far as p's computed values can
+        // lead.
+        const bool at_noise = std::fabs(p) <= q * grow + (2 * n + 2) * kTiny;
         double nx = x - p / dp;
         if (!(nx > lo && nx < hi)) nx = 0.5 * (x + (nx <= lo ? lo : hi));
         const double size = std::fabs(nx - x);
         x = nx;
-        // Settled: a step below 2^-26 of the root (the next error is of
-        // its square), or one hardly smaller than the last (the
-        // evaluation's noise; near a double root the steps halve).
-        if (size <= 0x1p-26 * std::fabs(x) || size > 0.9 * last) break;
-        last = size;
+        // A step below 2^-26 of the root: the next error is of its square.
+        // (Steps that shrink slowly, far from the root or near a double
+        // one, go on: 48 steps at most.)
+        if (at_noise || size <= 0x1p-26 * std::fabs(x)) {
+            settled = true;
+            break;
+        }
     }
     // Proven opposite signs a few rounding errors either side of x (the
     // interval's only root lies between).
@@ -280,7 +293,8 @@ bool narrow_real_root(const double* c, const double* r, int n, double& lo, doubl
         if (sl != 0 && sign_at(c, r, n, h) == -sl) {
             lo = l;
             hi = h;
-            if (tight) *tight = true;
+            if (tight) *tight = settled;
+            if (value && settled) *value = x;
             return true;
         }
     }

@@ -51,10 +51,14 @@ bool real_roots_in(const double* c, const double* r, int n, double a, double w, 
 /// are proven opposite for the whole family (the one root lies between).
 /// Otherwise by bisection on proven signs. The interval never widens;
 /// returns false (lo, hi as they were) where nothing narrower was proven.
-/// `tight` (optional): set true only in the first case (the interval's
-/// middle is then the root to about what a double evaluation of p can
-/// tell), false after the bisection.
+/// `tight` (optional): set true only in the first case with Newton's
+/// iteration settled (a step below 2^-26 of the iterate, or |p| at the
+/// rounding noise of its evaluation on the centres c), false otherwise.
+/// `value` (optional, set where tight): the settled iterate, in [lo, hi]:
+/// the root of the centres' polynomial to about what a double evaluation
+/// of it can tell, however wide the coefficients' radii keep the proven
+/// interval (its middle may then be far from the root).
 bool narrow_real_root(const double* c, const double* r, int n, double& lo, double& hi, bool* tight = nullptr,
-                      double start = NAN);
+                      double start = NAN, double* value = nullptr);
 
 }  // namespace argand::detail
