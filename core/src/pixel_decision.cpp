@@ -222,7 +222,7 @@ inline void classify_disc(const RootDisc* discs, int n, int i, const ClassifyPla
 }  // namespace
 
 void classify_discs_scalar(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray,
-                           DiscVerdicts& v) {
+                           DiscVerdicts& v, ClassifyMemo*) {
     v.live = v.eligible = 0;
     const ClipSums sums = cp.clip ? clip_sums(ray) : ClipSums{};
     // A disc that is the previous one's exact mirror image (the closed-form
@@ -285,6 +285,14 @@ ARGAND_AVX2 inline void v_edge(const FastEdge& f, __m256d x, __m256d y, __m256d 
     in = v_gt(_mm256_xor_pd(s, _mm256_set1_pd(-0.0)), t);
 }
 
+/// The lanes of a 4-bit movemask as an all-ones / all-zeros mask (lane k:
+/// bit k), so that v_lanes(_mm256_movemask_pd(x)) is x for any mask x.
+ARGAND_AVX2 __attribute__((always_inline)) inline __m256d v_lanes(unsigned bits) {
+    const __m256i lane_bit = _mm256_set_epi64x(8, 4, 2, 1);
+    const __m256i b = _mm256_and_si256(_mm256_set1_epi64x(static_cast<long long>(bits)), lane_bit);
+    return _mm256_castsi256_pd(_mm256_cmpeq_epi64(b, lane_bit));
+}
+
 /// clip_sums(ray) as [omid, orad, dabs, drad]: per axis a the lanes [|o'_a.mid|,
 /// o'_a.rad, |d'_a.mid| + d'_a.rad, d'_a.rad], summed lane by lane as ((a = 0)
 /// + (a = 1)) + (a = 2): clip_sums' operations in its order.
@@ -325,7 +333,7 @@ namespace {
 ARGAND_AVX2 __attribute__((always_inline)) inline void classify_group(const RootDisc* p0, const RootDisc* p1,
                                                                      const RootDisc* p2, const RootDisc* p3, int g,
                                                                      const ClassifyPlan& cp, const ObjectRay& ray,
-                                                                     DiscVerdicts& v,
+                                                                     DiscVerdicts& v, ClassifyMemo* memo,
                                                                      std::uint64_t& fallback, __m256d& lo_out,
                                                                      __m256d& hi_out, __m256d& live_out,
                                                                      __m256d& eligible_out, int& ones_out) {
@@ -392,37 +400,59 @@ ARGAND_AVX2 __attribute__((always_inline)) inline void classify_group(const Root
         ones_out = 0;
         return;
     }
-    // modulus_fast.
-    const __m256d m = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(re, re), _mm256_mul_pd(im, im)));
-    const __m256d a = _mm256_sub_pd(v_step(_mm256_mul_pd(m, _mm256_set1_pd(1.0 - 4.0 * kU)), -1), r);
-    const __m256d lo = _mm256_blendv_pd(zero, v_step(a, -1), v_gt(a, zero));
-    const __m256d b = _mm256_add_pd(v_step(_mm256_mul_pd(m, _mm256_set1_pd(1.0 + 4.0 * kU)), 1), r);
-    const __m256d hi = v_step(b, 1);
-    const __m256d mod_ok = v_and(v_and(_mm256_cmp_pd(m, _mm256_set1_pd(0x1p-500), _CMP_GE_OQ),
-                                       _mm256_cmp_pd(m, _mm256_set1_pd(0x1p500), _CMP_LE_OQ)),
-                                 v_and(v_gt(b, zero), v_lt(b, _mm256_set1_pd(INFINITY))));
-    // clip_fast's first test.
-    __m256d c_in = all, c_out = zero;
-    if (cp.clip) {
-        const __m256d sums = v_clip_sums(ray);
-        const __m256d mid = _mm256_mul_pd(_mm256_set1_pd(0.5), _mm256_add_pd(lo, hi));
-        const __m256d w = _mm256_mul_pd(_mm256_max_pd(_mm256_sub_pd(hi, mid), _mm256_sub_pd(mid, lo)),
-                                        _mm256_set1_pd(1.0 + 4.0 * kU));
-        const __m256d q0 = _mm256_add_pd(_mm256_set1_pd(ray.origin[0].mid), _mm256_mul_pd(mid, _mm256_set1_pd(ray.direction[0].mid)));
-        const __m256d q1 = _mm256_add_pd(_mm256_set1_pd(ray.origin[1].mid), _mm256_mul_pd(mid, _mm256_set1_pd(ray.direction[1].mid)));
-        const __m256d q2 = _mm256_add_pd(_mm256_set1_pd(ray.origin[2].mid), _mm256_mul_pd(mid, _mm256_set1_pd(ray.direction[2].mid)));
-        const __m256d q = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(q0, q0), _mm256_mul_pd(q1, q1)), _mm256_mul_pd(q2, q2));
-        // (sums: [omid, orad, dabs, drad].)
-        const __m256d dabs = _mm256_permute4x64_pd(sums, 0xAA);
-        const __m256d spread = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(w, dabs), _mm256_permute4x64_pd(sums, 0x55)),
-                                             _mm256_mul_pd(hi, _mm256_permute4x64_pd(sums, 0xFF)));
-        const __m256d size = _mm256_mul_pd(_mm256_set1_pd(8.0 * kU),
-                                           _mm256_add_pd(_mm256_permute4x64_pd(sums, 0x00), _mm256_mul_pd(hi, dabs)));
-        const __m256d e1 = _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(spread, size), _mm256_set1_pd(1.0 + 64.0 * kU)),
-                                         _mm256_set1_pd(256.0 * kDenormMin));
-        const __m256d norm = _mm256_sqrt_pd(q);
-        c_in = v_lt(_mm256_add_pd(_mm256_mul_pd(norm, _mm256_set1_pd(1.0 + 4.0 * kU)), e1), _mm256_set1_pd(cp.clip_yes));
-        c_out = v_gt(_mm256_sub_pd(_mm256_mul_pd(norm, _mm256_set1_pd(1.0 - 4.0 * kU)), e1), _mm256_set1_pd(cp.clip_no));
+    // The moduli and the sphere's first test read only the discs, the ray
+    // and the sphere (no band): held in the memo where another band of
+    // this sample made them already (the same bits), kept there otherwise.
+    __m256d lo, hi, mod_ok, c_in, c_out;
+    const int group = g / 4;
+    if (memo && (memo->groups >> group & 1)) {
+        lo = _mm256_loadu_pd(memo->lo + g);
+        hi = _mm256_loadu_pd(memo->hi + g);
+        mod_ok = v_lanes(memo->mod_ok[group]);
+        c_in = v_lanes(memo->c_in[group]);
+        c_out = v_lanes(memo->c_out[group]);
+    } else {
+        // modulus_fast.
+        const __m256d m = _mm256_sqrt_pd(_mm256_add_pd(_mm256_mul_pd(re, re), _mm256_mul_pd(im, im)));
+        const __m256d a = _mm256_sub_pd(v_step(_mm256_mul_pd(m, _mm256_set1_pd(1.0 - 4.0 * kU)), -1), r);
+        lo = _mm256_blendv_pd(zero, v_step(a, -1), v_gt(a, zero));
+        const __m256d b = _mm256_add_pd(v_step(_mm256_mul_pd(m, _mm256_set1_pd(1.0 + 4.0 * kU)), 1), r);
+        hi = v_step(b, 1);
+        mod_ok = v_and(v_and(_mm256_cmp_pd(m, _mm256_set1_pd(0x1p-500), _CMP_GE_OQ),
+                             _mm256_cmp_pd(m, _mm256_set1_pd(0x1p500), _CMP_LE_OQ)),
+                       v_and(v_gt(b, zero), v_lt(b, _mm256_set1_pd(INFINITY))));
+        // clip_fast's first test.
+        c_in = all;
+        c_out = zero;
+        if (cp.clip) {
+            const __m256d sums = v_clip_sums(ray);
+            const __m256d mid = _mm256_mul_pd(_mm256_set1_pd(0.5), _mm256_add_pd(lo, hi));
+            const __m256d w = _mm256_mul_pd(_mm256_max_pd(_mm256_sub_pd(hi, mid), _mm256_sub_pd(mid, lo)),
+                                            _mm256_set1_pd(1.0 + 4.0 * kU));
+            const __m256d q0 = _mm256_add_pd(_mm256_set1_pd(ray.origin[0].mid), _mm256_mul_pd(mid, _mm256_set1_pd(ray.direction[0].mid)));
+            const __m256d q1 = _mm256_add_pd(_mm256_set1_pd(ray.origin[1].mid), _mm256_mul_pd(mid, _mm256_set1_pd(ray.direction[1].mid)));
+            const __m256d q2 = _mm256_add_pd(_mm256_set1_pd(ray.origin[2].mid), _mm256_mul_pd(mid, _mm256_set1_pd(ray.direction[2].mid)));
+            const __m256d q = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(q0, q0), _mm256_mul_pd(q1, q1)), _mm256_mul_pd(q2, q2));
+            // (sums: [omid, orad, dabs, drad].)
+            const __m256d dabs = _mm256_permute4x64_pd(sums, 0xAA);
+            const __m256d spread = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(w, dabs), _mm256_permute4x64_pd(sums, 0x55)),
+                                                 _mm256_mul_pd(hi, _mm256_permute4x64_pd(sums, 0xFF)));
+            const __m256d size = _mm256_mul_pd(_mm256_set1_pd(8.0 * kU),
+                                               _mm256_add_pd(_mm256_permute4x64_pd(sums, 0x00), _mm256_mul_pd(hi, dabs)));
+            const __m256d e1 = _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(spread, size), _mm256_set1_pd(1.0 + 64.0 * kU)),
+                                             _mm256_set1_pd(256.0 * kDenormMin));
+            const __m256d norm = _mm256_sqrt_pd(q);
+            c_in = v_lt(_mm256_add_pd(_mm256_mul_pd(norm, _mm256_set1_pd(1.0 + 4.0 * kU)), e1), _mm256_set1_pd(cp.clip_yes));
+            c_out = v_gt(_mm256_sub_pd(_mm256_mul_pd(norm, _mm256_set1_pd(1.0 - 4.0 * kU)), e1), _mm256_set1_pd(cp.clip_no));
+        }
+        if (memo) {
+            _mm256_storeu_pd(memo->lo + g, lo);
+            _mm256_storeu_pd(memo->hi + g, hi);
+            memo->mod_ok[group] = static_cast<std::uint8_t>(_mm256_movemask_pd(mod_ok));
+            memo->c_in[group] = static_cast<std::uint8_t>(_mm256_movemask_pd(c_in));
+            memo->c_out[group] = static_cast<std::uint8_t>(_mm256_movemask_pd(c_out));
+            memo->groups |= static_cast<std::uint8_t>(1u << group);
+        }
     }
     const __m256d fb = v_or(v_and(valid, band_fb), v_andnot(v_and(mod_ok, v_or(c_in, c_out)), needs));
     const __m256d live = v_andnot(v_or(fb, c_out), needs);
@@ -453,12 +483,12 @@ __attribute__((noinline)) void classify_fallback(const RootDisc* discs, int n, c
 
 /// Four discs (the common case: every degree-4 polynomial), straight.
 ARGAND_AVX2 __attribute__((noinline)) void classify_four(const RootDisc* discs, const ClassifyPlan& cp,
-                                                         const ObjectRay& ray, DiscVerdicts& v) {
+                                                         const ObjectRay& ray, DiscVerdicts& v, ClassifyMemo* memo) {
     v.live = v.eligible = 0;
     std::uint64_t fallback = 0;
     __m256d lo, hi, live, eligible;
     int ones;
-    classify_group(discs, discs + 1, discs + 2, discs + 3, 0, cp, ray, v, fallback, lo, hi, live, eligible, ones);
+    classify_group(discs, discs + 1, discs + 2, discs + 3, 0, cp, ray, v, memo, fallback, lo, hi, live, eligible, ones);
     if (fallback != 0) {
         classify_fallback(discs, 4, cp, ray, v, fallback);
         finish_choice(discs, v);
@@ -496,7 +526,7 @@ namespace {
 /// Any number of discs, four at a time (kNone past the end: count 0, not
 /// live).
 ARGAND_AVX2 __attribute__((noinline)) void classify_any(const RootDisc* discs, int n, const ClassifyPlan& cp,
-                                                        const ObjectRay& ray, DiscVerdicts& v) {
+                                                        const ObjectRay& ray, DiscVerdicts& v, ClassifyMemo* memo) {
     // (The padding disc's lanes are masked out by its count 0, whatever its
     // centre; centred at 1, their moduli and bounds stay normal numbers. At
     // 0, the outward steps of the moduli made subnormals, and each
@@ -511,7 +541,7 @@ ARGAND_AVX2 __attribute__((noinline)) void classify_any(const RootDisc* discs, i
         const RootDisc* p3 = g + 3 < n ? discs + g + 3 : &kNone;
         __m256d lo, hi, live, eligible;
         int ones;
-        classify_group(discs + g, p1, p2, p3, g, cp, ray, v, fallback, lo, hi, live, eligible, ones);
+        classify_group(discs + g, p1, p2, p3, g, cp, ray, v, memo, fallback, lo, hi, live, eligible, ones);
     }
     if (fallback != 0) classify_fallback(discs, n, cp, ray, v, fallback);
     finish_choice(discs, v);
@@ -519,18 +549,21 @@ ARGAND_AVX2 __attribute__((noinline)) void classify_any(const RootDisc* discs, i
 
 }  // namespace
 
-void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v) {
+void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v,
+                         ClassifyMemo* memo) {
     static_assert(sizeof(RootDisc) == 32 && offsetof(RootDisc, re) == 0 && offsetof(RootDisc, im) == 8 &&
                       offsetof(RootDisc, radius) == 16 && offsetof(RootDisc, count) == 24 &&
                       offsetof(RootDisc, real) == 29,
                   "classify_discs_avx2 loads a disc as four doubles");
-    if (n == 4) classify_four(discs, cp, ray, v);
-    else classify_any(discs, n, cp, ray, v);
+    if (n > ClassifyMemo::kDiscs) memo = nullptr;
+    if (n == 4) classify_four(discs, cp, ray, v, memo);
+    else classify_any(discs, n, cp, ray, v, memo);
 }
 
 #else
 bool classify_discs_avx2_supported() { return false; }
-void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v) {
+void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v,
+                         ClassifyMemo*) {
     classify_discs_scalar(discs, n, cp, ray, v);
 }
 #endif

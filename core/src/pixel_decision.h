@@ -464,23 +464,42 @@ struct ClassifyPlan {
 };
 ClassifyPlan classify_plan(const FramePlan& plan, bool complex_space, double clip_radius);
 
+/// What classify_discs_avx2 proved about one sample's discs that no band
+/// changes: per group of four discs, the moduli's bounds (modulus_fast) and
+/// the sphere's first test (clip_fast), with the lanes where those held
+/// (mod_ok) as bits. The bands of a tile share their primary discs
+/// (render_tile_bands): the first band that needs a group's moduli computes
+/// them, the others read them back, the same bits. A memo belongs to one
+/// set of discs, one ray and one ClassifyPlan's sphere (which the bands
+/// share): whoever changes any of them clears `groups`.
+struct ClassifyMemo {
+    static constexpr int kDiscs = 12;  // (kBatchKernelMaxDegree: a batch's discs at most)
+    std::uint8_t groups = 0;           // bit k: group k (discs 4k..4k+3) is held
+    std::uint8_t mod_ok[kDiscs / 4], c_in[kDiscs / 4], c_out[kDiscs / 4];
+    double lo[kDiscs], hi[kDiscs];
+};
+
 /// The verdicts of discs[0..n) (n <= kMaxDegree), all verified and of a
 /// complete polynomial: for each disc, exactly band_fast_verified, then
 /// (band not No) modulus_fast and (clip_radius > 0) clip_fast, that is
 /// exactly decide_full's band_membership (with proven_real), modulus_bounds
 /// and inside_clip. Writes v.live, v.eligible, lo and hi of live discs, and
-/// v's choice (finish_choice).
+/// v's choice (finish_choice). `memo` (optional, n <= ClassifyMemo::kDiscs):
+/// the sample's band-independent verdicts, read where held, kept where made
+/// (the scalar form ignores it).
 using ClassifyDiscs = void (*)(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray,
-                               DiscVerdicts& v);
+                               DiscVerdicts& v, ClassifyMemo* memo);
 /// One disc at a time (the reference of the quick form below; a disc that
 /// is its predecessor's exact mirror image takes its verdicts).
-void classify_discs_scalar(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v);
+void classify_discs_scalar(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v,
+                           ClassifyMemo* memo = nullptr);
 /// Four discs per AVX2 vector: every quick test of band_fast, modulus_fast
 /// and clip_fast at once, with the same operations in the same order per
 /// lane (so the same roundings), and the scalar reference for a disc any of
 /// them leaves undecided (near an edge, a sphere, zero, a mirror test, outside
 /// the safe range). Only where classify_discs_avx2_supported().
-void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v);
+void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v,
+                         ClassifyMemo* memo = nullptr);
 bool classify_discs_avx2_supported();
 /// The fastest supported form (`scalar`: the scalar one).
 ClassifyDiscs classify_discs_best(bool scalar = false);

@@ -641,8 +641,14 @@ static void test_fast_decisions() {
                                {0.1, 0.2},  {0.0, kPiDouble},     {1.0, 0.0},            {0.5, kPiDouble - 0.5},
                                {1e-300, 0.3}};
     long compared = 0, mirror_real = 0, twins = 0;
-    for (const auto& b : bands) {
+    long memo_shared = 0;
+    const int n_bands = static_cast<int>(sizeof bands / sizeof bands[0]);
+    for (int bi = 0; bi < n_bands; ++bi) {
+        const auto& b = bands[bi];
         const FramePlan plan = plan_with(b[0], b[1]);
+        // Another band of the same rays (render_tile_bands' sharing of a
+        // ClassifyMemo).
+        const FramePlan other = plan_with(bands[(bi + 3) % n_bands][0], bands[(bi + 3) % n_bands][1]);
         for (int cs = 0; cs < 2; ++cs) {
             const BandPlan bp = band_plan(plan, cs == 1);
             for (int trial = 0; trial < 4000; ++trial) {
@@ -768,8 +774,14 @@ static void test_classify_discs() {
     long compared = 0, live = 0, eligible = 0;
     const bool avx2 = classify_discs_avx2_supported();
     std::printf("classify_discs_avx2 supported: %d\n", avx2 ? 1 : 0);
-    for (const auto& b : bands) {
+    long memo_shared = 0;
+    const int n_bands = static_cast<int>(sizeof bands / sizeof bands[0]);
+    for (int bi = 0; bi < n_bands; ++bi) {
+        const auto& b = bands[bi];
         const FramePlan plan = plan_with(b[0], b[1]);
+        // Another band of the same rays (render_tile_bands' sharing of a
+        // ClassifyMemo).
+        const FramePlan other = plan_with(bands[(bi + 3) % n_bands][0], bands[(bi + 3) % n_bands][1]);
         for (int cs = 0; cs < 2; ++cs) {
             for (int trial = 0; trial < 6000; ++trial) {
                 RootDisc all[16];
@@ -810,6 +822,25 @@ static void test_classify_discs() {
                 classify_discs_avx2(all, n, cp, ray, va);
                 CHECK(vs.live == va.live && vs.eligible == va.eligible);
                 CHECK(vs.best == va.best && vs.count == va.count && vs.blockers == va.blockers);
+                if (avx2 && n <= ClassifyMemo::kDiscs) {
+                    // The memo filled by another band (its moduli and sphere
+                    // kept for the groups that band needed), then by this
+                    // band itself: the same verdicts as without a memo.
+                    for (int fill = 0; fill < 2; ++fill) {
+                        ClassifyMemo memo;
+                        DiscVerdicts vo, vm;
+                        if (fill == 0) classify_discs_avx2(all, n, classify_plan(other, cs == 1, radius), ray, vo, &memo);
+                        else classify_discs_avx2(all, n, cp, ray, vo, &memo);
+                        memo_shared += memo.groups != 0;
+                        classify_discs_avx2(all, n, cp, ray, vm, &memo);
+                        CHECK(vm.live == va.live && vm.eligible == va.eligible && vm.best == va.best &&
+                              vm.count == va.count && vm.blockers == va.blockers);
+                        for (std::uint64_t m = va.live; m != 0; m &= m - 1) {
+                            const int i = __builtin_ctzll(m);
+                            CHECK(std::memcmp(&vm.lo[i], &va.lo[i], 8) == 0 && std::memcmp(&vm.hi[i], &va.hi[i], 8) == 0);
+                        }
+                    }
+                }
                 for (int i = 0; i < n; ++i) {
                     const RootDisc& d = all[i];
                     const std::uint64_t bit = std::uint64_t{1} << i;
@@ -837,7 +868,9 @@ static void test_classify_discs() {
             }
         }
     }
-    std::printf("classify: %ld discs, %ld live, %ld eligible\n", compared, live, eligible);
+    std::printf("classify: %ld discs, %ld live, %ld eligible; %ld memos shared\n", compared, live, eligible,
+                memo_shared);
+    CHECK(!avx2 || memo_shared > 1000);
     CHECK(compared > 100000 && live > 10000 && eligible > 5000);
 }
 

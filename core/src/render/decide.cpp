@@ -35,7 +35,7 @@ bool Decider::decide_fast(const ObjectRoots* roots, HitInfo& h) const {
         if (r.status != Status::Ok || !r.complete) return false;  // (degenerate or incomplete)
         // decide_full's verdicts: band (with proven_real, every disc
         // verified), then (not proven out of the band) moduli and sphere.
-        classify_(r.res.discs, r.res.n_discs, classify_plans_[obj], r.ray, v);
+        classify_(r.res.discs, r.res.n_discs, classify_plans_[obj], r.ray, v, r.res.memo);
         for (std::uint64_t m = v.live; m != 0; m &= m - 1) {
             const int i = __builtin_ctzll(m);
             if (n_live == kLive) return false;

@@ -84,7 +84,7 @@ public:
         }
         const RootDisc* discs = r.res.discs;
         detail::DiscVerdicts v;
-        classify_(discs, r.res.n_discs, classify_plans_[0], r.ray, v);
+        classify_(discs, r.res.n_discs, classify_plans_[0], r.ray, v, r.res.memo);
         if (v.best < 0) {
             if (v.live != 0) return false;  // (a live disc blocks the miss)
             h.eligible = 0;

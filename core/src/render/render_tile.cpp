@@ -177,6 +177,7 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
     for (const SurfaceSpec& s : plan.scene.objects)
         bounces.push_back(!s.complex_space && 0 < fp.max_depth &&
                           (s.material.reflectivity > 0 || s.material.transparency > 0));
+    const bool any_bounce = std::find(bounces.begin(), bounces.end(), 1) != bounces.end();
     ShadeMemo memo[PrimaryBatch::kCells];
     const bool share_colours = bands.size() > 1;  // (a lone frame has no other band to share with)
     detail::SampleRowInput row_in;
@@ -223,6 +224,11 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                 for (auto& band : bands) {
                     Tracer& tracer = band->tracer;
                     const std::size_t stride = static_cast<std::size_t>(band->out.stride);
+                    // A band counted, not written (TileView without planes),
+                    // whose hits bounce no ray: its certified hits need no
+                    // value and no colour (shade then reads nothing the
+                    // figures count: no ray, no root call), so neither is made.
+                    const bool values = band->out.rgba != nullptr || any_bounce;
                     for (int c = 0; c < cells; ++c) {
                         const BatchedCell pre{&batch, c};
                         const int sx = b0 + c;
@@ -232,7 +238,7 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                         const double dir[3] = {dx[c], dy[c], dz[c]};
                         SampleResult sample;
                         bool filled = false;
-                        if (all_batched && tracer.intersect_batched(pre, sample.hit, filled)) {
+                        if (all_batched && tracer.intersect_batched(pre, sample.hit, filled, values)) {
                             // trace_sample's shading of the certified hit (the
                             // ray's origin is the eye's doubles). Shading a
                             // root that bounces no ray reads only the root,
@@ -240,7 +246,9 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                             // chose the root an earlier band of this sample
                             // chose takes that band's colour, the same bits.
                             ShadeMemo& m = memo[c];
-                            if (share_colours && sample.hit.hit && m.valid && m.same(sample.hit)) {
+                            if (!values) {
+                                for (float& v : sample.rgb) v = 0.0f;
+                            } else if (share_colours && sample.hit.hit && m.valid && m.same(sample.hit)) {
                                 for (int a = 0; a < 3; ++a) sample.rgb[a] = m.rgb[a];
                             } else {
                                 double rgb[3];

@@ -225,6 +225,7 @@ void PrimaryBatch::fill(int obj, int c, ObjectRoots& r, bool all) const {
     }
     r.outside_sphere = false;
     r.res.bind(o.res[c]);
+    r.res.memo = &o.memo[c];
     r.status = o.status[c];
     r.complete = o.complete[c] != 0;
     r.provisional = o.provisional[c] != 0;
@@ -263,7 +264,10 @@ void PrimaryBatch::prepare(int obj, const double* dx, const double* dy, const do
             o.outside[c] = detail::ray_misses_sphere(ray, s.clip_radius) ? 1 : 0;
         }
     }
-    for (int c = 0; c < cells; ++c) o.skip[c] = o.run.finite[c] == 0 || o.outside[c] != 0;
+    for (int c = 0; c < cells; ++c) {
+        o.skip[c] = o.run.finite[c] == 0 || o.outside[c] != 0;
+        o.memo[c].groups = 0;
+    }
 }
 
 bool PrimaryBatch::solve_real(int obj, int c, RootDisc* discs, int& n_discs) const {
@@ -338,12 +342,14 @@ bool PrimaryBatch::solve_real(int obj, int c, RootDisc* discs, int& n_discs) con
     bool first_kept = false;
     const detail::ClipSums sums = detail::clip_sums(ray);
     for (int i = 0; i < iso.n; ++i) {
-        double lo = iso.lo[i], hi = iso.hi[i];
+        double lo = iso.lo[i], hi = iso.hi[i], value = NAN;
         Verdict v = Verdict::Unknown;
         bool tight = false;
         for (int pass = 0; pass < 2; ++pass) {
             RootDisc& d = discs[i];
-            d.re = 0.5 * lo + 0.5 * hi;
+            // (Centred on Newton's settled iterate where there is one: the
+            // root of the centres' polynomial, which the pixel shows.)
+            d.re = tight && value >= lo && value <= hi ? value : 0.5 * lo + 0.5 * hi;
             d.im = 0.0;
             d.radius = next_up(std::max(d.re - lo, hi - d.re) * (1.0 + 4.0 * kUnitRoundoff));
             d.count = 1;
@@ -356,7 +362,7 @@ bool PrimaryBatch::solve_real(int obj, int c, RootDisc* discs, int& n_discs) con
                           : detail::clip_fast(ray, sums, mlo, mhi, radius);
             const bool wants_value = v == Verdict::Yes && !first_kept;
             if ((v != Verdict::Unknown && !wants_value) || pass == 1) break;
-            if (!detail::narrow_real_root(coeffs, radii, n, lo, hi, &tight, iso.guess[i])) break;
+            if (!detail::narrow_real_root(coeffs, radii, n, lo, hi, &tight, iso.guess[i], &value)) break;
         }
         if (v == Verdict::Unknown || (v == Verdict::Yes && !first_kept && !tight)) return false;
         first_kept = first_kept || v == Verdict::Yes;

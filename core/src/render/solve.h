@@ -29,7 +29,12 @@ struct RootsView {
     std::int32_t n_infinite = 0;
     bool wants_exact = false;
     std::int32_t escalation = 0;
+    // The band-independent verdicts of these discs on this ray
+    // (detail::ClassifyMemo), where the bands of a tile share them: set by
+    // PrimaryBatch::fill for the batch's discs, null for any other.
+    ClassifyMemo* memo = nullptr;
     void bind(const RootsResult& r) {
+        memo = nullptr;
         discs = r.discs;
         n_discs = r.n_discs;
         n_infinite = r.n_infinite;
@@ -298,6 +303,9 @@ private:
         bool clipped = false;  // a clipping sphere: the decisions read the ray
         bool real = false;     // the real-root path first (use_real_path)
         std::uint8_t real_done[kCells] = {};  // the cell's roots are the real path's
+        // Each cell's band-independent verdicts (RootsView::memo), cleared
+        // by prepare as the cells take new rays.
+        mutable ClassifyMemo memo[kCells];
     };
     const FramePlan& plan_;
     BatchIsa isa_;

@@ -49,7 +49,10 @@ public:
     /// when the slots hold the batch's roots (decide_fast ran and did not
     /// certify): the caller runs intersect with that, which decides them in
     /// full without filling them again.
-    bool intersect_batched(const BatchedCell& pre, HitInfo& h, bool& filled) {
+    /// `values` false (a band whose pixels are not written, whose hits
+    /// bounce no ray): the hit's root is not polished (its value only feeds
+    /// the AOVs and the colour; the decision and every figure stay).
+    bool intersect_batched(const BatchedCell& pre, HitInfo& h, bool& filled, bool values = true) {
         filled = false;
         if (decider_.full_only()) return false;
         const int n_obj = static_cast<int>(plan_.scene.objects.size());
@@ -68,7 +71,7 @@ public:
         filled = true;
         if (!(n_obj == 1 ? decider_.decide_one(roots, h) : decider_.decide_fast(roots, h))) return false;
         root_calls += calls;
-        if (h.hit && detail::wants_polish(h.disc)) {
+        if (values && h.hit && detail::wants_polish(h.disc)) {
             double c[kMaxDegree + 1];
             pre.batch->coefficients(h.object, pre.cell, c);
             polish(h, c, plan_.scene.objects[h.object].degree);
