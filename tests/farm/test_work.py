@@ -455,3 +455,33 @@ def test_a_job_stays_typed_from_the_request_to_the_store(farm_parts):
     with session_scope(settings.sqlalchemy_url) as s:
         stored = s.get(Job, job_id).scene
     assert stored == scene.to_dict() and stored["samples"] == 4 and scene_from_dict(stored) == scene
+
+
+def test_the_end_of_a_job_removes_what_killed_writers_left(tmp_path):
+    """remove_all_tiles: the tile folder, and a frame file's temporary older
+    than STALE_TEMPORARY_S (a writer killed mid-write); a fresh temporary (a
+    writer still at work) and every finished file stay."""
+    import os
+    import time
+
+    from argand.farm.store import STALE_TEMPORARY_S
+    from argand.media.atomic import is_temporary
+
+    store = FrameStore(tmp_path / "store")
+    layout = store.job("j1")
+    layout.folder.mkdir(parents=True)
+    (layout.folder / "tiles" / "0").mkdir(parents=True)
+    (layout.folder / "tiles" / "0" / "w1.chunk").write_bytes(b"x")
+    done = layout.frame(6, "png")
+    done.write_bytes(b"png")
+    stale = layout.folder / "frame_0006.png.287b57804935.tmp.png"
+    fresh = layout.folder / "frame_0007.png.0123456789ab.tmp.png"
+    assert is_temporary(stale.name) and is_temporary(fresh.name)
+    stale.write_bytes(b"half")
+    fresh.write_bytes(b"half")
+    old = time.time() - 2 * STALE_TEMPORARY_S
+    os.utime(stale, (old, old))
+    store.remove_all_tiles("j1")
+    assert not (layout.folder / "tiles").exists()
+    assert not stale.exists()
+    assert fresh.exists() and done.read_bytes() == b"png"

@@ -14,14 +14,20 @@ from __future__ import annotations
 
 import errno
 import json
+import os
 import shutil
+import time
 import struct
 from pathlib import Path
 
 import numpy as np
 
 from argand.farm.layout import JobLayout
-from argand.media.atomic import write_atomic
+from argand.media.atomic import is_temporary, write_atomic
+
+#: A temporary frame file this old (seconds) at the job's end is a killed
+#: writer's (remove_all_tiles).
+STALE_TEMPORARY_S = 5.0
 
 _MAGIC = b"ARGT1\n"
 
@@ -128,8 +134,22 @@ class FrameStore:
     def remove_all_tiles(self, job_id: str) -> None:
         """Drops every frame's tile folder once the job's frames are all
         done: a chunk a stale worker wrote after its frame was assembled
-        (its commit then lost, or never answered on a lossy link) goes too."""
+        (its commit then lost, or never answered on a lossy link) goes too,
+        and so does a frame file's temporary that a writer killed mid-write
+        left (one older than STALE_TEMPORARY_S: no frame file takes that
+        long, so its writer is gone)."""
         shutil.rmtree(self.job(job_id).folder / "tiles", ignore_errors=True)
+        now = time.time()
+        try:
+            entries = list(os.scandir(self.job(job_id).folder))
+        except OSError:
+            return
+        for entry in entries:
+            try:
+                if is_temporary(entry.name) and now - entry.stat().st_mtime > STALE_TEMPORARY_S:
+                    os.unlink(entry.path)
+            except OSError:  # (gone meanwhile: renamed by its writer, or removed)
+                continue
 
     def remove_job(self, job_id: str) -> None:
         folder = self.job(job_id).folder
