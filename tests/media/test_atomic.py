@@ -5,11 +5,34 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
+import subprocess
+import sys
 import threading
 
 import pytest
 
+from argand.media import atomic
 from argand.media.atomic import atomic_path, is_temporary, temporary_beside, write_atomic
+
+
+@pytest.fixture(autouse=True, params=["anonymous", "named"])
+def way(request, monkeypatch):
+    """Every test runs both ways a file is written: as an anonymous file
+    (O_TMPFILE, where the filesystem has it) and under a temporary name
+    (where it has not, as on NFS)."""
+    if request.param == "named":
+        monkeypatch.setattr(atomic, "_anonymous", lambda folder: None)
+    return request.param
+
+
+def test_the_anonymous_way_is_taken_where_the_filesystem_has_it(tmp_path, way):
+    """On this machine's temporary folder (ext4, tmpfs or overlayfs: all have
+    O_TMPFILE) the anonymous way is the one taken."""
+    fd = atomic._anonymous(tmp_path)
+    assert (fd is not None) == (way == "anonymous")
+    if fd is not None:
+        os.close(fd)
 
 
 def test_a_write_is_whole_and_leaves_no_temporary(tmp_path):
@@ -89,3 +112,69 @@ def test_a_folder_removed_under_the_writer_is_made_again(tmp_path):
     assert (folder / "0001.gif").read_bytes() == b"GIF89a"
     with pytest.raises(FileNotFoundError):
         write_atomic(tmp_path / "absent" / "x.bin", b"x", make_folder=False)
+
+
+_KILLED_WRITER = """
+import sys, time
+from pathlib import Path
+from argand.media import atomic
+if sys.argv[2] == "named":
+    atomic._anonymous = lambda folder: None
+def parts():
+    yield b"x" * 100_000
+    print("writing", flush=True)
+    time.sleep(60)
+    yield b"never"
+if sys.argv[3] == "bytes":
+    atomic.write_atomic(Path(sys.argv[1]), parts())
+else:
+    with atomic.atomic_path(Path(sys.argv[1])) as tmp:
+        with open(tmp, "wb") as f:
+            f.write(b"x" * 100_000)
+            f.flush()
+            print("writing", flush=True)
+            time.sleep(60)
+"""
+
+
+@pytest.mark.parametrize("how", ["bytes", "path"])
+def test_a_writer_killed_mid_write_keeps_the_old_file(tmp_path, way, how):
+    """A writer killed (SIGKILL, as a worker at its hard time limit) in the
+    middle of a write: the old file stays whole; the anonymous way leaves
+    nothing else, the named way leaves one temporary that is_temporary
+    recognises (what the sweeps remove)."""
+    path = tmp_path / "frame_0002.exr"
+    path.write_bytes(b"old")
+    with subprocess.Popen([sys.executable, "-c", _KILLED_WRITER, str(path), way, how],
+                          stdout=subprocess.PIPE, text=True) as proc:
+        try:
+            assert proc.stdout.readline().strip() == "writing"
+        finally:
+            proc.send_signal(signal.SIGKILL)
+            proc.wait(10)
+    assert path.read_bytes() == b"old"
+    left = sorted(set(os.listdir(tmp_path)) - {"frame_0002.exr"})
+    if way == "anonymous":
+        assert left == []
+    else:
+        assert len(left) == 1 and is_temporary(left[0]), left
+
+
+def test_an_image_and_a_video_are_written_by_name_both_ways(tmp_path):
+    """OpenImageIO and PyAV open the path they are given by name (PyAV twice,
+    to move the MP4's index to the front): both write whole files either way."""
+    import numpy as np
+
+    from argand.media.frame_files import write_png
+    from argand.media.video import Mp4Encoder
+
+    pixels = np.zeros((16, 16, 4), np.uint8)
+    pixels[..., 0] = np.arange(16, dtype=np.uint8)[None, :] * 16
+    write_png(pixels, tmp_path / "a.png")
+    assert (tmp_path / "a.png").read_bytes()[-12:] == b"\x00\x00\x00\x00IEND\xaeB`\x82"
+    with atomic_path(tmp_path / "animation.mp4") as tmp, Mp4Encoder(tmp, 8) as encoder:
+        for k in range(4):
+            encoder.add(np.full((16, 16, 3), 60 * k, np.uint8))
+    data = (tmp_path / "animation.mp4").read_bytes()
+    assert data[4:8] == b"ftyp" and data.index(b"moov") < data.index(b"mdat")  # faststart: the index first
+    assert sorted(os.listdir(tmp_path)) == ["a.png", "animation.mp4"]

@@ -2,17 +2,25 @@
 reading (a frame's EXR and PNG, a root field, an animation, a tile chunk),
 on this machine and in the farm's shared store alike.
 
-A file is written under a temporary name of its own beside its final path
-(the same folder, so the rename stays on one filesystem) and renamed over
-it once complete: a reader sees the old file, or the new one whole, never
-half of one. Two writers of the same path (two processes, two requests)
-each write their own temporary and the last rename wins with a whole file.
-A write that fails leaves no temporary behind. This needs of a shared
-filesystem only an atomic rename within a folder (docs/deploy.md).
+A file is written as an anonymous file in its final folder (Linux's
+O_TMPFILE: it has no name while it is written), then linked under a
+temporary name of its own and renamed over its final path at once: a
+reader sees the old file, or the new one whole, never half of one. Two
+writers of the same path (two processes, two requests) each write their own
+file and the last rename wins with a whole file. A write that fails leaves
+nothing behind, and so does a writer killed mid-write (a worker stopped at
+its hard time limit): the kernel drops a file that was never linked. Where
+the filesystem has no O_TMPFILE (NFS), the file is written under its
+temporary name from the start; a killed writer then leaves that name,
+which is_temporary recognises for the sweeps that remove it (the farm's
+FrameStore at a job's end, `argand render` at the start of a run). This
+needs of a shared filesystem only an atomic rename within a folder
+(docs/deploy.md).
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import uuid
 from contextlib import contextmanager
@@ -27,14 +35,69 @@ def temporary_beside(path: Path) -> Path:
     return path.with_name(f"{path.name}.{uuid.uuid4().hex[:12]}.tmp{path.suffix}")
 
 
-@contextmanager
-def atomic_path(path: Path, make_folder: bool = True) -> Iterator[Path]:
-    """Yields a temporary path to write ``path``'s content to; on a normal
-    exit it is renamed to ``path``, on an exception it is removed (and the
-    exception goes on). ``make_folder``: create ``path``'s folder first."""
-    path = Path(path)
+def _anonymous(folder: Path) -> int | None:
+    """A file descriptor of a new anonymous file in ``folder`` (O_TMPFILE),
+    or None where the system or the filesystem has none (the caller then
+    writes under a temporary name)."""
+    flag = getattr(os, "O_TMPFILE", None)
+    if flag is None or not os.path.isdir("/proc/self/fd"):
+        return None
+    try:
+        return os.open(folder, flag | os.O_RDWR, 0o644)
+    except OSError as exc:
+        if exc.errno in (errno.EOPNOTSUPP, errno.EISDIR, errno.EINVAL, errno.ENOENT, errno.ENOTDIR):
+            return None  # (no O_TMPFILE there, or the folder is gone: the named way says which)
+        raise
+
+
+def _publish(fd: int, path: Path) -> None:
+    """Gives the anonymous file ``fd`` the name ``path``, replacing what was
+    there in one rename (a file cannot be linked over an existing name, so
+    it gets a temporary name first, for the microseconds until the rename)."""
+    tmp = temporary_beside(path)
+    # linkat(AT_SYMLINK_FOLLOW) on the /proc link: Python calls plain link()
+    # (which would link the symlink itself) unless a folder descriptor is given.
+    folder = os.open(path.parent, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        os.link(f"/proc/self/fd/{fd}", tmp.name, src_dir_fd=folder, dst_dir_fd=folder, follow_symlinks=True)
+    finally:
+        os.close(folder)
+    try:
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)  # only there when the rename failed
+
+
+def _folder_of(path: Path, make_folder: bool) -> None:
     if make_folder:
         path.parent.mkdir(parents=True, exist_ok=True)
+
+
+@contextmanager
+def atomic_path(path: Path, make_folder: bool = True) -> Iterator[Path]:
+    """Yields a path to write ``path``'s content to (opened by name, as
+    OpenImageIO and PyAV do); on a normal exit the content becomes ``path``,
+    on an exception it is dropped (and the exception goes on). The yielded
+    path may have no suffix (/proc/self/fd/N of an anonymous file): writers
+    that pick a format must take it from ``path``. ``make_folder``: create
+    ``path``'s folder first."""
+    path = Path(path)
+    _folder_of(path, make_folder)
+    fd = _anonymous(path.parent)
+    if fd is not None:
+        try:
+            yield Path(f"/proc/self/fd/{fd}")
+            _publish(fd, path)
+        finally:
+            os.close(fd)
+        return
+    with _named(path) as tmp:
+        yield tmp
+
+
+@contextmanager
+def _named(path: Path) -> Iterator[Path]:
+    """atomic_path where there is no anonymous file: under a temporary name."""
     tmp = temporary_beside(path)
     try:
         yield tmp
@@ -46,11 +109,21 @@ def atomic_path(path: Path, make_folder: bool = True) -> Iterator[Path]:
 def write_atomic(path: Path, data: bytes | bytearray | memoryview | Iterable[bytes | memoryview],
                  make_folder: bool = True) -> Path:
     """Writes ``data`` (bytes, or buffers written in order) to ``path``
-    whole or not at all (atomic_path). The temporary is created exclusively
-    (O_EXCL), so a name collision can never mix two writers. Returns ``path``."""
+    whole or not at all (atomic_path). A named temporary is created
+    exclusively (O_EXCL), so a name collision can never mix two writers.
+    Returns ``path``."""
     path = Path(path)
     parts = [data] if isinstance(data, (bytes, bytearray, memoryview)) else data
-    with atomic_path(path, make_folder) as tmp:
+    _folder_of(path, make_folder)
+    fd = _anonymous(path.parent)
+    if fd is not None:
+        with os.fdopen(fd, "wb") as f:
+            for part in parts:
+                f.write(part)
+            f.flush()
+            _publish(f.fileno(), path)
+        return path
+    with _named(path) as tmp:
         try:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
         except FileNotFoundError:  # the folder was removed under us (a job deleted): made again

@@ -140,14 +140,14 @@ PNG_END = b"\x00\x00\x00\x00IEND\xaeB`\x82"
 def _write(oiio, path: Path, spec, pixels: np.ndarray) -> None:
     # Whole or not at all (argand.media.atomic): readers never see half a frame.
     with atomic_path(path) as tmp:
-        out = oiio.ImageOutput.create(str(tmp))
+        out = oiio.ImageOutput.create(path.suffix.lstrip("."))  # (tmp may have no suffix: the format is path's)
         if out is None or not out.open(str(tmp), spec):
             raise OSError(f"cannot write {path}: {oiio.geterror()}")
         ok = out.write_image(pixels)
         out.close()
         if not ok:
             raise OSError(f"cannot write {path}: {out.geterror()}")
-        if tmp.suffix.lower() == ".png":
+        if path.suffix.lower() == ".png":
             _check_png_end(tmp, path)
 
 
@@ -165,7 +165,7 @@ def _check_png_end(tmp: Path, path: Path) -> None:
         f.seek(max(0, size - len(PNG_END)))
         whole = f.read() == PNG_END
     if not whole:
-        full = shutil.disk_usage(tmp.parent).free < (1 << 20)
+        full = shutil.disk_usage(path.parent).free < (1 << 20)
         code = errno.ENOSPC if full else errno.EIO
         raise OSError(code, f"{path.name} was cut short while it was written ({size} bytes)", str(path))
 
