@@ -164,6 +164,8 @@ public:
     PrimaryBatch(const FramePlan& plan, BatchIsa isa, bool cull) : plan_(plan), isa_(isa), cull_(cull) {
         static_assert(kCells == detail::kRunCells && kBatchKernelMaxDegree <= detail::kRunMaxDegree,
                       "PrimaryBatch's runs are primary_ray_polynomial_run's");
+        static_assert(ClassifyMemo::kDiscs == kBatchKernelMaxDegree,
+                      "a batched cell's memo holds a verdict for each of its discs");
         const int n_obj = static_cast<int>(plan.scene.objects.size());
         objects_.resize(static_cast<std::size_t>(n_obj));
         for (int obj = 0; obj < n_obj; ++obj) {
