@@ -458,7 +458,7 @@ def test_a_job_stays_typed_from_the_request_to_the_store(farm_parts):
 
 
 def test_the_end_of_a_job_removes_what_killed_writers_left(tmp_path):
-    """remove_all_tiles: the tile folder, and a frame file's temporary older
+    """clean_finished_job: the tile folder, and a frame file's temporary older
     than STALE_TEMPORARY_S (a writer killed mid-write); a fresh temporary (a
     writer still at work) and every finished file stay."""
     import os
@@ -481,7 +481,7 @@ def test_the_end_of_a_job_removes_what_killed_writers_left(tmp_path):
     fresh.write_bytes(b"half")
     old = time.time() - 2 * STALE_TEMPORARY_S
     os.utime(stale, (old, old))
-    store.remove_all_tiles("j1")
+    store.clean_finished_job("j1")
     assert not (layout.folder / "tiles").exists()
     assert not stale.exists()
     assert fresh.exists() and done.read_bytes() == b"png"

@@ -102,7 +102,7 @@ def finish_job_if_last(settings: Settings, job_id: str) -> None:
     if remaining == 0 and status is not None and JOB.allowed(status, "done"):
         if not settings.files_on_request:
             build_animation(settings, job_id)
-        store_for(settings).remove_all_tiles(job_id)  # (every frame is done: no chunk is read again)
+        store_for(settings).clean_finished_job(job_id)  # (every frame is done: no chunk is read again)
         with engine_for(url).begin() as c:
             c.execute(update(Job).where(Job.id == job_id, Job.status.in_(JOB.sources("done")))
                       .values(status="done", finished=time.time()))

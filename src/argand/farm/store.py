@@ -26,7 +26,7 @@ from argand.farm.layout import JobLayout
 from argand.media.atomic import is_temporary, write_atomic
 
 #: A temporary frame file this old (seconds) at the job's end is a killed
-#: writer's (remove_all_tiles).
+#: writer's (clean_finished_job).
 STALE_TEMPORARY_S = 5.0
 
 _MAGIC = b"ARGT1\n"
@@ -131,13 +131,14 @@ class FrameStore:
         folder = self.job(job_id).tiles(frame)
         shutil.rmtree(folder, ignore_errors=True)
 
-    def remove_all_tiles(self, job_id: str) -> None:
+    def clean_finished_job(self, job_id: str) -> None:
         """Drops every frame's tile folder once the job's frames are all
         done: a chunk a stale worker wrote after its frame was assembled
         (its commit then lost, or never answered on a lossy link) goes too,
         and so does a frame file's temporary that a writer killed mid-write
-        left (one older than STALE_TEMPORARY_S: no frame file takes that
-        long, so its writer is gone)."""
+        left on a filesystem without anonymous files (argand.media.atomic;
+        one older than STALE_TEMPORARY_S: no frame file takes that long, so
+        its writer is gone)."""
         shutil.rmtree(self.job(job_id).folder / "tiles", ignore_errors=True)
         now = time.time()
         try:
