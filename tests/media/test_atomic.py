@@ -178,3 +178,29 @@ def test_an_image_and_a_video_are_written_by_name_both_ways(tmp_path):
     data = (tmp_path / "animation.mp4").read_bytes()
     assert data[4:8] == b"ftyp" and data.index(b"moov") < data.index(b"mdat")  # faststart: the index first
     assert sorted(os.listdir(tmp_path)) == ["a.png", "animation.mp4"]
+
+
+def test_where_an_anonymous_file_cannot_be_linked_it_is_copied_and_later_writes_are_named(tmp_path, way,
+                                                                                          monkeypatch):
+    """A sandbox that forbids linkat through /proc (EPERM): the write still
+    lands whole (copied out of the anonymous file), and the process takes
+    the named way from then on. (The named way links nothing.)"""
+    real_link = os.link
+    calls = []
+
+    def refuse(*args, **kwargs):
+        calls.append(args)
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(atomic, "_linkable", True)
+    monkeypatch.setattr(os, "link", refuse)
+    data = bytes(range(256)) * 5000  # more than one copy block
+    write_atomic(tmp_path / "frame_0001.exr", data)
+    if way == "named":
+        assert calls == [] and (tmp_path / "frame_0001.exr").read_bytes() == data
+        return
+    assert (tmp_path / "frame_0001.exr").read_bytes() == data and len(calls) == 1
+    assert atomic._linkable is False and atomic._anonymous(tmp_path) is None
+    write_atomic(tmp_path / "frame_0002.exr", b"named")
+    assert len(calls) == 1 and sorted(os.listdir(tmp_path)) == ["frame_0001.exr", "frame_0002.exr"]
+    monkeypatch.setattr(os, "link", real_link)

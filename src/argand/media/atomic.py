@@ -35,12 +35,18 @@ def temporary_beside(path: Path) -> Path:
     return path.with_name(f"{path.name}.{uuid.uuid4().hex[:12]}.tmp{path.suffix}")
 
 
+#: False once linking an anonymous file failed for a reason other than a
+#: folder removed meanwhile (a sandbox that forbids linkat through /proc):
+#: this process then writes under temporary names from the start.
+_linkable = True
+
+
 def _anonymous(folder: Path) -> int | None:
     """A file descriptor of a new anonymous file in ``folder`` (O_TMPFILE),
     or None where the system or the filesystem has none (the caller then
     writes under a temporary name)."""
     flag = getattr(os, "O_TMPFILE", None)
-    if flag is None or not os.path.isdir("/proc/self/fd"):
+    if flag is None or not _linkable or not os.path.isdir("/proc/self/fd"):
         return None
     try:
         return os.open(folder, flag | os.O_RDWR, 0o644)
@@ -60,12 +66,34 @@ def _publish(fd: int, path: Path) -> None:
     folder = os.open(path.parent, os.O_RDONLY | os.O_DIRECTORY)
     try:
         os.link(f"/proc/self/fd/{fd}", tmp.name, src_dir_fd=folder, dst_dir_fd=folder, follow_symlinks=True)
+    except OSError as exc:
+        if exc.errno == errno.ENOENT:  # (the folder was removed under us: as a rename would)
+            raise
+        global _linkable
+        _linkable = False
+        _copy_out(fd, tmp)
     finally:
         os.close(folder)
     try:
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)  # only there when the rename failed
+
+
+def _copy_out(fd: int, tmp: Path) -> None:
+    """The anonymous file's content, copied to the new file ``tmp`` (where
+    it cannot be linked)."""
+    out = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+    try:
+        offset = 0
+        while block := os.pread(fd, 1 << 20, offset):
+            os.write(out, block)  # (a regular file: written whole)
+            offset += len(block)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    finally:
+        os.close(out)
 
 
 def _folder_of(path: Path, make_folder: bool) -> None:
