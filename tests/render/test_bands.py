@@ -88,6 +88,22 @@ def test_reflecting_and_real_objects_trace_their_bounces_per_band():
     assert len({f.rgba.tobytes() for f in frames}) > 2  # the bands do show different pictures
 
 
+def test_a_samples_ladder_answers_are_shared_by_its_bands_and_change_no_bit():
+    """The ladder's answers for a sample (merged discs settled, the ray's
+    double-double polynomial, discs shrunk, clusters re-isolated:
+    LadderMemo) are kept for the sample's other bands. On the Endrass octic, where pixels climb to
+    that rung in many bands of a δ sweep, each band rendered with the others
+    is the band alone to the bit, in either order of the bands (whichever
+    band asks first computes), and the bands do climb at the same pixels
+    (the shared answers are used, not only kept)."""
+    scene = load_scene("endrass-octic")
+    params = [FrameParams(sigma=0.0, delta=d, width=96, height=80) for d in np.linspace(0.0, math.pi / 9, 8)]
+    frames = compare(scene, params, tile=32)
+    compare(scene, params[::-1], tile=32)
+    climbed = np.stack([np.asarray(f.aovs["escalation"]) == 3 for f in frames])  # (3: the double-double ray)
+    assert int((climbed.sum(axis=0) >= 2).sum()) >= 20, int(climbed.sum())
+
+
 def test_the_order_of_the_bands_does_not_matter():
     scene = load_scene("whitney")
     params = [FrameParams(sigma=s, delta=d, width=33, height=21) for s, d in BANDS]

@@ -76,7 +76,8 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
             if (roots[obj].seeded) solve(roots[obj], plan_.scene.objects[obj].degree, nullptr);
         h = decider_.decide(roots, infos);
     }
-    if (h.status != kCertified && primary && refine(roots, infos)) {
+    if (h.status != kCertified && primary &&
+        refine(roots, infos, pre != nullptr ? pre->batch->ladder_memo(pre->cell) : nullptr)) {
         level = kLevelDoubleDouble;
         h = decider_.decide(roots, infos);
     }
@@ -158,15 +159,57 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
     return h;
 }
 
-bool Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos) {
+bool Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, LadderMemo* memo) {
     bool changed = false;
     auto ensure_dd = [&](int obj) {
         ObjectRoots& r = roots[obj];
-        if (!r.have_dd) {
-            detail::primary_ray_polynomial_dd(plan_.scene.objects[obj], plan_.objects[obj], current_direction_,
-                                              r.poly_dd);
-            r.have_dd = true;
+        if (r.have_dd) return;
+        r.have_dd = true;
+        if (memo)
+            for (const LadderMemo::Dd& e : memo->dd)
+                if (e.obj == obj) {
+                    r.poly_dd = e.p;
+                    return;
+                }
+        detail::primary_ray_polynomial_dd(plan_.scene.objects[obj], plan_.objects[obj], current_direction_, r.poly_dd);
+        if (memo && memo->dd.size() < LadderMemo::kEntries) memo->dd.push_back({obj, r.poly_dd});
+    };
+    // isolate_dd on r's discs, or the answer a band of this sample got for
+    // the same discs.
+    auto isolate = [&](int obj, ObjectRoots& r) {
+        RootsResult& own = r.writable();
+        if (memo)
+            for (const LadderMemo::Isolated& e : memo->isolated)
+                if (e.obj == obj && LadderMemo::same(e.in, own)) {
+                    LadderMemo::copy(e.out, own);
+                    return e.done;
+                }
+        LadderMemo::Isolated* kept = nullptr;
+        if (memo && memo->isolated.size() < LadderMemo::kEntries) {
+            memo->isolated.emplace_back();
+            kept = &memo->isolated.back();
+            kept->obj = obj;
+            LadderMemo::copy(own, kept->in);
         }
+        const bool done = detail::isolate_dd(r.poly_dd, own);
+        if (kept) {
+            kept->done = done;
+            LadderMemo::copy(own, kept->out);
+        }
+        return done;
+    };
+    // refine_disc_dd on disc, likewise.
+    auto shrink = [&](int obj, bool real, RootDisc& disc) {
+        if (memo)
+            for (const LadderMemo::Shrunk& e : memo->shrunk)
+                if (e.obj == obj && e.real == real && LadderMemo::same(e.in, disc)) {
+                    disc = e.out;
+                    return e.changed;
+                }
+        const RootDisc in = disc;
+        const bool done = detail::refine_disc_dd(roots[obj].poly_dd, real, disc);
+        if (memo && memo->shrunk.size() < LadderMemo::kEntries) memo->shrunk.push_back({obj, real, done, in, disc});
+        return done;
     };
     const int n_obj = static_cast<int>(plan_.scene.objects.size());
     std::vector<bool> isolated(n_obj, false);
@@ -175,7 +218,7 @@ bool Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos) {
         if (!info.live || isolated[info.object] || !r.complete) continue;
         if (r.res.discs[info.index].count < 2) continue;
         ensure_dd(info.object);
-        const bool done = detail::isolate_dd(r.poly_dd, r.writable());
+        const bool done = isolate(info.object, r);
         r.res.bind(r.own);  // (its header may have changed)
         if (done) {
             isolated[info.object] = true;
@@ -189,7 +232,7 @@ bool Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos) {
         ensure_dd(info.object);
         RootDisc& disc = r.writable().discs[info.index];
         const bool real_before = info.real;
-        if (detail::refine_disc_dd(r.poly_dd, real_before, disc)) {
+        if (shrink(info.object, real_before, disc)) {
             // A proven real root stays real: its disc is now centred on
             // the axis (Newton on the real line) and symmetric.
             if (real_before) disc.real = true;

@@ -146,6 +146,7 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
         bands.push_back(std::make_unique<BandTrace>(*plans[b], exact, *outs[b], w));
     }
     PrimaryBatch batch(plan, resolved_kernel(plan.params.engine), plan.params.engine.cull);
+    batch.share_ladder(bands.size() > 1);  // (the ladder's answers, for the other bands of a sample)
     batch.begin_tile(side * w);
     // The real-root path (EngineOptions::real), for the objects every band
     // here shows only real roots of; not while a root field is kept.

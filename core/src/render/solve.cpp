@@ -14,6 +14,8 @@
 namespace argand::detail {
 
 void PrimaryBatch::solve(const double* dx, const double* dy, const double* dz, int cells, int first) {
+    if (share_ladder_)
+        for (int c = 0; c < cells; ++c) ladder_[c].clear();
     const int n_obj = static_cast<int>(objects_.size());
     for (int obj = 0; obj < n_obj; ++obj) {
         Object& o = objects_[obj];
@@ -141,6 +143,8 @@ void PrimaryBatch::record(std::vector<std::uint8_t>& tape, int cells) const {
 
 void PrimaryBatch::replay(const double* dx, const double* dy, const double* dz, int cells, const std::uint8_t* tape,
                           std::size_t size, std::size_t& at) {
+    if (share_ladder_)
+        for (int c = 0; c < cells; ++c) ladder_[c].clear();
     for (std::size_t k = 0; k < objects_.size(); ++k) {
         const int obj = static_cast<int>(k);
         Object& o = objects_[obj];
@@ -233,16 +237,32 @@ void PrimaryBatch::fill(int obj, int c, ObjectRoots& r, bool all) const {
 }
 
 void PrimaryBatch::settle(int obj, int c, ObjectRoots& r) const {
-    const Object& o = objects_[obj];
-    const detail::PrimaryRun& p = o.run;
-    const int n = p.n;
-    double coeffs[kMaxDegree + 1], radius[kMaxDegree + 1];
-    for (int k = 0; k <= n; ++k) {
-        coeffs[k] = p.c[k][c];
-        radius[k] = p.r[k][c];
+    LadderMemo* memo = ladder_memo(c);
+    const LadderMemo::Settled* known = nullptr;
+    if (memo)
+        for (const LadderMemo::Settled& e : memo->settled)
+            if (e.obj == obj) known = &e;
+    if (known != nullptr) {  // (another band of this sample settled it: the same answer)
+        r.status = known->status;
+        LadderMemo::copy(known->res, r.own);
+    } else {
+        const Object& o = objects_[obj];
+        const detail::PrimaryRun& p = o.run;
+        const int n = p.n;
+        double coeffs[kMaxDegree + 1], radius[kMaxDegree + 1];
+        for (int k = 0; k <= n; ++k) {
+            coeffs[k] = p.c[k][c];
+            radius[k] = p.r[k][c];
+        }
+        r.status = detail::find_roots_lane_seeded(coeffs, n + 1, plan_.params.method, r.own, o.lane_re + c * n,
+                                                  o.lane_im + c * n, radius);
+        if (memo && memo->settled.size() < LadderMemo::kEntries) {
+            memo->settled.emplace_back();
+            memo->settled.back().obj = obj;
+            memo->settled.back().status = r.status;
+            LadderMemo::copy(r.own, memo->settled.back().res);
+        }
     }
-    r.status = detail::find_roots_lane_seeded(coeffs, n + 1, plan_.params.method, r.own, o.lane_re + c * n,
-                                              o.lane_im + c * n, radius);
     r.res.bind(r.own);
     r.complete = r.status == Status::Ok;
     for (int i = 0; i < r.res.n_discs && r.complete; ++i) r.complete = r.res.discs[i].verified;

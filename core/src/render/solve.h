@@ -4,7 +4,9 @@
 // path, is in solve.cpp. Internal header.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "argand/render.h"
@@ -40,6 +42,79 @@ struct RootsView {
         n_infinite = r.n_infinite;
         wants_exact = r.wants_exact;
         escalation = r.escalation;
+    }
+};
+
+/// What the ladder computed for one primary sample of a batch beyond the
+/// batch's own discs, kept for the tile's other bands of that sample: the
+/// ladder's questions do not depend on the band (the ray is the same), only
+/// which of them a band asks does. Every entry is the answer of a pure
+/// function to the exact input kept with it, compared bit for bit: an
+/// object's merged discs settled (PrimaryBatch::settle: find_roots from the
+/// lane's approximations, a function of the cell and object alone), an
+/// object's double-double ray polynomial (primary_ray_polynomial_dd of the
+/// sample's direction), a cluster's polynomial re-isolated (isolate_dd on
+/// the discs it started from) and a disc shrunk (refine_disc_dd on that
+/// disc). So a band that asks a question another band asked takes the same
+/// bits it would compute, and a band alone computes everything itself.
+/// Bounded: past kEntries of a kind, answers are computed, not kept.
+struct LadderMemo {
+    static constexpr std::size_t kEntries = 32;
+    struct Settled {
+        int obj;
+        Status status;
+        RootsResult res;
+    };
+    struct Dd {
+        int obj;
+        RayCoefficients<DoubleDouble> p;
+    };
+    struct Isolated {
+        int obj;
+        bool done;
+        RootsResult in, out;
+    };
+    struct Shrunk {
+        int obj;
+        bool real, changed;
+        RootDisc in, out;
+    };
+    std::vector<Settled> settled;
+    std::vector<Dd> dd;
+    std::vector<Isolated> isolated;
+    std::vector<Shrunk> shrunk;
+
+    void clear() {
+        settled.clear();
+        dd.clear();
+        isolated.clear();
+        shrunk.clear();
+    }
+
+    static bool same(double a, double b) {
+        std::uint64_t x, y;
+        std::memcpy(&x, &a, sizeof x);
+        std::memcpy(&y, &b, sizeof y);
+        return x == y;
+    }
+    static bool same(const RootDisc& a, const RootDisc& b) {
+        return same(a.re, b.re) && same(a.im, b.im) && same(a.radius, b.radius) && a.count == b.count &&
+               a.verified == b.verified && a.real == b.real;
+    }
+    static bool same(const RootsResult& a, const RootsResult& b) {
+        if (a.n_discs != b.n_discs || a.n_infinite != b.n_infinite || a.wants_exact != b.wants_exact ||
+            a.escalation != b.escalation)
+            return false;
+        for (int i = 0; i < a.n_discs; ++i)
+            if (!same(a.discs[i], b.discs[i])) return false;
+        return true;
+    }
+    static void copy(const RootsResult& from, RootsResult& to) {
+        to.n_discs = from.n_discs;
+        to.n_infinite = from.n_infinite;
+        to.wants_exact = from.wants_exact;
+        to.escalation = from.escalation;
+        std::copy(from.discs, from.discs + from.n_discs, to.discs);
     }
 };
 
@@ -259,6 +334,12 @@ public:
         for (int k = 0; k <= p.n; ++k) out[k] = p.c[k][c];
     }
 
+    /// Cell c's LadderMemo, shared by the bands of the tile (share_ladder),
+    /// emptied as the cells take new rays (solve, replay); null when the
+    /// tile has one band (no other band could reuse an answer).
+    LadderMemo* ladder_memo(int c) const { return share_ladder_ ? &ladder_[c] : nullptr; }
+    void share_ladder(bool on) { share_ladder_ = on; }
+
     /// Replaces the provisional (merged) discs of cell c of object obj in
     /// r with find_roots' answer from the lane's approximations: what
     /// find_roots_soa answers without SoaRows::provisional, to the bit.
@@ -313,6 +394,8 @@ private:
     BatchIsa isa_;
     bool cull_;  // rays that provably miss the clipping sphere are not solved
     bool any_ = false;
+    bool share_ladder_ = false;
+    mutable LadderMemo ladder_[kCells];
     int row_cells_ = 0;
     std::vector<Object> objects_;
 };

@@ -106,7 +106,9 @@ private:
     /// Level 3: double-double ray coefficients; a polynomial with a live
     /// cluster is re-isolated from scratch (isolate_dd), and every live
     /// verified count-1 disc is shrunk. True if any disc changed.
-    bool refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos);
+    /// `memo` (optional): the sample's answers shared with the tile's other
+    /// bands (LadderMemo): a question asked before takes its answer.
+    bool refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, LadderMemo* memo);
 
     void record(const ObjectRoots* roots, const std::vector<DiscInfo>& infos, const HitInfo& h, PixelExplanation* t) const;
 
