@@ -270,3 +270,68 @@ def test_the_farm_and_argand_render_give_the_same_frame_with_the_exact_tier(farm
     esc = farm_px[..., names.index("escalation")]
     assert np.count_nonzero(esc == EXACT) > 0
     assert np.all(farm_px[..., names.index("status")] == 0)
+
+
+def test_the_exact_tiers_work_on_a_ray_is_shared_by_the_bands_and_changes_no_answer():
+    """A ray the exact tier solved (its exact polynomials, squarefree factors
+    and root balls: argand.render.exact's ray cache) serves the other bands
+    of the same frames: every band's frame with the cache filled by the
+    others is the frame the band gets on an empty cache, to the bit, and
+    the bands do send the same pixels to the tier (Whitney's umbrella at an
+    odd size, whose centre row meets the double line)."""
+    from argand.render import exact
+    from argand.render.frames import render_bands
+    from tests.render.test_bands import assert_same_bits
+
+    scene = load_scene("whitney")
+    params = [FrameParams(sigma=s, delta=d, width=63, height=63) for s, d in
+              ((0.0, 0.0), (0.0, math.pi / 18), (0.0, math.pi / 9), (0.3, 0.5), (0.0, math.pi))]
+    exact._rays.clear()
+    together = render_bands(scene, params, tile=32, workers=1)
+    assert len(exact._rays) > 0
+    for p, frame in zip(params, together):
+        exact._rays.clear()
+        alone = render_frame(scene, p, tile=32, workers=1)
+        assert_same_bits(frame, alone, f"sigma={p.sigma} delta={p.delta}")
+    tier = np.stack([np.asarray(f.aovs["escalation"]) >= EXACT for f in together])
+    assert int((tier.sum(axis=0) >= 2).sum()) >= 5, int(tier.sum())
+
+
+def test_a_cached_ray_answers_as_a_fresh_one_for_any_band(monkeypatch):
+    """decide_pixel on a ray whose work another band's call cached answers
+    exactly what it answers on an empty cache (its explanation included),
+    for every pair of bands, on the rays a sweep of Whitney's umbrella at an
+    odd size sends to the exact tier."""
+    from argand.render import exact, frames
+    from argand.render.frames import render_bands
+
+    calls: list[tuple[dict, dict]] = []
+
+    def spy(frame, query):
+        calls.append((frame, dict(query)))
+        return exact.decide_pixel(frame, query)
+
+    monkeypatch.setattr(frames, "decide_pixel", spy)
+    bands = [(0.0, 0.0), (0.0, 0.3), (0.2, 0.9), (1.0, 1.5)]
+    render_bands(load_scene("whitney"), [FrameParams(sigma=s, delta=d, width=63, height=63) for s, d in bands],
+                 tile=32, workers=1)
+    by_band = {}
+    for frame, _query in calls:
+        by_band.setdefault((frame["sigma"], frame["delta"]), {k: v for k, v in frame.items() if not k.startswith("_")})
+    rays = {}
+    for _frame, query in calls:
+        rays.setdefault((tuple(query["origin"]), tuple(query["direction"])), query)
+    assert len(by_band) >= 2 and len(rays) >= 8, (len(by_band), len(rays))
+    queries = list(rays.values())
+    for k, query in enumerate(queries[:8]):
+        query = dict(query, explain=k % 2 == 0)
+        others = [queries[(k + 1) % len(queries)], queries[(k + 5) % len(queries)]]
+        for a in by_band.values():
+            exact._rays.clear()
+            fresh = exact.decide_pixel(dict(a), query)
+            for b in by_band.values():
+                exact._rays.clear()
+                for other in others:  # (other rays from the same eye first,
+                    exact.decide_pixel(dict(b), other)
+                exact.decide_pixel(dict(b), query)  # then this one, by another band)
+                assert exact.decide_pixel(dict(a), query) == fresh, (a["sigma"], a["delta"], b["sigma"], b["delta"])

@@ -43,6 +43,7 @@ checker written separately, and neither imports the other.
 from __future__ import annotations
 
 import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
@@ -271,23 +272,48 @@ def _answer(**kw) -> dict:
     return out
 
 
-def _decide(frame: dict, query: dict) -> dict:
-    objects = _objects(frame)
-    explain = bool(query.get("explain"))
-    steps: list[str] = []
-    origin, direction = query["origin"], query["direction"]
-    sigma_d, delta_d = float(frame["sigma"]), float(frame["delta"])
-    max_bits = int(frame["max_bits"])
+#: What the exact tier computed for a ray, kept for the other bands of the
+#: same frames (a sweep's, a grid's, a farm window's: they share rays, and a
+#: pixel one band sends here the next band often does too). Only what does
+#: not read σ or δ: the exact ray polynomials and their squarefree factors,
+#: and each factor's root balls at each precision tried. Each is a function
+#: of the objects and the ray alone (flint's answers are deterministic), so
+#: a band takes what it would compute. Keyed by the frame's objects as
+#: given (a 256-bit BLAKE2 digest of their exact repr) and the ray's
+#: doubles; the last RAY_CACHE rays (an API process keeps them across band
+#: requests too; some 5 KB a ray at degree 12).
+RAY_CACHE = 2048
+_rays: OrderedDict[tuple, "_SolvedRay"] = OrderedDict()
 
-    # 1-2: exact polynomials, t = 0 divided out, squarefree factors.
+
+@dataclass
+class _SolvedRay:
+    polys: list[ObjectPolynomial]
+    zero: int | None  # the first object whose exact ray polynomial is 0 (the ray lies in it), or None
+    roots: dict[int, list[tuple[int, int, int, Any]]]  # bits -> (object, factor, multiplicity, ball)
+
+
+def _objects_key(frame: dict) -> bytes:
+    """The frame's objects, exactly (the repr of floats round-trips), as a
+    digest cached in the frame dict: the same for every band of a set of
+    frames."""
+    key = frame.get("_objects_key")
+    if key is None:
+        import hashlib
+
+        key = frame["_objects_key"] = hashlib.blake2b(repr(frame["objects"]).encode(), digest_size=32).digest()
+    return key
+
+
+def _solve_ray(objects: list[ExactObject], origin, direction) -> _SolvedRay:
+    """Steps 1-2 for a ray: exact polynomials, t = 0 divided out, squarefree
+    factors (stopping at an object whose polynomial is identically 0)."""
     polys: list[ObjectPolynomial] = []
     for i, obj in enumerate(objects):
         o_obj, d_obj = object_ray(obj, origin, direction)
         p = ray_polynomial(obj, o_obj, d_obj)
         if p == 0:
-            reason = f"object {i}: the exact ray polynomial is identically zero: the ray lies in the surface (proven)"
-            steps.append(reason)
-            return _answer(decided=True, status=1, multiple=True, reason=reason, steps=steps)
+            return _SolvedRay(polys, i, {})
         m0 = 0
         coeffs = p.coeffs()
         while coeffs[m0] == 0:
@@ -296,23 +322,58 @@ def _decide(frame: dict, query: dict) -> dict:
             p = flint.fmpq_poly(coeffs[m0:])
         _content, factors = p.factor_squarefree() if p.degree() > 0 else (p, [])
         polys.append(ObjectPolynomial(i, p, m0, [(f, m) for f, m in factors], o_obj, d_obj))
-        if explain:
+    return _SolvedRay(polys, None, {})
+
+
+def _ray(frame: dict, objects: list[ExactObject], origin, direction) -> _SolvedRay:
+    key = (_objects_key(frame), tuple(float(v) for v in origin), tuple(float(v) for v in direction))
+    solved = _rays.get(key)
+    if solved is None:
+        solved = _rays[key] = _solve_ray(objects, origin, direction)
+        while len(_rays) > RAY_CACHE:
+            _rays.popitem(last=False)
+    else:
+        _rays.move_to_end(key)
+    return solved
+
+
+def _decide(frame: dict, query: dict) -> dict:
+    objects = _objects(frame)
+    explain = bool(query.get("explain"))
+    steps: list[str] = []
+    origin, direction = query["origin"], query["direction"]
+    sigma_d, delta_d = float(frame["sigma"]), float(frame["delta"])
+    max_bits = int(frame["max_bits"])
+
+    # 1-2: exact polynomials, t = 0 divided out, squarefree factors (once
+    # per ray for every band: _ray).
+    solved = _ray(frame, objects, origin, direction)
+    polys = solved.polys
+    if explain:
+        for poly in polys:
+            p, m0, factors = poly.poly, poly.at_origin, poly.factors
             steps.append(
-                f"object {i}: exact ray polynomial of degree {p.degree() + m0} (surface degree {obj.degree})"
+                f"object {poly.object}: exact ray polynomial of degree {p.degree() + m0} (surface degree "
+                f"{objects[poly.object].degree})"
                 + (f", exact root t = 0 of multiplicity {m0} divided out (not shown)" if m0 else "")
                 + "; squarefree factors: " + (", ".join(f"degree {f.degree()} with multiplicity {m}" for f, m in factors)
                                               or "none (no roots)"))
+    if solved.zero is not None:
+        i = solved.zero
+        reason = f"object {i}: the exact ray polynomial is identically zero: the ray lies in the surface (proven)"
+        steps.append(reason)
+        return _answer(decided=True, status=1, multiple=True, reason=reason, steps=steps)
     sigma, delta = exact_rational(sigma_d), exact_rational(delta_d)
     sigma_zero = sigma_d == 0.0
 
     bits = START_BITS
     while True:
         flint.ctx.prec = bits
-        roots: list[ExactRoot] = []
-        for poly in polys:
-            for k, (f, m) in enumerate(poly.factors):
-                for ball, _one in f.complex_roots():
-                    roots.append(ExactRoot(poly.object, k, m, ball))
+        found = solved.roots.get(bits)
+        if found is None:  # (each factor's roots at this precision, once per ray)
+            found = solved.roots[bits] = [(poly.object, k, m, ball) for poly in polys
+                                          for k, (f, m) in enumerate(poly.factors) for ball, _one in f.complex_roots()]
+        roots = [ExactRoot(obj_index, k, m, ball) for obj_index, k, m, ball in found]
         s_arb, d_arb = flint.arb(sigma), flint.arb(delta)
         for r in roots:
             obj = objects[r.object]
