@@ -70,9 +70,12 @@ inline vd splat(double x) {
 /// next_up (arith.h) lane by lane: the same result for every input.
 inline double next_up_bits(double x) {
     x += 0.0;
-    std::int64_t bits;
+    // In unsigned arithmetic: the step is taken before the +inf/NaN test
+    // (branch-free lanes), and a NaN's bits + 1 may wrap (defined here, an
+    // overflow in int64_t). +1 on the bits of a value >= +0, -1 on a negative.
+    std::uint64_t bits;
     std::memcpy(&bits, &x, sizeof bits);
-    const std::int64_t stepped = bits + ((bits >> 63) | 1);
+    const std::uint64_t stepped = bits + 1 - ((bits >> 63) << 1);
     double y;
     std::memcpy(&y, &stepped, sizeof y);
     return x < INFINITY ? y : x;  // +inf and NaN stay
