@@ -185,7 +185,6 @@ def test_where_an_anonymous_file_cannot_be_linked_it_is_copied_and_later_writes_
     """A sandbox that forbids linkat through /proc (EPERM): the write still
     lands whole (copied out of the anonymous file), and the process takes
     the named way from then on. (The named way links nothing.)"""
-    real_link = os.link
     calls = []
 
     def refuse(*args, **kwargs):
@@ -203,4 +202,3 @@ def test_where_an_anonymous_file_cannot_be_linked_it_is_copied_and_later_writes_
     assert atomic._linkable is False and atomic._anonymous(tmp_path) is None
     write_atomic(tmp_path / "frame_0002.exr", b"named")
     assert len(calls) == 1 and sorted(os.listdir(tmp_path)) == ["frame_0001.exr", "frame_0002.exr"]
-    monkeypatch.setattr(os, "link", real_link)

@@ -35,21 +35,22 @@ def temporary_beside(path: Path) -> Path:
     return path.with_name(f"{path.name}.{uuid.uuid4().hex[:12]}.tmp{path.suffix}")
 
 
-#: False once linking an anonymous file failed for a reason other than a
-#: folder removed meanwhile (a sandbox that forbids linkat through /proc):
-#: this process then writes under temporary names from the start.
-_linkable = True
+#: Whether this process can link an anonymous file into a folder: the
+#: system has O_TMPFILE and /proc/self/fd (looked at once, on import), and
+#: no link failed yet for a reason other than a folder removed meanwhile (a
+#: sandbox that forbids linkat through /proc). False: files are written
+#: under temporary names from the start.
+_linkable = getattr(os, "O_TMPFILE", None) is not None and os.path.isdir("/proc/self/fd")
 
 
 def _anonymous(folder: Path) -> int | None:
     """A file descriptor of a new anonymous file in ``folder`` (O_TMPFILE),
     or None where the system or the filesystem has none (the caller then
     writes under a temporary name)."""
-    flag = getattr(os, "O_TMPFILE", None)
-    if flag is None or not _linkable or not os.path.isdir("/proc/self/fd"):
+    if not _linkable:
         return None
     try:
-        return os.open(folder, flag | os.O_RDWR, 0o644)
+        return os.open(folder, os.O_TMPFILE | os.O_RDWR, 0o644)
     except OSError as exc:
         if exc.errno in (errno.EOPNOTSUPP, errno.EISDIR, errno.EINVAL, errno.ENOENT, errno.ENOTDIR):
             return None  # (no O_TMPFILE there, or the folder is gone: the named way says which)
@@ -146,8 +147,7 @@ def write_atomic(path: Path, data: bytes | bytearray | memoryview | Iterable[byt
     fd = _anonymous(path.parent)
     if fd is not None:
         with os.fdopen(fd, "wb") as f:
-            for part in parts:
-                f.write(part)
+            _write_parts(f, parts)
             f.flush()
             _publish(f.fileno(), path)
         return path
@@ -160,9 +160,13 @@ def write_atomic(path: Path, data: bytes | bytearray | memoryview | Iterable[byt
             path.parent.mkdir(parents=True, exist_ok=True)
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
         with os.fdopen(fd, "wb") as f:
-            for part in parts:
-                f.write(part)
+            _write_parts(f, parts)
     return path
+
+
+def _write_parts(f, parts: Iterable[bytes | memoryview]) -> None:
+    for part in parts:
+        f.write(part)
 
 
 def is_temporary(name: str) -> bool:
