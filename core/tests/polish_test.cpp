@@ -54,6 +54,26 @@ int main() {
         CHECK(polish_root(c, 2, disc(1.0003, -1.4139, 0.01, false), re, im));
         CHECK(re == 1.0 && im == -std::sqrt(2.0));
     }
+    // A root the caller proved real (`real`), in a disc whose centre lies
+    // off the axis and that is not marked real: the real iteration gives the
+    // correctly rounded root and im = 0 exactly; a centre already within
+    // kPolishRelativeRadius of it gives its real part, im = 0. Without
+    // `real` the complex iteration reaches the same real part.
+    {
+        const double c[] = {-2.0, 0.0, 1.0};
+        for (int i = 0; i < 200; ++i) {
+            double re = NAN, im = NAN;
+            const RootDisc d = disc(std::sqrt(2.0) + 0.004 * u(rng), 0.004 * u(rng), 0.01, false);
+            CHECK(polish_root(c, 2, d, re, im, true));
+            CHECK(re == std::sqrt(2.0) && im == 0.0 && !std::signbit(im));
+            CHECK(polish_root(c, 2, d, re, im));
+            CHECK(re == std::sqrt(2.0) && std::fabs(im) < 1e-30);
+        }
+        const double near = std::sqrt(2.0) * (1.0 + 0x1p-40);
+        double re = NAN, im = NAN;
+        CHECK(polish_root(c, 2, disc(near, 1e-9, 0.01, false), re, im, true));
+        CHECK(re == near && im == 0.0);
+    }
     // Refusals: a disc not verified, one of two roots, one that holds no
     // root (the iteration leaves it), a start at a zero derivative.
     {

@@ -111,6 +111,11 @@ public:
     /// The full decision, every disc's verdicts in `infos`.
     HitInfo decide_full(ObjectRoots* roots, std::vector<DiscInfo>& infos);
 
+    /// Whether object `obj`'s band is the positive real axis (sigma = delta
+    /// = 0, or a real object): a certified hit of it is then a root proven
+    /// real (band_verdict says Yes on the axis only for a disc proven real).
+    bool real_axis(int obj) const { return classify_plans_[obj].band.axis; }
+
     /// DecideMode::Full: decide_full for every pixel (the reference).
     bool full_only() const { return full_only_; }
     /// The infos entry decide_full chose (-1: none), for record.

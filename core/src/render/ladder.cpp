@@ -123,7 +123,9 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
         const int n = plan_.scene.objects[h.object].degree;
         if (primary && pre != nullptr && pre->batch->batched(h.object)) pre->batch->coefficients(h.object, pre->cell, c);
         else std::copy(roots[h.object].poly.c, roots[h.object].poly.c + n + 1, c);
-        polish(h, c, n);
+        polish(h, c, n, proven_real_hit(h));
+    } else if (proven_real_hit(h)) {
+        to_real_line(h);
     }
     h.level = level;
     if (seeds && seed_objects_) {

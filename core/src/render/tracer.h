@@ -71,10 +71,15 @@ public:
         filled = true;
         if (!(n_obj == 1 ? decider_.decide_one(roots, h) : decider_.decide_fast(roots, h))) return false;
         root_calls += calls;
-        if (values && h.hit && detail::wants_polish(h.disc)) {
-            double c[kMaxDegree + 1];
-            pre.batch->coefficients(h.object, pre.cell, c);
-            polish(h, c, plan_.scene.objects[h.object].degree);
+        if (values && h.hit) {
+            const bool real = proven_real_hit(h);
+            if (detail::wants_polish(h.disc)) {
+                double c[kMaxDegree + 1];
+                pre.batch->coefficients(h.object, pre.cell, c);
+                polish(h, c, plan_.scene.objects[h.object].degree, real);
+            } else if (real) {
+                to_real_line(h);
+            }
         }
         h.level = level;
         return true;
@@ -84,12 +89,34 @@ public:
     /// read) replaced by the disc's one root to double accuracy
     /// (polish_root), where it settles; the disc's proof and the decision
     /// stay. So a wide disc writes its root, not the solver's approximation.
-    static void polish(HitInfo& h, const double* c, int n) {
+    /// `real`: the hit's root is proven real (proven_real_hit): the
+    /// iteration stays on the real line, and the value is written there
+    /// (im = 0) even where it does not settle.
+    static void polish(HitInfo& h, const double* c, int n, bool real) {
         double re, im;
-        if (!detail::polish_root(c, n, h.disc, re, im)) return;
+        if (!detail::polish_root(c, n, h.disc, re, im, real)) {
+            if (real) to_real_line(h);
+            return;
+        }
         h.disc.re = re;
         h.disc.im = im;
         h.modulus = im == 0.0 && !std::isnan(re) ? std::fabs(re) : std::hypot(re, im);
+    }
+
+    /// A certified hit in a band that is the positive real axis (sigma =
+    /// delta = 0, or a real object): its root is proven real (band_verdict
+    /// says Yes on the axis only for a disc proven real).
+    bool proven_real_hit(const HitInfo& h) const {
+        return h.hit && h.status == kCertified && decider_.real_axis(h.object);
+    }
+
+    /// A root proven real shows its value on the real line: the disc's
+    /// centre's real part, im = 0 (the centre's imaginary part is the
+    /// solver's noise, within the disc's radius).
+    static void to_real_line(HitInfo& h) {
+        if (h.disc.im == 0.0) return;
+        h.disc.im = 0.0;
+        h.modulus = !std::isnan(h.disc.re) ? std::fabs(h.disc.re) : h.modulus;
     }
 
     /// Colour seen along a ray (recursion for real reflective / transparent
