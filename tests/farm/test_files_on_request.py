@@ -23,7 +23,7 @@ from argand.media.frame_files import read_exr, to_srgb8
 from argand.render import FrameParams, render_frame
 from argand.render.frames import AOV_CHANNELS, frame_figures
 from argand.scene import load_scene
-from tests.farm.test_farm import Farm
+from tests.farm.test_farm import Farm, tile_rows
 
 W, H, TILE = 72, 56, 16
 
@@ -62,6 +62,10 @@ def test_a_done_job_holds_no_picture_until_one_is_asked_for(lazy_farm):
     # The root field's tiles and each frame's figures: no PNG, thumbnail,
     # EXR, GIF fragment or animation, and no tile's pixels left behind.
     assert [n for n in names if not n.startswith("field/")] == [f"frame_{i:04d}.json" for i in range(4)], names
+    # The tiles' figures travelled in window chunks (one file for a
+    # window's frames), gone with the job's end like every chunk.
+    assert any(c.startswith("w-") for c in tile_rows(lazy_farm, job["id"], "chunk") if c), \
+        sorted(set(tile_rows(lazy_farm, job["id"], "chunk")))
     scene = load_scene("chmutov-octic")
     for fr in job["frames"]:
         local = render_frame(scene, FrameParams(sigma=fr["sigma"], delta=fr["delta"], width=W, height=H), tile=TILE)

@@ -122,6 +122,29 @@ def test_tile_files_round_trip_exactly(tmp_path):
     assert set(store.read_chunk("job", 2, "again")) == {3, 4}
 
 
+
+def test_a_window_chunk_holds_its_frames_tiles_and_gives_each_frame_its_own(tmp_path):
+    """Figures-only tiles of a window's frames (files on request) go into one
+    file; each frame reads back exactly its tiles, and a chunk nobody won is
+    removed with the folders it leaves empty."""
+    store = FrameStore(tmp_path / "store")
+    tiles = {(f, t): {"meta": np.array([f, t, 7], np.int64), "levels": np.arange(t + 1, dtype=np.int64)}
+             for f in (0, 1, 12) for t in (3, 4, 10)}
+    store.write_window_chunk("job", "w-00003-abc", tiles)
+    assert [p.relative_to(tmp_path / "store/jobs/job").as_posix() for p in (tmp_path / "store/jobs/job").rglob("*")
+            if p.is_file()] == ["tiles/window/w-00003-abc.chunk"]
+    for f in (0, 1, 12):
+        got = store.read_chunk("job", f, "w-00003-abc")
+        assert set(got) == {3, 4, 10}
+        for t in (3, 4, 10):
+            assert list(got[t]["meta"]) == [f, t, 7] and list(got[t]["levels"]) == list(range(t + 1))
+    assert store.read_chunk("job", 5, "w-00003-abc") == {}  # (a frame not in the window)
+    with pytest.raises(ValueError, match="w-"):
+        store.write_window_chunk("job", "00003-abc", tiles)
+    store.discard_chunk("job", 0, "w-00003-abc")
+    assert not (tmp_path / "store/jobs/job").exists()
+
+
 def test_the_migrations_make_the_models_schema_and_a_second_upgrade_changes_nothing(tmp_path):
     from alembic.autogenerate import compare_metadata
     from alembic.migration import MigrationContext

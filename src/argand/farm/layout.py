@@ -8,6 +8,7 @@ the writer of tiles, the assembler and the API.
     store/jobs/<job>/animation.gif|.webp|.mp4    the animation (WebP, MP4: made on request)
     store/jobs/<job>/atlas.png                   a grid's frames as a labelled contact sheet (on request)
     store/jobs/<job>/tiles/NNNN/<name>.chunk     tiles of an unassembled frame
+    store/jobs/<job>/tiles/window/<name>.chunk   the figures of a window's frames' tiles (files on request)
 """
 
 from __future__ import annotations
@@ -60,4 +61,21 @@ class JobLayout:
         return self.folder / "tiles" / f"{index:04d}"
 
     def chunk(self, index: int, name: str) -> Path:
+        """Where chunk ``name`` holding tiles of frame ``index`` lives: its
+        frame's folder, or, for a window chunk (is_window_chunk), the
+        window folder its frames share."""
+        if is_window_chunk(name):
+            return self.folder / "tiles" / "window" / f"{name}.chunk"
         return self.tiles(index) / f"{name}.chunk"
+
+
+#: The prefix of a window chunk's name: one file for the tiles of every
+#: frame of a window (a run's frames that share their rays) whose pixels
+#: are not kept (files on request: the tiles' figures only), instead of a
+#: file per frame. A window's commit is then one file, not one per frame
+#: (24 in a 24-frame job: some 0.3 ms of a worker's time each on ext4).
+WINDOW_PREFIX = "w-"
+
+
+def is_window_chunk(name: str) -> bool:
+    return name.startswith(WINDOW_PREFIX)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import os
 import shutil
 import time
@@ -22,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from argand.farm.layout import JobLayout
+from argand.farm.layout import JobLayout, is_window_chunk
 from argand.media.atomic import is_temporary, write_atomic
 
 #: A temporary frame file this old (seconds) at the job's end is a killed
@@ -30,6 +31,11 @@ from argand.media.atomic import is_temporary, write_atomic
 STALE_TEMPORARY_S = 5.0
 
 _MAGIC = b"ARGT1\n"
+
+#: Window chunks kept read per process (FrameStore._read_window): a frame's
+#: tiles come from as many windows as its runs were committed in (each of
+#: some kilobytes: the tiles' figures).
+WINDOW_CACHE = 256
 
 
 def pack_buffers(arrays: dict[str, np.ndarray]) -> list:
@@ -58,9 +64,9 @@ def unpack_arrays(data: bytes) -> dict[str, np.ndarray]:
     base = start + n
     out = {}
     for name, dtype, shape, offset in header:
-        dt = np.dtype(dtype)
-        count = int(np.prod(shape))
-        out[name] = np.frombuffer(data, dt, count, base + offset).reshape(shape)
+        # (math.prod: numpy's prod of a short list costs some microseconds,
+        # a chunk of figures holds thousands of small arrays.)
+        out[name] = np.frombuffer(data, np.dtype(dtype), math.prod(shape), base + offset).reshape(shape)
     return out
 
 
@@ -84,6 +90,7 @@ class FrameStore:
     def __init__(self, root: Path) -> None:
         self.root = Path(root)
         self.root.mkdir(parents=True, exist_ok=True)
+        self._windows: dict[Path, dict[int, dict[int, dict[str, np.ndarray]]]] = {}  # (_read_window)
 
     def job(self, job_id: str) -> JobLayout:
         return JobLayout(self.root, job_id)
@@ -107,12 +114,42 @@ class FrameStore:
         arrays = {f"{t}/{k}": a for t, d in tiles.items() for k, a in d.items()}
         self.write_atomic(self.job(job_id).chunk(frame, name), pack_buffers(arrays))
 
+    def write_window_chunk(self, job_id: str, name: str, tiles: dict[tuple[int, int], dict[str, np.ndarray]]) -> None:
+        """The tiles of several frames of a window, {(frame, tile): arrays},
+        in one file (``name`` a window chunk's: layout.is_window_chunk);
+        read_chunk gives each frame its own."""
+        if not is_window_chunk(name):
+            raise ValueError(f"a window chunk's name starts with w-, not {name!r}")
+        arrays = {f"{f}/{t}/{k}": a for (f, t), d in tiles.items() for k, a in d.items()}
+        self.write_atomic(self.job(job_id).chunk(0, name), pack_buffers(arrays))
+
     def read_chunk(self, job_id: str, frame: int, name: str) -> dict[int, dict[str, np.ndarray]]:
+        """Frame ``frame``'s tiles in chunk ``name`` (its own, or its part of
+        a window chunk): {tile: arrays}."""
+        path = self.job(job_id).chunk(frame, name)
+        if is_window_chunk(name):
+            return self._read_window(path).get(frame, {})
         out: dict[int, dict[str, np.ndarray]] = {}
-        for key, a in unpack_arrays(self.job(job_id).chunk(frame, name).read_bytes()).items():
+        for key, a in unpack_arrays(path.read_bytes()).items():
             t, k = key.split("/", 1)
             out.setdefault(int(t), {})[k] = a
         return out
+
+    def _read_window(self, path: Path) -> dict[int, dict[int, dict[str, np.ndarray]]]:
+        """A window chunk, {frame: {tile: arrays}}, read once for the frames
+        an assembler finishes together (each of them reads every window
+        that holds its tiles; a chunk's name is never written twice, so its
+        content does not change while it exists)."""
+        cached = self._windows.get(path)
+        if cached is None:
+            cached = {}
+            for key, a in unpack_arrays(path.read_bytes()).items():
+                f, t, k = key.split("/", 2)
+                cached.setdefault(int(f), {}).setdefault(int(t), {})[k] = a
+            if len(self._windows) >= WINDOW_CACHE:
+                self._windows.pop(next(iter(self._windows)))
+            self._windows[path] = cached
+        return cached
 
     def discard_chunk(self, job_id: str, frame: int, name: str) -> None:
         """Removes a chunk that no tile row points at (its tiles went to

@@ -30,6 +30,7 @@ from sqlalchemy.exc import NoResultFound
 
 from argand.farm import assembly
 from argand.farm.database import clock, engine_for
+from argand.farm.layout import WINDOW_PREFIX
 from argand.farm.models import Frame, Job, Tile
 from argand.farm.planning import Rect, core_scene_of, frame_plan, samples_of, tile_rects
 from argand.farm.outbox import add_runs, try_drain
@@ -70,19 +71,24 @@ def _frame_plan(url: str, job_id: str, frame_index: int):
     if key not in _plan_cache:
         if len(_plan_cache) > PLAN_CACHE:
             _plan_cache.clear()
-        with engine_for(url).connect() as c:
-            if job_id not in _job_cache:
+        if job_id not in _job_cache or frame_index not in _job_cache[job_id][-1]:
+            with engine_for(url).connect() as c:
                 if len(_job_cache) > 8:
                     _job_cache.clear()
                 job = c.execute(select(Job.scene, Job.width, Job.height, Job.tile, Job.method, Job.engine)
                                 .where(Job.id == job_id)).one()
-                _job_cache[job_id] = (core_scene_of(job.scene), job.width, job.height, job.tile, job.method,
-                                      samples_of(job.scene), EngineOptions.from_stored(job.engine))
-            sigma, delta, tiles_total = c.execute(select(Frame.sigma, Frame.delta, Frame.tiles_total).where(
-                Frame.job_id == job_id, Frame.index == frame_index)).one()
-        core_scene, w, h, tile, method, samples, engine = _job_cache[job_id]
-        _plan_cache[key] = (frame_plan(core_scene, sigma, delta, w, h, method, samples, engine), tile_rects(w, h, tile),
-                            tiles_total)
+                # Every frame's band at once (a frame's σ, δ and tile count
+                # never change): the window's other frames take theirs here.
+                frames = {f.index: (f.sigma, f.delta, f.tiles_total) for f in c.execute(
+                    select(Frame.index, Frame.sigma, Frame.delta, Frame.tiles_total).where(Frame.job_id == job_id))}
+                if frame_index not in frames:
+                    raise NoResultFound(f"job {job_id} has no frame {frame_index}")
+                _job_cache[job_id] = (core_scene_of(job.scene), job.width, job.height, job.method,
+                                      samples_of(job.scene), EngineOptions.from_stored(job.engine),
+                                      tile_rects(job.width, job.height, job.tile), frames)
+        core_scene, w, h, method, samples, engine, rects, frames = _job_cache[job_id]
+        sigma, delta, tiles_total = frames[frame_index]
+        _plan_cache[key] = (frame_plan(core_scene, sigma, delta, w, h, method, samples, engine), rects, tiles_total)
     return _plan_cache[key]
 
 
@@ -441,10 +447,11 @@ def _whole_frame_here(run: TileRun, stopped: str | None) -> bool:
 
 def _commit_all(runs: list[TileRun]) -> None:
     """_complete for several runs of one job (a window's frames, the same
-    tiles) at once: one query for the tiles this worker still holds, a
-    chunk file per frame, and one transaction that marks them done and adds
-    them to their frames' counters; a chunk that lost its race is removed.
-    Raises _Gone when the job was deleted."""
+    tiles) at once: one query for the tiles this worker still holds, one
+    window chunk for their figures (a chunk file per frame where the tiles
+    keep pixels), and one transaction that marks them done and adds them to
+    their frames' counters; a chunk that lost its race is removed. Raises
+    _Gone when the job was deleted."""
     pending = [r for r in runs if r.pending]
     if not pending:
         return
@@ -460,20 +467,34 @@ def _commit_all(runs: list[TileRun]) -> None:
     for r in pending:
         r.pending = {i: sec for i, sec in r.pending.items() if (r.frame_index, i) in held}
     store = store_for(settings)
-    # One chunk name for the window (a file in each frame's folder), one
-    # statement for every tile, one per distinct count for the frames.
+    # One chunk name for the window, one statement for every tile, one per
+    # distinct count for the frames. Tiles without pixels (files on
+    # request: their figures only) go into one window chunk for all the
+    # frames; tiles with pixels into a file in each frame's folder, which
+    # goes once that frame is assembled.
     name = f"{min(min(r.pending) for r in pending if r.pending):05d}-{uuid.uuid4().hex[:10]}" \
         if any(r.pending for r in pending) else None
+    window = name is not None and all(r.local[i][0] is None for r in pending for i in r.pending)
+    if window:
+        name = WINDOW_PREFIX + name
     ACTIVITY["writing"] = True  # the watchdog does not end the process between the writes and their outcome
     try:
-        for r in pending:
-            if r.pending:
-                store.write_chunk(job_id, r.frame_index, name, {i: _tile_arrays(r.local[i]) for i in r.pending})
+        if window:
+            store.write_window_chunk(job_id, name, {(r.frame_index, i): _tile_arrays(r.local[i])
+                                                    for r in pending for i in r.pending})
+        else:
+            for r in pending:
+                if r.pending:
+                    store.write_chunk(job_id, r.frame_index, name, {i: _tile_arrays(r.local[i]) for i in r.pending})
         with engine_for(settings.sqlalchemy_url).begin() as c:
             won, rows = _mark_window_done(c, pending, name)
-        for r in pending:
-            if r.pending and not won[r.frame_index]:
-                store.discard_chunk(job_id, r.frame_index, name)
+        if window:
+            if not any(won.values()):  # (a frame that won some tile reads its part)
+                store.discard_chunk(job_id, pending[0].frame_index, name)
+        else:
+            for r in pending:
+                if r.pending and not won[r.frame_index]:
+                    store.discard_chunk(job_id, r.frame_index, name)
     finally:
         ACTIVITY["writing"] = False
     for r in pending:
