@@ -172,3 +172,33 @@ def test_a_certified_hit_on_the_real_surface_writes_a_real_root(case):
     # moves a root by some 1e-7 relative.)
     assert np.percentile(errors, 90) <= (2e-6 if random else 2 ** -23), (np.percentile(errors, [50, 90]), max(errors))
     assert max(errors) < 1e-4, max(errors)
+
+
+def test_a_certified_hit_on_a_real_object_in_a_complex_band_writes_a_real_root():
+    """An object with space: real has the positive real axis for its band in
+    every frame: its certified hits write im = 0 (and Z = re) even where σ
+    and δ open a complex band for the object beside it, whose hits keep
+    their imaginary parts. Which object a pixel shows comes from the exact
+    truth (python-flint), not from the renderer."""
+    torus = "((x-0.4)^2+y^2+z^2+1.19)^2 - 4*1.44*((x-0.4)^2+y^2)"  # R = 1.2, r = 0.5
+    scene = scene_from_dict({"objects": [{"surface": "x^2*z + y^2", "clip_radius": 1.6},
+                                         {"surface": torus, "space": "real", "clip_radius": 2.5}],
+                             "camera": {"position": [1.5, 3.0, 5.0], "look_at": [0, 0, 0]}})
+    width = height = 61
+    params = FrameParams(sigma=0.1, delta=0.5, width=width, height=height)
+    frame = render_frame(scene, params, tile=16, workers=1)
+    hits = (frame.aovs["status"] == 0) & (frame.rgba[..., 3] > 0)
+    objects = scene_objects(scene)
+    shown = {0: 0, 1: 0}
+    ys, xs = np.nonzero(hits)
+    for x, y in list(zip(xs.tolist(), ys.tolist()))[::7]:
+        origin, direction = primary_ray(scene, width, height, x, y)
+        truth = pixel_truth(scene, params.sigma, params.delta, origin, direction, objects)
+        assert truth.decision == "hit", (x, y)
+        shown[truth.root.object] += 1
+        if truth.root.object == 1:
+            assert frame.aovs["im"][y, x] == 0 and frame.aovs["re"][y, x] == frame.aovs["Z"][y, x], (x, y)
+            exact = float(truth.root.modulus.mid())
+            assert abs(float(frame.aovs["Z"][y, x]) - exact) <= 2 ** -23 * exact, (x, y)
+    assert shown[0] > 20 and shown[1] > 100, shown
+    assert np.any(frame.aovs["im"][hits] != 0)  # (the complex object's hits)
