@@ -20,8 +20,9 @@ HEAVY = ("numpy", "rich", "pydantic", "yaml", "OpenImageIO", "flint", "PIL", "av
          "fastapi", "starlette", "uvicorn", "celery", "redis", "argand.scene", "argand.render", "argand.media",
          "argand.farm", "argand.api", "argand.worker", "argand.serve", "argand.bench")
 #: Never imported by `argand render` of one frame.
-#: (typer's pydantic adapters and the scene's pydantic models: not for a preset.)
-NOT_FOR_ONE_FRAME = ("flint", "pydantic", "typer._adapters", "argand.scene.schema", "PIL", "av", "matplotlib",
+#: (typer's pydantic adapters and the scene's pydantic models: not for a
+#: preset; rich: not for work that ends before its progress bar would show.)
+NOT_FOR_ONE_FRAME = ("rich", "flint", "pydantic", "typer._adapters", "argand.scene.schema", "PIL", "av", "matplotlib",
                      "sqlalchemy", "fastapi", "starlette", "uvicorn", "celery",
                      "redis", "argand.farm", "argand.api", "argand.worker", "argand.serve", "argand.bench",
                      "argand.media.gif", "argand.media.video", "argand.media.atlas", "argand.media.contact_sheet")
@@ -49,7 +50,8 @@ def test_importing_the_cli_loads_nothing_heavy():
 
 
 def test_one_frame_loads_only_what_it_uses(tmp_path):
-    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    # (the progress bar's delay made long enough that a slow machine does not show it)
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"} | {"ARGAND_PROGRESS_AFTER": "60"}
     modules, out = loaded_after(
         "import sys\nfrom argand.cli import app\n"
         f"sys.argv = ['argand', 'render', 'whitney', '--size', '48x32', '--out', {str(tmp_path / 'out')!r}]\n"
@@ -157,3 +159,28 @@ def test_preset_scene_is_load_scenes_typed_scene():
         light, full = preset_scene(name), load_scene(name)
         assert light.samples == full.samples, name
         assert plain(to_core_scene(light)) == plain(to_core_scene(full)), name
+
+
+def test_the_progress_bar_shows_once_the_work_has_taken_its_delay(tmp_path):
+    """`argand render` shows its progress bar (rich) only once the work has
+    run ARGAND_PROGRESS_AFTER seconds: at 0 it shows from the first tile and
+    counts every tile; at 60 a short run shows none and never loads rich.
+    Either way the frames and the summary are written."""
+    for after, shown in (("0", True), ("60", False)):
+        out = tmp_path / after
+        env = dict(os.environ, ARGAND_PROGRESS_AFTER=after, COLUMNS="200")
+        code = ("import sys\nfrom argand.cli import app\n"
+                f"sys.argv = ['argand', 'render', 'whitney', '--size', '32x16', '--tile', '8', '--deltas', '0:pi/9:2', "
+                f"'--out', {str(out)!r}]\n"
+                "try:\n    app()\nexcept SystemExit as exc:\n    assert not exc.code, exc.code\n"
+                "print('rich' in sys.modules)")
+        run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO / "tests",
+                             env=env, timeout=300)
+        assert run.returncode == 0, run.stderr[-2000:]
+        lines = run.stdout.strip().splitlines()
+        assert lines[-1] == str(shown)
+        assert lines[-2].startswith("wrote 2 frame(s) to ")
+        assert sum(line.startswith("σ = 0, δ = ") for line in lines) == 2
+        # 2 frames of 4x2 tiles of 8 pixels
+        assert ("16/16 tiles" in run.stderr) == shown, run.stderr[-2000:]
+        assert sorted(p.name for p in out.glob("frame_*.exr")) == ["frame_0000.exr", "frame_0001.exr"]

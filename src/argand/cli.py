@@ -15,7 +15,7 @@ from argand.frames.defaults import DEFAULT_HEIGHT, DEFAULT_WIDTH
 # Loading the CLI imports typer and nothing heavy: rich, numpy, the scene
 # model (pydantic), OpenImageIO and the farm come when a command uses them
 # (tests/test_startup.py keeps it so): `argand render` of one 512² frame
-# is a process of about half a second of CPU, most of it imports
+# is a process of about a third of a second of CPU, most of it imports
 # (cli_process_cpu_s, docs/benchmarks.md). The names below stand for
 # rich's and argand's until then.
 
@@ -134,6 +134,67 @@ app.add_typer(bench_app, name="bench")
 
 console = _Later("rich.console", console={})
 err = _Later("rich.console", console={"stderr": True})
+
+
+#: A render's progress bar appears once it has run this long (seconds;
+#: ARGAND_PROGRESS_AFTER sets it): a bar for work that is over in a blink
+#: only flickers, and rich's import alone is about 0.05 s of CPU, a seventh
+#: of `argand render` of one 512² frame (cli_process_cpu_s, docs/benchmarks.md).
+PROGRESS_AFTER_S = 0.5
+
+
+class _LaterProgress:
+    """A rich Progress of one task that is made only once the work has
+    taken longer than ``after`` seconds (its elapsed time counted from the
+    start): ``update`` and ``advance`` as Progress's, on that task. Shown
+    on stderr, closed with the block."""
+
+    def __init__(self, description: str, total: int, unit: str, after: float | None = None) -> None:
+        import time
+
+        if after is None:
+            try:
+                after = float(os.environ.get("ARGAND_PROGRESS_AFTER", PROGRESS_AFTER_S))
+            except ValueError:
+                after = PROGRESS_AFTER_S
+        self._clock = time.monotonic
+        self._start = self._clock()
+        self._after, self._unit = after, unit
+        self._state = {"description": description, "total": total, "completed": 0}
+        self._bar: Any = None
+        self._task: Any = None
+
+    def __enter__(self) -> "_LaterProgress":
+        self._show()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._bar is not None:
+            self._bar.__exit__(*exc)
+
+    def _show(self) -> None:
+        if self._bar is not None or self._clock() - self._start < self._after:
+            return
+        bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+                       TextColumn(self._unit), TimeElapsedColumn(), TimeRemainingColumn(), console=err)
+        bar.__enter__()
+        # (its clock starts now: the elapsed time shown is the bar's)
+        self._task = bar.add_task(**self._state)
+        self._bar = bar
+
+    def update(self, description: str) -> None:
+        self._state["description"] = description
+        if self._bar is None:
+            self._show()
+        if self._bar is not None:
+            self._bar.update(self._task, description=description)
+
+    def advance(self, n: int = 1) -> None:
+        self._state["completed"] += n
+        if self._bar is None:
+            self._show()
+        elif n:
+            self._bar.advance(self._task, n)
 
 
 def fail(message: str, code: int = 2) -> None:
@@ -339,21 +400,18 @@ def render(
         fail(f"--root-field {root_field}: the folder {root_field.parent} does not exist")
     _clear_out(out, overwrite)
     tiles_per_frame = math.ceil(width / tile) * math.ceil(height / tile)
-    with Progress(
-        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("tiles"),
-        TimeElapsedColumn(), TimeRemainingColumn(), console=err,
-    ) as progress:
-        task = progress.add_task("rendering", total=tiles_per_frame * len(params))
+    with _LaterProgress("rendering", tiles_per_frame * len(params), "tiles") as progress:
         try:
             summary = render_sweep(
                 loaded, params, out, tile=tile, workers=workers or None, compression=exr_compression, fps=fps,
                 on_frame=lambda i, p: progress.update(
-                    task, description=f"frame {i + 1}/{len(params)} (σ = {angle_text(p.sigma)}, δ = {angle_text(p.delta)})"),
-                on_tile=lambda t: progress.advance(task), grid=grid, root_field=root_field)
+                    f"frame {i + 1}/{len(params)} (σ = {angle_text(p.sigma)}, δ = {angle_text(p.delta)})"),
+                on_tile=lambda t: progress.advance(), grid=grid, root_field=root_field)
         except ValueError as exc:
             fail(str(exc))
+    # (Plain lines: rich's console is not loaded for them.)
     for f in summary:
-        console.print(
+        typer.echo(
             f"σ = {angle_text(f['sigma'])}, δ = {angle_text(f['delta'])}: {f['seconds'] * 1000:.0f} ms, "
             f"{f['ns_per_pixel']:.0f} ns/pixel, "
             f"certified {100 * f['certified_share']:.3f}%, escalated {100 * f['escalated_share']:.3f}%, "
@@ -361,9 +419,9 @@ def render(
             f"over the work cap {f['exact_over_cap']})"
         )
     extras = (["animation.gif", "animation.mp4"] if len(params) > 1 else []) + (["atlas.png"] if grid.is_grid else [])
-    console.print(f"wrote {len(params)} frame(s) to {out}/" + (f" and {', '.join(extras)}" if extras else ""))
+    typer.echo(f"wrote {len(params)} frame(s) to {out}/" + (f" and {', '.join(extras)}" if extras else ""))
     if root_field is not None:
-        console.print(f"wrote the root field to {root_field} ({root_field.stat().st_size / 1e6:.1f} MB)")
+        typer.echo(f"wrote the root field to {root_field} ({root_field.stat().st_size / 1e6:.1f} MB)")
 
 
 #: The files a run writes into its --out folder (argand.render.sweep.render_sweep).
