@@ -259,6 +259,19 @@ def test_a_root_off_by_more_than_float32_is_imprecise():
     only(check_pixel(real_hit(), 0, True, 3.01, 0.0, 2.0), "wrong: certified hit at t")
 
 
+def test_z_off_with_its_root_is_imprecise_and_off_its_root_is_wrong():
+    """re and im within float32's tolerance of the root, and Z their
+    modulus but beyond the tolerance (their errors add up in it): the same
+    root, imprecise. Z that is not the modulus of the root written: wrong."""
+    t = complex(3.0, math.sqrt(3.0))  # complex_hit's root, |t| = sqrt(12)
+    step = 2.0**-21 * abs(t) * 0.9  # each part just within the tolerance
+    re, im = t.real + step, t.imag + step
+    problems = check_pixel(complex_hit(), 0, True, re, im, math.hypot(re, im))
+    only(problems, "imprecise: certified Z")
+    assert not is_wrong(problems)
+    only(check_pixel(complex_hit(), 0, True, t.real, t.imag, abs(t) * (1 + 2.0**-18)), "wrong: certified Z")
+
+
 def test_a_certified_single_root_on_a_double_root_is_caught():
     truth = pixel_truth(scene(sphere()), 0.0, 0.0, (0.0, 1.0, -3.0), UP)
     only(check_pixel(truth, 0, True, 3.0, 0.0, 3.0), "wrong: certified a single root")
