@@ -2,6 +2,7 @@
 #include "polish.h"
 
 #include <cmath>
+#include <type_traits>
 
 #include "argand/arith.h"
 
@@ -20,45 +21,102 @@ constexpr double kSettled = 0x1p-64;
 // follow (each some ten times the cost of a double step) settle in two
 // instead of four or five from a centre 1e-3 off.
 constexpr double kNearDouble = 0x1p-30;
+// Newton's iteration on F at the point (polish_root_at_point) ends once a
+// step is below this (relative): the iterate is then within the step's
+// square of the root, or within the evaluation's own noise, far below a
+// float32 AOV's resolution (2^-24).
+constexpr double kPointSettled = 0x1p-30;
+// A root whose coefficients' radii may move it by more than this
+// (relative, to first order) is polished with F at the point.
+constexpr double kIllConditioned = 0x1p-24;
 
-/// Newton's iteration in double on the real root in d, from its centre,
-/// to a step below kNearDouble of the iterate; an iterate that leaves d,
-/// a zero or non-finite value or derivative, or kMaxSteps ends it, at the
-/// last iterate inside d. (Proves nothing: a start for the double-double
-/// steps, which keep every proof where it was.)
-double near_root_real(const double* c, int n, const RootDisc& d) {
-    double x = d.re;
-    for (int step = 0; step < kMaxSteps; ++step) {
-        double p = c[n], dp = 0.0;
-        for (int k = n - 1; k >= 0; --k) {
-            dp = dp * x + p;
-            p = p * x + c[k];
-        }
-        const double dx = p / dp, next = x - dx;
-        const double off = next - d.re;  // (squares: no bound is claimed)
-        if (!std::isfinite(next) || !(off * off + d.im * d.im <= d.radius * d.radius)) break;
-        x = next;
-        if (std::fabs(dx) <= kNearDouble * std::fabs(x)) break;
+// Newton's iteration on the real line (double, DoubleDouble) and off it
+// (Complex<double>, Complex<DoubleDouble>) is one template below; these
+// overloads are what differs, each the operation the twin it replaces did.
+using DD = DoubleDouble;
+using CD = Complex<double>;
+using CDD = Complex<DD>;
+
+double coefficient(double c, double) { return c; }
+DD coefficient(double c, DD) { return DD(c); }
+CD coefficient(double c, CD) { return CD(c, 0.0); }
+CDD coefficient(double c, CDD) { return CDD(DD(c), DD(0.0)); }
+double plus(double p, double c) { return p + c; }
+DD plus(DD p, double c) { return p + DD(c); }
+CD plus(CD p, double c) { return add_real(p, c); }
+CDD plus(CDD p, double c) { return add_real(p, DD(c)); }
+
+bool finite(double x) { return std::isfinite(x); }
+template <class T> bool finite(T x) { return is_finite(x); }
+// (the leading doubles of an iterate's real and imaginary parts)
+double re_hi(double x) { return x; }
+double re_hi(DD x) { return x.hi; }
+double re_hi(CD z) { return z.re; }
+double re_hi(CDD z) { return z.re.hi; }
+double im_hi(double) { return 0.0; }
+double im_hi(DD) { return 0.0; }
+double im_hi(CD z) { return z.im; }
+double im_hi(CDD z) { return z.im.hi; }
+bool zero(DD x) { return x.hi == 0.0; }
+bool zero(CDD z) { return z.re.hi == 0.0 && z.im.hi == 0.0; }
+
+/// p(z) and p'(z) by Horner's rule, in T.
+template <class T> void horner(const double* c, int n, T z, T& p, T& dp) {
+    p = coefficient(c[n], z);
+    dp = coefficient(0.0, z);
+    for (int k = n - 1; k >= 0; --k) {
+        dp = dp * z + p;
+        p = plus(p * z, c[k]);
     }
-    return x;
 }
 
-/// near_root_real for a root off the real line.
-Complex<double> near_root(const double* c, int n, const RootDisc& d) {
-    Complex<double> z(d.re, d.im);
+/// A double step dz from z is below kNearDouble of z.
+bool near_double(double dx, double x) { return std::fabs(dx) <= kNearDouble * std::fabs(x); }
+bool near_double(CD dz, CD z) { return mag2_approx(dz) <= kNearDouble * kNearDouble * mag2_approx(z); }
+
+/// Newton's iteration in double (T: double on the real line, CD off it)
+/// on the root in d, from its centre, where p and dp are already p(z) and
+/// p'(z), to a step below kNearDouble of the iterate; an iterate that
+/// leaves d, a zero or non-finite value or derivative, or kMaxSteps ends
+/// it, at the last iterate inside d. (Proves nothing: a start for the
+/// double-double steps, which keep every proof where it was.)
+template <class T> T near_root(const double* c, int n, const RootDisc& d, T z, T p, T dp) {
     for (int step = 0; step < kMaxSteps; ++step) {
-        Complex<double> p(c[n], 0.0), dp(0.0, 0.0);
-        for (int k = n - 1; k >= 0; --k) {
-            dp = dp * z + p;
-            p = add_real(p * z, c[k]);
-        }
-        const Complex<double> dz = p / dp, next = z - dz;
-        const double off_re = next.re - d.re, off_im = next.im - d.im;  // (squares: no bound is claimed)
-        if (!is_finite(next) || !(off_re * off_re + off_im * off_im <= d.radius * d.radius)) break;
+        if (step > 0) horner(c, n, z, p, dp);
+        const T dz = p / dp, next = z - dz;
+        // (squares: no bound is claimed)
+        const double off_re = re_hi(next) - d.re, off_im = im_hi(next) - d.im;
+        if (!finite(next) || !(off_re * off_re + off_im * off_im <= d.radius * d.radius)) break;
         z = next;
-        if (mag2_approx(dz) <= kNearDouble * kNearDouble * mag2_approx(z)) break;
+        if (near_double(dz, z)) break;
     }
     return z;
+}
+
+/// Newton's iteration in double-double (T: DD on the real line, CDD off
+/// it) from z to a step below kSettled inside d: true with the root
+/// rounded to double in (re, im), false where it leaves d, meets a zero or
+/// non-finite derivative, or does not settle in kMaxSteps.
+template <class T> bool settle(const double* c, int n, const RootDisc& d, T z, double& re, double& im) {
+    for (int step = 0; step < kMaxSteps; ++step) {
+        T p, dp;
+        horner(c, n, z, p, dp);
+        if (zero(dp) || !finite(p) || !finite(dp)) return false;
+        const T dz = p / dp;
+        z = z - dz;
+        if (!finite(z) || !(std::hypot(re_hi(z) - d.re, im_hi(z) - d.im) <= d.radius)) return false;
+        if (std::hypot(re_hi(dz), im_hi(dz)) <= kSettled * std::hypot(re_hi(z), im_hi(z))) {
+            if constexpr (std::is_same_v<T, DD>) {
+                re = z.hi + z.lo;  // (normalised: z.hi, the nearest double)
+                im = 0.0;
+            } else {
+                re = z.re.hi + z.re.lo;
+                im = z.im.hi + z.im.lo;
+            }
+            return true;
+        }
+    }
+    return false;
 }
 }  // namespace
 
@@ -68,68 +126,123 @@ bool wants_polish(const RootDisc& d) {
 
 bool polish_root(const double* c, int n, const RootDisc& d, double& re, double& im, bool real) {
     real = real || d.real;
-    using DD = DoubleDouble;
     if (n < 1 || !d.verified || d.count != 1) return false;
-    {
-        // Newton's step in double from the centre: where it is below
-        // kPolishRelativeRadius of the root, the centre is as good as a
-        // float32 AOV can show (most discs are wide from their coefficients'
-        // radii, not from their centres), and is kept (a root proven real
-        // by the caller: the centre's real part, on the real line).
-        const Complex<double> z(d.re, real ? 0.0 : d.im);
-        Complex<double> p(c[n], 0.0), dp(0.0, 0.0);
-        for (int k = n - 1; k >= 0; --k) {
-            dp = dp * z + p;
-            p = add_real(p * z, c[k]);
-        }
-        const double step = std::hypot(p.re, p.im), slope = std::hypot(dp.re, dp.im);
-        if (std::isfinite(step) && std::isfinite(slope) && step <= kPolishRelativeRadius * slope * std::hypot(z.re, z.im)) {
-            if (!real || d.im == 0.0) return false;
-            re = d.re;
-            im = 0.0;
-            return true;
-        }
+    // Newton's step in double from the centre: where it is below
+    // kPolishRelativeRadius of the root, the centre is as good as a float32
+    // AOV can show (most discs are wide from their coefficients' radii, not
+    // from their centres), and is kept (a root proven real by the caller:
+    // the centre's real part, on the real line). Its p and p' start the
+    // iteration below. (On the real line the complex Horner at im = 0 is
+    // the real one: every imaginary part stays 0.)
+    const CD z(d.re, real ? 0.0 : d.im);
+    CD p, dp;
+    horner(c, n, z, p, dp);
+    const double step = std::hypot(p.re, p.im), slope = std::hypot(dp.re, dp.im);
+    if (std::isfinite(step) && std::isfinite(slope) && step <= kPolishRelativeRadius * slope * std::hypot(z.re, z.im)) {
+        if (!real || d.im == 0.0) return false;
+        re = d.re;
+        im = 0.0;
+        return true;
     }
+    if (real) return settle(c, n, d, DD(near_root(c, n, d, d.re, p.re, dp.re)), re, im);
+    const CD start = near_root(c, n, d, z, p, dp);
+    return settle(c, n, d, CDD(DD(start.re), DD(start.im)), re, im);
+}
+
+void polish_start(const double* c, int n, const RootDisc& d, double& re, double& im, bool real) {
+    real = real || d.real;
+    if (n < 1) return;
+    const CD z(d.re, real ? 0.0 : d.im);
+    CD p, dp;
+    horner(c, n, z, p, dp);
     if (real) {
-        DD x(near_root_real(c, n, d));
-        for (int step = 0; step < kMaxSteps; ++step) {
-            DD p(c[n]), dp(0.0);
-            for (int k = n - 1; k >= 0; --k) {
-                dp = dp * x + p;
-                p = p * x + DD(c[k]);
-            }
-            if (dp.hi == 0.0 || !is_finite(p) || !is_finite(dp)) return false;
-            const DD dx = p / dp;
-            x = x - dx;
-            if (!is_finite(x) || !(std::hypot(x.hi - d.re, d.im) <= d.radius)) return false;
-            if (std::fabs(dx.hi) <= kSettled * std::fabs(x.hi)) {
-                re = x.hi + x.lo;  // (normalised: x.hi, the nearest double)
-                im = 0.0;
-                return true;
-            }
-        }
-        return false;
+        re = near_root(c, n, d, d.re, p.re, dp.re);
+        im = 0.0;
+        return;
     }
-    using C = Complex<DD>;
-    const Complex<double> start = near_root(c, n, d);
-    C z(DD(start.re), DD(start.im));
+    const CD start = near_root(c, n, d, z, p, dp);
+    re = start.re;
+    im = start.im;
+}
+
+bool polish_ill_conditioned(const double* c, const double* r, int n, double re, double im) {
+    if (n < 1) return false;
+    double slope;
+    if (im == 0.0) {  // (on the real line: the real Horner)
+        double p, dp;
+        horner(c, n, re, p, dp);
+        slope = std::fabs(dp);
+    } else {
+        CD p, dp;
+        horner(c, n, CD(re, im), p, dp);
+        slope = std::hypot(dp.re, dp.im);
+    }
+    const double m = std::hypot(re, im);
+    double moved = 0.0;  // sum of r_k |z|^k
+    for (int k = n; k >= 0; --k) moved = moved * m + r[k];
+    return !(std::isfinite(moved) && std::isfinite(slope) && moved <= kIllConditioned * m * slope);
+}
+
+namespace {
+double times(double a, double b) { return a * b; }
+CD times(CD a, double b) { return CD(a.re * b, a.im * b); }
+double at_point(double, double o) { return o; }
+CD at_point(CD, double o) { return CD(o, 0.0); }
+
+/// F(o' + t d') and its derivative in t (grad F . d'), at t, evaluated at
+/// the point o' + t d' in T (double or Complex<double>).
+template <class T> void point_value(const RayPoint& ray, T t, T& p, T& dp) {
+    const SurfaceSpec& s = *ray.surface;
+    const int n = s.degree;
+    T pw[3][kMaxDegree + 1];
+    for (int a = 0; a < 3; ++a) {
+        pw[a][0] = at_point(t, 1.0);
+        const T q = at_point(t, ray.origin[a]) + times(t, ray.direction[a]);
+        for (int k = 1; k <= n; ++k) pw[a][k] = pw[a][k - 1] * q;
+    }
+    p = dp = at_point(t, 0.0);
+    for (const Term& term : s.terms) {
+        const T x = pw[0][term.ex], y = pw[1][term.ey], z = pw[2][term.ez];
+        p = p + times(x * y * z, term.coeff);
+        T g = at_point(t, 0.0);
+        if (term.ex > 0) g = g + times(pw[0][term.ex - 1] * y * z, term.ex * ray.direction[0]);
+        if (term.ey > 0) g = g + times(x * pw[1][term.ey - 1] * z, term.ey * ray.direction[1]);
+        if (term.ez > 0) g = g + times(x * y * pw[2][term.ez - 1], term.ez * ray.direction[2]);
+        dp = dp + times(g, term.coeff);
+    }
+}
+
+bool zero(double x) { return x == 0.0; }
+bool zero(CD z) { return z.re == 0.0 && z.im == 0.0; }
+
+/// Newton's iteration in double on F along the ray, evaluated at the
+/// point (point_value), from z: true with the root in (re, im) once a
+/// step is below kPointSettled of the iterate inside d; false where an
+/// iterate leaves d, meets a zero or non-finite derivative, or kMaxSteps
+/// pass first.
+template <class T> bool settle_at_point(const RayPoint& ray, const RootDisc& d, T z, double& re, double& im) {
     for (int step = 0; step < kMaxSteps; ++step) {
-        C p(DD(c[n]), DD(0.0)), dp(DD(0.0), DD(0.0));
-        for (int k = n - 1; k >= 0; --k) {
-            dp = dp * z + p;
-            p = add_real(p * z, DD(c[k]));
-        }
-        if ((dp.re.hi == 0.0 && dp.im.hi == 0.0) || !is_finite(p) || !is_finite(dp)) return false;
-        const C dz = p / dp;
+        T p, dp;
+        point_value(ray, z, p, dp);
+        if (zero(dp) || !finite(p) || !finite(dp)) return false;
+        const T dz = p / dp;
         z = z - dz;
-        if (!is_finite(z) || !(std::hypot(z.re.hi - d.re, z.im.hi - d.im) <= d.radius)) return false;
-        if (std::hypot(dz.re.hi, dz.im.hi) <= kSettled * std::hypot(z.re.hi, z.im.hi)) {
-            re = z.re.hi + z.re.lo;
-            im = z.im.hi + z.im.lo;
+        if (!finite(z) || !(std::hypot(re_hi(z) - d.re, im_hi(z) - d.im) <= d.radius)) return false;
+        if (std::hypot(re_hi(dz), im_hi(dz)) <= kPointSettled * std::hypot(re_hi(z), im_hi(z))) {
+            re = re_hi(z);
+            im = im_hi(z);
             return true;
         }
     }
     return false;
+}
+}  // namespace
+
+bool polish_root_at_point(const RayPoint& ray, const RootDisc& d, double& re, double& im, bool real) {
+    real = real || d.real;
+    if (ray.surface == nullptr || ray.surface->degree < 1 || !d.verified || d.count != 1) return false;
+    if (real) return settle_at_point(ray, d, re, re, im);
+    return settle_at_point(ray, d, CD(re, im), re, im);
 }
 
 }  // namespace argand::detail

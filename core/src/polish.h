@@ -12,6 +12,7 @@
 // made from it stay as they are.
 #pragma once
 
+#include "argand/render.h"
 #include "argand/roots.h"
 
 namespace argand::detail {
@@ -39,5 +40,37 @@ bool wants_polish(const RootDisc& d);
 /// some four times cheaper than the complex one, and writes im = 0 (also
 /// where the centre is kept: its real part then, true).
 bool polish_root(const double* c, int n, const RootDisc& d, double& re, double& im, bool real = false);
+
+/// Newton's iteration in double on c from d's centre (polish_root's first
+/// phase: to about a double's last place where it converges inside d):
+/// (re, im), a start for polish_root_at_point. On the real line where
+/// `real` or d.real (im = 0).
+void polish_start(const double* c, int n, const RootDisc& d, double& re, double& im, bool real = false);
+
+/// Whether a root at (re, im) (d's centre, or polish_root's root) may be farther than kPolishRelativeRadius of |z| from the root of the
+/// exact polynomial: the double coefficients c carry radii r (the exact
+/// coefficients lie within them), which move a root by about
+/// sum_k r_k |z|^k / |p'(z)| (to first order: an estimate that selects the
+/// ill-conditioned roots, not a bound, and proves nothing). True also where
+/// that is not finite.
+bool polish_ill_conditioned(const double* c, const double* r, int n, double re, double im);
+
+/// A ray in an object's space: F(origin + t direction) is its polynomial.
+struct RayPoint {
+    const SurfaceSpec* surface = nullptr;
+    double origin[3] = {0, 0, 0};
+    double direction[3] = {0, 0, 0};
+};
+
+/// The root in d of F along the ray, by Newton's iteration in double with
+/// F and its derivative evaluated at the point o' + t d' (from its terms),
+/// not from the ray polynomial's coefficients: those are F's Taylor
+/// expansion at the eye, whose rounding grows with the eye's distance to
+/// the power of the degree, while F at a point near the surface rounds at
+/// the surface's own scale. From (re, im) (polish_root's root, or d's
+/// centre) to a step below 2^-30 relative inside d: then (re, im) holds
+/// it. Returns false (re, im untouched) otherwise. Proves nothing: only
+/// the value written moves, within d. `real` as polish_root's.
+bool polish_root_at_point(const RayPoint& ray, const RootDisc& d, double& re, double& im, bool real = false);
 
 }  // namespace argand::detail

@@ -87,6 +87,44 @@ int main() {
         const double cubed[] = {-1.0, 3.0, -3.0, 1.0};  // (t - 1)^3: no simple root to polish
         CHECK(!polish_root(cubed, 3, disc(1.0, 0.0, 0.0, true), re, im));
     }
+    // polish_root_at_point: F = x^2 + y^2 + z^2 - 4 (the sphere of radius 2)
+    // along rays from z = -10. On the axis its roots are t = 8 and 12; from
+    // (0, 3, -10) the pair 10 +- sqrt(5) i. From any start in a disc of
+    // radius 1e-2 the root to a double's accuracy; false for a disc that
+    // holds none, or a start the iteration leaves the disc from.
+    {
+        SurfaceSpec sphere;
+        sphere.degree = 2;
+        sphere.terms = {{2, 0, 0, 1.0}, {0, 2, 0, 1.0}, {0, 0, 2, 1.0}, {0, 0, 0, -4.0}};
+        detail::RayPoint axis{&sphere, {0.0, 0.0, -10.0}, {0.0, 0.0, 1.0}};
+        detail::RayPoint aside{&sphere, {0.0, 3.0, -10.0}, {0.0, 0.0, 1.0}};
+        const double root5 = std::sqrt(5.0);
+        for (int i = 0; i < 100; ++i) {
+            double re = 8.0 + 0.009 * u(rng), im = 0.0;
+            CHECK(detail::polish_root_at_point(axis, disc(8.0 + 0.005 * u(rng), 0.0, 0.02, true), re, im));
+            CHECK(std::fabs(re - 8.0) <= 0x1p-50 * 8.0 && im == 0.0);
+            re = 10.0 + 0.009 * u(rng);
+            im = root5 + 0.009 * u(rng);
+            CHECK(detail::polish_root_at_point(aside, disc(10.0, root5, 0.02, false), re, im));
+            CHECK(std::fabs(re - 10.0) <= 0x1p-50 * 10.0 && std::fabs(im - root5) <= 0x1p-50 * 10.0);
+        }
+        double re = 9.0, im = 0.0;
+        CHECK(!detail::polish_root_at_point(axis, disc(9.0, 0.0, 0.5, true), re, im));  // no root in it
+        CHECK(re == 9.0 && im == 0.0);  // untouched
+        CHECK(!detail::polish_root_at_point(axis, disc(8.0, 0.0, 0.01, true, 1, false), re, im));
+    }
+    // polish_ill_conditioned: the coefficients' radii against the root's
+    // slope. t^2 - 2 at sqrt(2) (slope 2 sqrt(2)): radii of 1e-20 move it by
+    // far less than 2^-24 of it, radii of 1e-6 by far more; an infinite
+    // radius always counts.
+    {
+        const double c[] = {-2.0, 0.0, 1.0};
+        const double tiny[] = {1e-20, 1e-20, 1e-20}, wide[] = {1e-6, 1e-6, 1e-6}, inf[] = {INFINITY, 0.0, 0.0};
+        CHECK(!detail::polish_ill_conditioned(c, tiny, 2, std::sqrt(2.0), 0.0));
+        CHECK(detail::polish_ill_conditioned(c, wide, 2, std::sqrt(2.0), 0.0));
+        CHECK(detail::polish_ill_conditioned(c, inf, 2, std::sqrt(2.0), 0.0));
+        CHECK(detail::polish_ill_conditioned(c, wide, 2, 1.0, 1.0));  // (complex: the complex Horner)
+    }
     // wants_polish: wide discs of one verified root only.
     CHECK(wants_polish(disc(4.2, 0.0, 0.05, true)));
     CHECK(!wants_polish(disc(4.2, 0.0, 1e-9, true)));

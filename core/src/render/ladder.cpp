@@ -119,11 +119,16 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
         }
     }
     if (h.hit && detail::wants_polish(h.disc)) {
-        double c[kMaxDegree + 1];
+        double c[kMaxDegree + 1], rad[kMaxDegree + 1];
         const int n = plan_.scene.objects[h.object].degree;
-        if (primary && pre != nullptr && pre->batch->batched(h.object)) pre->batch->coefficients(h.object, pre->cell, c);
-        else std::copy(roots[h.object].poly.c, roots[h.object].poly.c + n + 1, c);
-        polish(h, c, n, proven_real_hit(h));
+        const ObjectRoots& r = roots[h.object];
+        if (primary && pre != nullptr && pre->batch->batched(h.object)) {
+            pre->batch->coefficients(h.object, pre->cell, c, rad);
+        } else {
+            std::copy(r.poly.c, r.poly.c + n + 1, c);
+            std::copy(r.poly.r, r.poly.r + n + 1, rad);
+        }
+        polish(h, c, rad, n, proven_real_hit(h), primary ? d : nullptr);
     } else if (proven_real_hit(h)) {
         to_real_line(h);
     }

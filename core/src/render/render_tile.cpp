@@ -239,7 +239,7 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                         const double dir[3] = {dx[c], dy[c], dz[c]};
                         SampleResult sample;
                         bool filled = false;
-                        if (all_batched && tracer.intersect_batched(pre, sample.hit, filled, values)) {
+                        if (all_batched && tracer.intersect_batched(pre, sample.hit, filled, values, dir)) {
                             // trace_sample's shading of the certified hit (the
                             // ray's origin is the eye's doubles). Shading a
                             // root that bounces no ray reads only the root,

@@ -329,9 +329,12 @@ public:
 
     /// Cell c's ray polynomial coefficients for object obj (batched(obj)),
     /// c[0..degree]: the doubles its discs were proven for.
-    void coefficients(int obj, int c, double* out) const {
+    void coefficients(int obj, int c, double* out, double* radii) const {
         const detail::PrimaryRun& p = objects_[obj].run;
-        for (int k = 0; k <= p.n; ++k) out[k] = p.c[k][c];
+        for (int k = 0; k <= p.n; ++k) {
+            out[k] = p.c[k][c];
+            radii[k] = p.r[k][c];
+        }
     }
 
     /// Cell c's LadderMemo, shared by the bands of the tile (share_ladder),

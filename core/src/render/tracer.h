@@ -52,7 +52,8 @@ public:
     /// `values` false (a band whose pixels are not written, whose hits
     /// bounce no ray): the hit's root is not polished (its value only feeds
     /// the AOVs and the colour; the decision and every figure stay).
-    bool intersect_batched(const BatchedCell& pre, HitInfo& h, bool& filled, bool values = true) {
+    /// `dir`: the sample's world direction (polish's).
+    bool intersect_batched(const BatchedCell& pre, HitInfo& h, bool& filled, bool values, const double* dir) {
         filled = false;
         if (decider_.full_only()) return false;
         const int n_obj = static_cast<int>(plan_.scene.objects.size());
@@ -74,9 +75,9 @@ public:
         if (values && h.hit) {
             const bool real = proven_real_hit(h);
             if (detail::wants_polish(h.disc)) {
-                double c[kMaxDegree + 1];
-                pre.batch->coefficients(h.object, pre.cell, c);
-                polish(h, c, plan_.scene.objects[h.object].degree, real);
+                double c[kMaxDegree + 1], r[kMaxDegree + 1];
+                pre.batch->coefficients(h.object, pre.cell, c, r);
+                polish(h, c, r, plan_.scene.objects[h.object].degree, real, dir);
             } else if (real) {
                 to_real_line(h);
             }
@@ -92,12 +93,45 @@ public:
     /// `real`: the hit's root is proven real (proven_real_hit): the
     /// iteration stays on the real line, and the value is written there
     /// (im = 0) even where it does not settle.
-    static void polish(HitInfo& h, const double* c, int n, bool real) {
+    /// The root of the double coefficients c is the exact polynomial's
+    /// within what their radii r move it: where that may be more than a
+    /// float32 AOV shows (polish_ill_conditioned: a root near another, or
+    /// a surface far from the eye for its degree), a primary ray's root
+    /// (`dir`: its world direction; null for other rays, whose
+    /// coefficients are expanded at their own origin) is polished again
+    /// with F evaluated at the point along the ray (polish_root_at_point).
+    void polish(HitInfo& h, const double* c, const double* r, int n, bool real, const double* dir) {
+        const RootDisc& disc = h.disc;
         double re, im;
-        if (!detail::polish_root(c, n, h.disc, re, im, real)) {
-            if (real) to_real_line(h);
-            return;
+        if (dir != nullptr && detail::polish_ill_conditioned(c, r, n, disc.re, real ? 0.0 : disc.im)) {
+            // (Started from the coefficients' root in double; where F at the
+            // point does not settle, polish_root's value as for any root.)
+            detail::RayPoint ray = ray_point(h.object, dir);
+            detail::polish_start(c, n, disc, re, im, real);
+            if (detail::polish_root_at_point(ray, disc, re, im, real)) {
+                set_root(h, re, im);
+                return;
+            }
         }
+        if (detail::polish_root(c, n, disc, re, im, real)) set_root(h, re, im);
+        else if (real) to_real_line(h);
+    }
+
+    /// The primary ray along world direction `dir` in object `obj`'s space.
+    detail::RayPoint ray_point(int obj, const double* dir) const {
+        const SurfaceSpec& s = plan_.scene.objects[obj];
+        detail::RayPoint ray;
+        ray.surface = &s;
+        for (int a = 0; a < 3; ++a) {
+            ray.origin[a] = plan_.objects[obj].origin[a].mid;
+            const double* L = s.linear + 3 * a;
+            ray.direction[a] = L[0] * dir[0] + L[1] * dir[1] + L[2] * dir[2];
+        }
+        return ray;
+    }
+
+    /// h shows the root (re, im) of its disc.
+    static void set_root(HitInfo& h, double re, double im) {
         h.disc.re = re;
         h.disc.im = im;
         h.modulus = im == 0.0 && !std::isnan(re) ? std::fabs(re) : std::hypot(re, im);
