@@ -132,6 +132,7 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
     } else if (proven_real_hit(h)) {
         to_real_line(h);
     }
+    upper_half(h);
     h.level = level;
     if (seeds && seed_objects_) {
         // Only for the objects whose seeds a later sample may read: the

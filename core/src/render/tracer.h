@@ -82,8 +82,20 @@ public:
                 to_real_line(h);
             }
         }
+        upper_half(h);
         h.level = level;
         return true;
+    }
+
+    /// A hit shows its root with im >= 0: the ray polynomial is real, so
+    /// the conjugate of a root is a root of the same modulus, and the band
+    /// (|arg| in [sigma, sigma + delta]) holds both. Which of the two the
+    /// solver listed first depends on its seeds and kernel; the value
+    /// written does not. (Shading is the same for both, bit for bit: the
+    /// normal is the real part of the gradient at o + t d, the hit point at
+    /// |t|, and every operation on the conjugate is exactly mirrored.)
+    static void upper_half(HitInfo& h) {
+        if (h.hit && h.disc.im < 0.0) h.disc.im = -h.disc.im;
     }
 
     /// The hit's value (its disc's centre, which the AOVs and the shading
