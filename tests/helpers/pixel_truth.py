@@ -52,7 +52,13 @@ from typing import Any, Sequence
 
 import flint
 
-from tests.helpers.truth import Precision
+if __name__ == "__main__":  # run as a script: the repository root, for tests.helpers
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from tests.helpers.truth import Precision  # noqa: E402
 
 #: Working precisions (bits) of the root balls, tried in order until every
 #: decision of the pixel is certain.
@@ -519,11 +525,8 @@ def _scene_from_spec(spec: str) -> Any:
 
 def main(argv: Sequence[str] | None = None) -> int:
     import argparse
-    import sys
     import time
-    from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root, for tests.helpers
     from argand.render import FrameParams, render_frame
     from argand.frames.angles import parse_angle
 

@@ -284,3 +284,18 @@ def test_a_degenerate_truth_checks_what_it_knows():
     assert check_pixel(tie, 0, True, -1.0, 0.0, 1.0) == []
     on_clip = pixel_truth(scene(sphere(clip_radius=1.0)), 0.0, 0.0, (0.0, 0.0, 0.0), (1.0, 1.0, 0.0))
     assert check_pixel(on_clip, 0, False, 0.0, 0.0, math.inf) == []
+
+
+def test_the_documented_command_runs_from_any_folder(tmp_path):
+    """docs/rendering.md's command line: the script finds tests.helpers
+    wherever it is started from, checks the pixels and exits 0 when no
+    certified pixel is contradicted."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parent / "pixel_truth.py"
+    run = subprocess.run([sys.executable, str(script), "whitney", "--size", "12x10", "-n", "20", "--delta", "pi/18"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "total: 20 pixels" in run.stdout and "0 wrong" in run.stdout, run.stdout
