@@ -189,9 +189,9 @@ CD times(CD a, double b) { return CD(a.re * b, a.im * b); }
 double at_point(double, double o) { return o; }
 CD at_point(CD, double o) { return CD(o, 0.0); }
 
-/// F(o' + t d') and its derivative in t (grad F . d'), at t, evaluated at
-/// the point o' + t d' in T (double or Complex<double>).
-template <class T> void point_value(const RayPoint& ray, T t, T& p, T& dp) {
+/// F(o' + t d') at t, evaluated at the point o' + t d' in T (double or
+/// Complex<double>).
+template <class T> T point_value(const RayPoint& ray, T t) {
     const SurfaceSpec& s = *ray.surface;
     const int n = s.degree;
     T pw[3][kMaxDegree + 1];
@@ -200,30 +200,28 @@ template <class T> void point_value(const RayPoint& ray, T t, T& p, T& dp) {
         const T q = at_point(t, ray.origin[a]) + times(t, ray.direction[a]);
         for (int k = 1; k <= n; ++k) pw[a][k] = pw[a][k - 1] * q;
     }
-    p = dp = at_point(t, 0.0);
-    for (const Term& term : s.terms) {
-        const T x = pw[0][term.ex], y = pw[1][term.ey], z = pw[2][term.ez];
-        p = p + times(x * y * z, term.coeff);
-        T g = at_point(t, 0.0);
-        if (term.ex > 0) g = g + times(pw[0][term.ex - 1] * y * z, term.ex * ray.direction[0]);
-        if (term.ey > 0) g = g + times(x * pw[1][term.ey - 1] * z, term.ey * ray.direction[1]);
-        if (term.ez > 0) g = g + times(x * y * pw[2][term.ez - 1], term.ez * ray.direction[2]);
-        dp = dp + times(g, term.coeff);
-    }
+    T p = at_point(t, 0.0);
+    for (const Term& term : s.terms) p = p + times(pw[0][term.ex] * pw[1][term.ey] * pw[2][term.ez], term.coeff);
+    return p;
 }
 
 bool zero(double x) { return x == 0.0; }
 bool zero(CD z) { return z.re == 0.0 && z.im == 0.0; }
 
-/// Newton's iteration in double on F along the ray, evaluated at the
-/// point (point_value), from z: true with the root in (re, im) once a
+/// Newton's iteration in double on F along the ray: its value evaluated
+/// at the point (point_value), its derivative from the ray polynomial's
+/// double coefficients c (within their radii of the exact one's: Newton's
+/// steps then shrink the error by that relative amount or its square,
+/// whichever is larger), from z: true with the root in (re, im) once a
 /// step is below kPointSettled of the iterate inside d; false where an
 /// iterate leaves d, meets a zero or non-finite derivative, or kMaxSteps
 /// pass first.
-template <class T> bool settle_at_point(const RayPoint& ray, const RootDisc& d, T z, double& re, double& im) {
+template <class T> bool settle_at_point(const RayPoint& ray, const double* c, int n, const RootDisc& d, T z,
+                                        double& re, double& im) {
     for (int step = 0; step < kMaxSteps; ++step) {
         T p, dp;
-        point_value(ray, z, p, dp);
+        horner(c, n, z, p, dp);
+        p = point_value(ray, z);
         if (zero(dp) || !finite(p) || !finite(dp)) return false;
         const T dz = p / dp;
         z = z - dz;
@@ -238,11 +236,12 @@ template <class T> bool settle_at_point(const RayPoint& ray, const RootDisc& d, 
 }
 }  // namespace
 
-bool polish_root_at_point(const RayPoint& ray, const RootDisc& d, double& re, double& im, bool real) {
+bool polish_root_at_point(const RayPoint& ray, const double* c, int n, const RootDisc& d, double& re, double& im,
+                          bool real) {
     real = real || d.real;
-    if (ray.surface == nullptr || ray.surface->degree < 1 || !d.verified || d.count != 1) return false;
-    if (real) return settle_at_point(ray, d, re, re, im);
-    return settle_at_point(ray, d, CD(re, im), re, im);
+    if (ray.surface == nullptr || n < 1 || ray.surface->degree != n || !d.verified || d.count != 1) return false;
+    if (real) return settle_at_point(ray, c, n, d, re, re, im);
+    return settle_at_point(ray, c, n, d, CD(re, im), re, im);
 }
 
 }  // namespace argand::detail

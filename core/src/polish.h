@@ -63,14 +63,17 @@ struct RayPoint {
 };
 
 /// The root in d of F along the ray, by Newton's iteration in double with
-/// F and its derivative evaluated at the point o' + t d' (from its terms),
-/// not from the ray polynomial's coefficients: those are F's Taylor
-/// expansion at the eye, whose rounding grows with the eye's distance to
-/// the power of the degree, while F at a point near the surface rounds at
-/// the surface's own scale. From (re, im) (polish_root's root, or d's
-/// centre) to a step below 2^-30 relative inside d: then (re, im) holds
-/// it. Returns false (re, im untouched) otherwise. Proves nothing: only
-/// the value written moves, within d. `real` as polish_root's.
-bool polish_root_at_point(const RayPoint& ray, const RootDisc& d, double& re, double& im, bool real = false);
+/// F evaluated at the point o' + t d' (from its terms), not from the ray
+/// polynomial's coefficients: those are F's Taylor expansion at the eye,
+/// whose rounding grows with the eye's distance to the power of the
+/// degree, while F at a point near the surface rounds at the surface's own
+/// scale. The derivative comes from the double coefficients c (degree n),
+/// which only slows the iteration by their relative error. From (re, im)
+/// (polish_start's root, or d's centre) to a step below 2^-30 relative
+/// inside d: then (re, im) holds it. Returns false (re, im untouched)
+/// otherwise. Proves nothing: only the value written moves, within d.
+/// `real` as polish_root's.
+bool polish_root_at_point(const RayPoint& ray, const double* c, int n, const RootDisc& d, double& re, double& im,
+                          bool real = false);
 
 }  // namespace argand::detail

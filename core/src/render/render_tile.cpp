@@ -180,6 +180,7 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                           (s.material.reflectivity > 0 || s.material.transparency > 0));
     const bool any_bounce = std::find(bounces.begin(), bounces.end(), 1) != bounces.end();
     ShadeMemo memo[PrimaryBatch::kCells];
+    PolishMemo polished[PrimaryBatch::kCells];
     const bool share_colours = bands.size() > 1;  // (a lone frame has no other band to share with)
     detail::SampleRowInput row_in;
     for (int a = 0; a < 3; ++a) {
@@ -221,7 +222,7 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                         if (record) batch.record(record->bytes, cells);
                     }
                 }
-                for (int c = 0; c < cells; ++c) memo[c].valid = false;
+                for (int c = 0; c < cells; ++c) memo[c].valid = polished[c].valid = false;
                 for (auto& band : bands) {
                     Tracer& tracer = band->tracer;
                     const std::size_t stride = static_cast<std::size_t>(band->out.stride);
@@ -239,7 +240,8 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                         const double dir[3] = {dx[c], dy[c], dz[c]};
                         SampleResult sample;
                         bool filled = false;
-                        if (all_batched && tracer.intersect_batched(pre, sample.hit, filled, values, dir)) {
+                        if (all_batched && tracer.intersect_batched(pre, sample.hit, filled, values, dir,
+                                                                  share_colours ? &polished[c] : nullptr)) {
                             // trace_sample's shading of the certified hit (the
                             // ray's origin is the eye's doubles). Shading a
                             // root that bounces no ray reads only the root,

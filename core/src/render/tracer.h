@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "argand/render.h"
@@ -20,6 +21,22 @@
 #pragma GCC visibility push(hidden)  // internal: binds within the library, as the file-local code did
 
 namespace argand::detail {
+
+/// A sample's polished root, kept for the other bands of the sample
+/// (render_tile_bands): a band whose certified hit is the same disc of the
+/// same object, polished the same way (on the real line or off it), takes
+/// it instead of polishing again: the same bits, since polishing reads
+/// only the disc, the ray and its coefficients.
+struct PolishMemo {
+    bool valid = false;
+    bool real = false;
+    int object = -1;
+    RootDisc disc{};
+    double re = 0, im = 0, modulus = 0;
+    bool same(const HitInfo& h, bool real_hit) const {
+        return valid && real == real_hit && object == h.object && std::memcmp(&disc, &h.disc, sizeof disc) == 0;
+    }
+};
 
 class Tracer {
 public:
@@ -52,8 +69,10 @@ public:
     /// `values` false (a band whose pixels are not written, whose hits
     /// bounce no ray): the hit's root is not polished (its value only feeds
     /// the AOVs and the colour; the decision and every figure stay).
-    /// `dir`: the sample's world direction (polish's).
-    bool intersect_batched(const BatchedCell& pre, HitInfo& h, bool& filled, bool values, const double* dir) {
+    /// `dir`: the sample's world direction (polish's). `memo` (optional):
+    /// the sample's polished root, shared with the tile's other bands.
+    bool intersect_batched(const BatchedCell& pre, HitInfo& h, bool& filled, bool values, const double* dir,
+                           PolishMemo* memo = nullptr) {
         filled = false;
         if (decider_.full_only()) return false;
         const int n_obj = static_cast<int>(plan_.scene.objects.size());
@@ -75,9 +94,25 @@ public:
         if (values && h.hit) {
             const bool real = proven_real_hit(h);
             if (detail::wants_polish(h.disc)) {
-                double c[kMaxDegree + 1], r[kMaxDegree + 1];
-                pre.batch->coefficients(h.object, pre.cell, c, r);
-                polish(h, c, r, plan_.scene.objects[h.object].degree, real, dir);
+                if (memo != nullptr && memo->same(h, real)) {
+                    h.disc.re = memo->re;
+                    h.disc.im = memo->im;
+                    h.modulus = memo->modulus;
+                } else {
+                    const RootDisc before = h.disc;
+                    double c[kMaxDegree + 1], r[kMaxDegree + 1];
+                    pre.batch->coefficients(h.object, pre.cell, c, r);
+                    polish(h, c, r, plan_.scene.objects[h.object].degree, real, dir);
+                    if (memo != nullptr) {
+                        memo->valid = true;
+                        memo->real = real;
+                        memo->object = h.object;
+                        memo->disc = before;
+                        memo->re = h.disc.re;
+                        memo->im = h.disc.im;
+                        memo->modulus = h.modulus;
+                    }
+                }
             } else if (real) {
                 to_real_line(h);
             }
@@ -120,7 +155,7 @@ public:
             // point does not settle, polish_root's value as for any root.)
             detail::RayPoint ray = ray_point(h.object, dir);
             detail::polish_start(c, n, disc, re, im, real);
-            if (detail::polish_root_at_point(ray, disc, re, im, real)) {
+            if (detail::polish_root_at_point(ray, c, n, disc, re, im, real)) {
                 set_root(h, re, im);
                 return;
             }
