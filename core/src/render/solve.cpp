@@ -110,6 +110,24 @@ void PrimaryBatch::solve(const double* dx, const double* dy, const double* dz, i
 }
 
 void PrimaryBatch::record(std::vector<std::uint8_t>& tape, int cells) const {
+    // The entries' size first, then one resize and plain stores (growing
+    // the tape eight bytes at a time cost a 512² frame some 0.03 s).
+    std::size_t bytes = 0;
+    for (std::size_t obj = 0; obj < objects_.size(); ++obj) {
+        const Object& o = objects_[obj];
+        if (!o.batched) continue;
+        const std::size_t n = static_cast<std::size_t>(plan_.scene.objects[obj].degree);
+        for (int c = 0; c < cells; ++c)
+            if (!o.skip[c])
+                bytes += 5 + 26 * static_cast<std::size_t>(o.res[c].n_discs) + (o.provisional[c] ? 16 * n : 0);
+    }
+    std::size_t at = tape.size();
+    tape.resize(at + bytes);
+    std::uint8_t* out = tape.data();
+    auto put8 = [&](double v) {
+        std::memcpy(out + at, &v, 8);
+        at += 8;
+    };
     for (std::size_t obj = 0; obj < objects_.size(); ++obj) {
         const Object& o = objects_[obj];
         if (!o.batched) continue;
@@ -117,25 +135,25 @@ void PrimaryBatch::record(std::vector<std::uint8_t>& tape, int cells) const {
         for (int c = 0; c < cells; ++c) {
             if (o.skip[c]) continue;
             const RootsResult& res = o.res[c];
-            const std::uint8_t head[5] = {static_cast<std::uint8_t>(o.status[c]),
-                                          static_cast<std::uint8_t>((o.provisional[c] ? 1 : 0) |
-                                                                    (res.wants_exact ? 2 : 0)),
-                                          static_cast<std::uint8_t>(res.n_discs),
-                                          static_cast<std::uint8_t>(res.n_infinite),
-                                          static_cast<std::uint8_t>(res.escalation)};
-            tape.insert(tape.end(), head, head + 5);
+            out[at] = static_cast<std::uint8_t>(o.status[c]);
+            out[at + 1] = static_cast<std::uint8_t>((o.provisional[c] ? 1 : 0) | (res.wants_exact ? 2 : 0));
+            out[at + 2] = static_cast<std::uint8_t>(res.n_discs);
+            out[at + 3] = static_cast<std::uint8_t>(res.n_infinite);
+            out[at + 4] = static_cast<std::uint8_t>(res.escalation);
+            at += 5;
             for (int i = 0; i < res.n_discs; ++i) {
                 const RootDisc& d = res.discs[i];
-                put(tape, d.re);
-                put(tape, d.im);
-                put(tape, d.radius);
-                tape.push_back(static_cast<std::uint8_t>(d.count));
-                tape.push_back(static_cast<std::uint8_t>((d.verified ? 1 : 0) | (d.real ? 2 : 0)));
+                put8(d.re);
+                put8(d.im);
+                put8(d.radius);
+                out[at] = static_cast<std::uint8_t>(d.count);
+                out[at + 1] = static_cast<std::uint8_t>((d.verified ? 1 : 0) | (d.real ? 2 : 0));
+                at += 2;
             }
             if (o.provisional[c])
                 for (int m = 0; m < n; ++m) {
-                    put(tape, o.lane_re[c * n + m]);
-                    put(tape, o.lane_im[c * n + m]);
+                    put8(o.lane_re[c * n + m]);
+                    put8(o.lane_im[c * n + m]);
                 }
         }
     }
@@ -389,12 +407,6 @@ bool PrimaryBatch::solve_real(int obj, int c, RootDisc* discs, int& n_discs) con
     }
     n_discs = iso.n;
     return true;
-}
-
-void PrimaryBatch::put(std::vector<std::uint8_t>& tape, double v) {
-    std::uint8_t b[8];
-    std::memcpy(b, &v, 8);
-    tape.insert(tape.end(), b, b + 8);
 }
 
 void PrimaryBatch::need(std::size_t size, std::size_t at, std::size_t bytes) {

@@ -364,8 +364,6 @@ private:
     /// solves the cell.
     bool solve_real(int obj, int c, RootDisc* discs, int& n_discs) const;
 
-    static void put(std::vector<std::uint8_t>& tape, double v);
-
     static void need(std::size_t size, std::size_t at, std::size_t bytes);
 
     struct Object {
