@@ -47,8 +47,9 @@ bool polish_root(const double* c, int n, const RootDisc& d, double& re, double& 
 /// `real` or d.real (im = 0).
 void polish_start(const double* c, int n, const RootDisc& d, double& re, double& im, bool real = false);
 
-/// Whether a root at (re, im) (d's centre, or polish_root's root) may be farther than kPolishRelativeRadius of |z| from the root of the
-/// exact polynomial: the double coefficients c carry radii r (the exact
+/// Whether a root at (re, im) (d's centre, or polish_root's root) may be
+/// farther than 2^-24 of |z| (a float32 AOV's resolution) from the root of
+/// the exact polynomial: the double coefficients c carry radii r (the exact
 /// coefficients lie within them), which move a root by about
 /// sum_k r_k |z|^k / |p'(z)| (to first order: an estimate that selects the
 /// ill-conditioned roots, not a bound, and proves nothing). True also where

@@ -185,8 +185,8 @@ class _LaterProgress:
     def update(self, description: str) -> None:
         self._state["description"] = description
         if self._bar is None:
-            self._show()
-        if self._bar is not None:
+            self._show()  # (made with the state: this description)
+        else:
             self._bar.update(self._task, description=description)
 
     def advance(self, n: int = 1) -> None:

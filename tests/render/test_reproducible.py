@@ -131,6 +131,15 @@ def test_a_tile_off_the_seed_blocks_is_refused_everywhere_with_the_reason():
     assert r.returncode == 2 and "multiple of 8" in r.stderr and "16 or 24" in r.stderr, r.stderr
 
 
+def case_scene(case: str, seed_of):
+    """A preset's name, or FAMILY-DEGREE: that family's random surface of
+    that degree, seeded with seed_of(degree)."""
+    family, _, degree = case.rpartition("-")
+    if family in FAMILIES:
+        return random_scene(family, int(degree), seed=seed_of(int(degree)))
+    return load_scene(case)
+
+
 @pytest.mark.parametrize("case", ["chmutov-octic", "barth-sextic", "togliatti", "steiner", "endrass-octic",
                                   *[f"{family}-{degree}" for family in FAMILIES for degree in (4, 7, 10)]])
 def test_a_certified_hit_on_the_real_surface_writes_a_real_root(case):
@@ -143,12 +152,7 @@ def test_a_certified_hit_on_the_real_surface_writes_a_real_root(case):
     others on a near-product surface, or on an octic seen from afar, whose
     ray polynomial's rounding to doubles moves it by up to 1e-4: such a
     root is polished with F evaluated at the point)."""
-    random = case.rsplit("-", 1)[0] in FAMILIES
-    if random:
-        family, degree = case.rsplit("-", 1)
-        scene = random_scene(family, int(degree), seed=int(degree) * 7 + 3)
-    else:
-        scene = load_scene(case)
+    scene = case_scene(case, lambda degree: degree * 7 + 3)
     width, height = 61, 47
     params = FrameParams(sigma=0.0, delta=0.0, width=width, height=height)
     frame = render_frame(scene, params, tile=16, workers=1)
@@ -181,12 +185,7 @@ def test_every_certified_hit_writes_its_exact_root_to_float32(case):
     polynomial's rounding moves by more than a float32 shows) polished with
     F at the point along the ray. Of a conjugate pair, the upper root (im
     >= 0) is written."""
-    random = case.rsplit("-", 1)[0] in FAMILIES
-    if random:
-        family, degree = case.rsplit("-", 1)
-        scene = random_scene(family, int(degree), seed=int(degree) * 11 + 1)
-    else:
-        scene = load_scene(case)
+    scene = case_scene(case, lambda degree: degree * 11 + 1)
     width, height = 45, 37
     objects = scene_objects(scene)
     checked = 0

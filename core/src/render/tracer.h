@@ -148,7 +148,7 @@ public:
     /// coefficients are expanded at their own origin) is polished again
     /// with F evaluated at the point along the ray (polish_root_at_point).
     void polish(HitInfo& h, const double* c, const double* r, int n, bool real, const double* dir) {
-        const RootDisc& disc = h.disc;
+        const RootDisc disc = h.disc;  // (the proven disc; set_root moves h's value)
         double re, im;
         if (dir != nullptr && detail::polish_ill_conditioned(c, r, n, disc.re, real ? 0.0 : disc.im)) {
             // (Started from the coefficients' root in double; where F at the
