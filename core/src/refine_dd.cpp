@@ -10,17 +10,125 @@
 namespace argand::detail {
 namespace {
 
+/// Double-double products for the Aberth sweep, the error-free product
+/// as one FMA where the CPU has it (kFma: the caller is compiled for it):
+/// the product's error is exact either way (Dekker's split in arith.h), so
+/// both give the same bits as arith.h's operator*, at about a third of the
+/// split's cost. Sums are arith.h's.
+template <bool kFma>
+__attribute__((always_inline)) inline DoubleDouble dd_mul(DoubleDouble x, DoubleDouble y) {
+    double ch, cl1;
+    if constexpr (kFma) {
+        ch = x.hi * y.hi;
+        cl1 = __builtin_fma(x.hi, y.hi, -ch);
+    } else {
+        detail::two_prod(x.hi, y.hi, ch, cl1);
+    }
+    const double tl = x.hi * y.lo;
+    const double cl2 = x.lo * y.hi + tl;
+    const double cl3 = cl1 + cl2;
+    double zh, zl;
+    detail::fast_two_sum(ch, cl3, zh, zl);
+    return {zh, zl};
+}
+
+template <bool kFma>
+__attribute__((always_inline)) inline Complex<DoubleDouble> dd_cmul(Complex<DoubleDouble> a, Complex<DoubleDouble> b) {
+    return {dd_mul<kFma>(a.re, b.re) - dd_mul<kFma>(a.im, b.im), dd_mul<kFma>(a.re, b.im) + dd_mul<kFma>(a.im, b.re)};
+}
+
+/// arith.h's DoubleDouble division with dd_mul.
+template <bool kFma>
+__attribute__((always_inline)) inline DoubleDouble dd_div(DoubleDouble x, DoubleDouble y) {
+    const double q1 = x.hi / y.hi;
+    DoubleDouble r = x - dd_mul<kFma>(y, DoubleDouble(q1));
+    const double q2 = r.hi / y.hi;
+    r = r - dd_mul<kFma>(y, DoubleDouble(q2));
+    const double q3 = r.hi / y.hi;
+    double s, e;
+    detail::fast_two_sum(q1, q2, s, e);
+    return DoubleDouble(s, e) + DoubleDouble(q3);
+}
+
+/// One Aberth-Ehrlich sweep in double-double over the approximations x of
+/// the roots of c (degree n) that `which` selects (all: null), in place;
+/// returns the largest relative correction. Approximations only: Smith's
+/// radii prove whatever they are. p and p' are evaluated in double-double
+/// (the fixed points are the roots of p at that precision); the sum
+/// sum_j 1 / (x_i - x_j) only sets the rate, and is formed in double from
+/// the double-double differences (a relative error of 2^-52 in it changes
+/// the correction by that much of v times the sum, nothing at a root),
+/// which spares n - 1 double-double divisions per root and sweep.
+template <bool kFma>
+__attribute__((always_inline)) inline double aberth_sweep_body(const DoubleDouble* c, int n, Complex<DoubleDouble>* x,
+                                                               const bool* which) {
+    double largest = 0.0;
+    for (int i = 0; i < n; ++i) {
+        if (which != nullptr && !which[i]) continue;
+        Complex<DoubleDouble> v(c[n]), dv(DoubleDouble(0.0));
+        for (int k = n - 1; k >= 0; --k) {
+            dv = dd_cmul<kFma>(dv, x[i]) + v;
+            v = add_real(dd_cmul<kFma>(v, x[i]), c[k]);
+        }
+        double sre = 0.0, sim = 0.0;
+        for (int j = 0; j < n; ++j) {
+            if (j == i) continue;
+            const Complex<DoubleDouble> d = x[i] - x[j];
+            const double dre = d.re.hi + d.re.lo, dim = d.im.hi + d.im.lo;
+            const double inv = 1.0 / (dre * dre + dim * dim);
+            sre += dre * inv;
+            sim -= dim * inv;
+        }
+        // w = v / (dv - v * sum).
+        const Complex<DoubleDouble> vs(dd_mul<kFma>(v.re, DoubleDouble(sre)) - dd_mul<kFma>(v.im, DoubleDouble(sim)),
+                                       dd_mul<kFma>(v.re, DoubleDouble(sim)) + dd_mul<kFma>(v.im, DoubleDouble(sre)));
+        const Complex<DoubleDouble> den = dv - vs;
+        const DoubleDouble inv = dd_div<kFma>(DoubleDouble(1.0), dd_mul<kFma>(den.re, den.re) + dd_mul<kFma>(den.im, den.im));
+        const Complex<DoubleDouble> w(dd_mul<kFma>(dd_mul<kFma>(v.re, den.re) + dd_mul<kFma>(v.im, den.im), inv),
+                                      dd_mul<kFma>(dd_mul<kFma>(v.im, den.re) - dd_mul<kFma>(v.re, den.im), inv));
+        if (!is_finite(w)) continue;
+        x[i] = x[i] - w;
+        const double step = mag_approx(w) / (mag_approx(x[i]) + 1e-300);
+        largest = step > largest ? step : largest;
+    }
+    return largest;
+}
+
+template <bool kFma>
+double aberth_sweep(const DoubleDouble* c, int n, Complex<DoubleDouble>* x, const bool* which) {
+    return aberth_sweep_body<kFma>(c, n, x, which);
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+__attribute__((target("fma"))) double aberth_sweep_fma(const DoubleDouble* c, int n, Complex<DoubleDouble>* x,
+                                                       const bool* which) {
+    return aberth_sweep_body<true>(c, n, x, which);
+}
+bool has_fma() {
+    static const bool yes = __builtin_cpu_supports("fma");
+    return yes;
+}
+#else
+double aberth_sweep_fma(const DoubleDouble* c, int n, Complex<DoubleDouble>* x, const bool* which) {
+    return aberth_sweep<false>(c, n, x, which);
+}
+bool has_fma() { return false; }
+#endif
+
 /// Horner in double-double with a running error bound, as eval_bound
 /// (root_kernels.h) but with double-double coefficients: |p(x) - value| <= err
-/// for the exact dd coefficients c and the exact dd point x.
-bool eval_dd(const DoubleDouble* c, int n, Complex<DoubleDouble> x, Complex<DoubleDouble>& value, double& err) {
+/// for the exact dd coefficients c and the exact dd point x. (The products
+/// as dd_mul: the same bits with or without FMA, so the same bound.)
+template <bool kFma>
+__attribute__((always_inline)) inline bool eval_dd_body(const DoubleDouble* c, int n, Complex<DoubleDouble> x,
+                                                     Complex<DoubleDouble>& value, double& err) {
     using E = ErrorModel<DoubleDouble>;
     const double ax = mag_up(x);
     Complex<DoubleDouble> y(c[n]);
     double ay = abs_up(c[n]);
     double e = 0.0;
     for (int k = n - 1; k >= 0; --k) {
-        const Complex<DoubleDouble> next = add_real(y * x, c[k]);
+        const Complex<DoubleDouble> next = add_real(dd_cmul<kFma>(y, x), c[k]);
         const double a_next = mag_up(next);
         e = add_up(add_up(mul_up(e, ax), mul_up(E::mul_rel, mul_up(ay, ax))), add_up(mul_up(E::add_rel, a_next), 2.0 * E::abs_err));
         y = next;
@@ -31,6 +139,20 @@ bool eval_dd(const DoubleDouble* c, int n, Complex<DoubleDouble> x, Complex<Doub
     return std::isfinite(e) && is_finite(y);
 }
 
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+__attribute__((target("fma"))) bool eval_dd_fma(const DoubleDouble* c, int n, Complex<DoubleDouble> x,
+                                                Complex<DoubleDouble>& value, double& err) {
+    return eval_dd_body<true>(c, n, x, value, err);
+}
+#endif
+
+bool eval_dd(const DoubleDouble* c, int n, Complex<DoubleDouble> x, Complex<DoubleDouble>& value, double& err) {
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+    if (has_fma()) return eval_dd_fma(c, n, x, value, err);
+#endif
+    return eval_dd_body<false>(c, n, x, value, err);
+}
+
 /// sum_k r_k a^k, rounded up.
 double radius_sum(const double* r, int n, double a) {
     double s = r[n];
@@ -38,7 +160,12 @@ double radius_sum(const double* r, int n, double a) {
     return s;
 }
 
+
 }  // namespace
+
+double aberth_sweep_dd(const DoubleDouble* c, int n, Complex<DoubleDouble>* x, const bool* which, bool fma) {
+    return fma && has_fma() ? aberth_sweep_fma(c, n, x, which) : aberth_sweep<false>(c, n, x, which);
+}
 
 bool refine_disc_dd(const RayCoefficients<DoubleDouble>& p, bool real, RootDisc& d) {
     if (!p.finite || !d.verified || d.count != 1) return false;
@@ -109,26 +236,8 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
     if (m != n) return false;
     // Aberth-Ehrlich in double-double (approximations only), one sweep over
     // the roots `which` selects; returns the largest relative correction.
-    auto sweep = [&](const bool* which) {
-        double largest = 0.0;
-        for (int i = 0; i < n; ++i) {
-            if (which != nullptr && !which[i]) continue;
-            Complex<DoubleDouble> v(p.c[n]), dv(DoubleDouble(0.0));
-            for (int k = n - 1; k >= 0; --k) {
-                dv = dv * x[i] + v;
-                v = add_real(v * x[i], p.c[k]);
-            }
-            Complex<DoubleDouble> sum(DoubleDouble(0.0));
-            for (int j = 0; j < n; ++j)
-                if (j != i) sum = sum + reciprocal(x[i] - x[j]);
-            const Complex<DoubleDouble> w = v / (dv - v * sum);
-            if (!is_finite(w)) continue;
-            x[i] = x[i] - w;
-            const double step = mag_approx(w) / (mag_approx(x[i]) + 1e-300);
-            largest = step > largest ? step : largest;
-        }
-        return largest;
-    };
+    const bool fma = has_fma();
+    auto sweep = [&](const bool* which) { return aberth_sweep_dd(p.c, n, x, which, fma); };
     // First the clusters' roots alone, the others held at their double
     // discs' centres: Aberth's fixed points are the roots of p whatever the
     // other approximations are (they set only the rate), and the roots
@@ -140,11 +249,14 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
     // above the 2^-100 target, and would run all 60 sweeps: once the largest
     // relative correction is below 2^-64 and has failed twice in a row to
     // halve the smallest seen, the approximations are as good as this
-    // precision makes them, and the sweeps stop. Then the other roots, at
-    // most two sweeps (Aberth's cubic rate takes a double centre to the
-    // precision's end in one): double-double accuracy for every root, as
-    // when every root was swept from the start. (Speed only: Smith's radii
-    // below prove whatever the approximations are.)
+    // precision makes them, and the sweeps stop. Then the other roots: one
+    // sweep, a second only where its largest correction was above 2^-40 (a
+    // centre not at double accuracy). From a double centre, Aberth's cubic
+    // rate reaches the precision's end in one sweep (the error after it is
+    // about the cube of the correction, 2^-120 relative to the roots'
+    // separation for a correction of 2^-40): double-double accuracy for
+    // every root, as when every root was swept from the start. (Speed only:
+    // Smith's radii below prove whatever the approximations are.)
     double smallest = INFINITY;
     int stalled = 0;
     for (int it = 0; it < 60; ++it) {
@@ -158,8 +270,7 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
     }
     bool outside[kMaxDegree];
     for (int i = 0; i < n; ++i) outside[i] = !in_cluster[i];
-    for (int it = 0; it < 2; ++it)
-        if (sweep(outside) < 0x1p-100) break;
+    if (sweep(outside) > 0x1p-40) sweep(outside);
     // Smith's radii over the coefficient balls, outward-rounded.
     using E = ErrorModel<DoubleDouble>;
     double cre[kMaxDegree], cim[kMaxDegree], rad[kMaxDegree];

@@ -30,4 +30,12 @@ bool refine_disc_dd(const RayCoefficients<DoubleDouble>& p, bool real, RootDisc&
 /// uncertain leading coefficient.
 bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res);
 
+/// isolate_dd's step: one Aberth-Ehrlich sweep in double-double over the
+/// approximations x[i] of the roots of c (degree n) that `which` selects
+/// (null: all), in place; returns the largest relative correction.
+/// Approximations only. `fma`: the products' error-free parts as FMA
+/// instructions where this CPU has them (else, and with false, Dekker's
+/// split): the same bits either way, only faster.
+double aberth_sweep_dd(const DoubleDouble* c, int n, Complex<DoubleDouble>* x, const bool* which, bool fma);
+
 }  // namespace argand::detail
