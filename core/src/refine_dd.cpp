@@ -59,17 +59,28 @@ __attribute__((always_inline)) inline DoubleDouble dd_div(DoubleDouble x, Double
 /// the double-double differences (a relative error of 2^-52 in it changes
 /// the correction by that much of v times the sum, nothing at a root),
 /// which spares n - 1 double-double divisions per root and sweep.
+/// `noise` (optional): set true where p at every selected approximation
+/// (before its correction) is within the rounding noise of its evaluation,
+/// about n 2^-104 sum_k |c_k| |x|^k (an estimate, not a bound: the
+/// approximations are then as good as this precision makes them, and
+/// further sweeps only move them within that noise).
 template <bool kFma>
 __attribute__((always_inline)) inline double aberth_sweep_body(const DoubleDouble* c, int n, Complex<DoubleDouble>* x,
-                                                               const bool* which) {
+                                                               const bool* which, bool* noise) {
     double largest = 0.0;
+    bool quiet = true;
     for (int i = 0; i < n; ++i) {
         if (which != nullptr && !which[i]) continue;
         Complex<DoubleDouble> v(c[n]), dv(DoubleDouble(0.0));
+        const double ax = std::sqrt(x[i].re.hi * x[i].re.hi + x[i].im.hi * x[i].im.hi);
+        double size = std::fabs(c[n].hi);
         for (int k = n - 1; k >= 0; --k) {
             dv = dd_cmul<kFma>(dv, x[i]) + v;
             v = add_real(dd_cmul<kFma>(v, x[i]), c[k]);
+            size = size * ax + std::fabs(c[k].hi);
         }
+        const double floor = n * 0x1p-102 * size;
+        quiet = quiet && v.re.hi * v.re.hi + v.im.hi * v.im.hi <= floor * floor;
         double sre = 0.0, sim = 0.0;
         for (int j = 0; j < n; ++j) {
             if (j == i) continue;
@@ -91,27 +102,17 @@ __attribute__((always_inline)) inline double aberth_sweep_body(const DoubleDoubl
         const double step = mag_approx(w) / (mag_approx(x[i]) + 1e-300);
         largest = step > largest ? step : largest;
     }
+    if (noise != nullptr) *noise = quiet;
     return largest;
 }
 
-template <bool kFma>
-double aberth_sweep(const DoubleDouble* c, int n, Complex<DoubleDouble>* x, const bool* which) {
-    return aberth_sweep_body<kFma>(c, n, x, which);
-}
-
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-__attribute__((target("fma"))) double aberth_sweep_fma(const DoubleDouble* c, int n, Complex<DoubleDouble>* x,
-                                                       const bool* which) {
-    return aberth_sweep_body<true>(c, n, x, which);
-}
+#define ARGAND_DD_FMA 1
 bool has_fma() {
     static const bool yes = __builtin_cpu_supports("fma");
     return yes;
 }
 #else
-double aberth_sweep_fma(const DoubleDouble* c, int n, Complex<DoubleDouble>* x, const bool* which) {
-    return aberth_sweep<false>(c, n, x, which);
-}
 bool has_fma() { return false; }
 #endif
 
@@ -139,7 +140,7 @@ __attribute__((always_inline)) inline bool eval_dd_body(const DoubleDouble* c, i
     return std::isfinite(e) && is_finite(y);
 }
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#ifdef ARGAND_DD_FMA
 __attribute__((target("fma"))) bool eval_dd_fma(const DoubleDouble* c, int n, Complex<DoubleDouble> x,
                                                 Complex<DoubleDouble>& value, double& err) {
     return eval_dd_body<true>(c, n, x, value, err);
@@ -147,7 +148,7 @@ __attribute__((target("fma"))) bool eval_dd_fma(const DoubleDouble* c, int n, Co
 #endif
 
 bool eval_dd(const DoubleDouble* c, int n, Complex<DoubleDouble> x, Complex<DoubleDouble>& value, double& err) {
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#ifdef ARGAND_DD_FMA
     if (has_fma()) return eval_dd_fma(c, n, x, value, err);
 #endif
     return eval_dd_body<false>(c, n, x, value, err);
@@ -161,10 +162,58 @@ double radius_sum(const double* r, int n, double a) {
 }
 
 
+/// Starts for the two roots of a pair disc d (count 2) of p (degree n,
+/// double-double coefficients): c + h for the roots h of p(c) + p'(c) h +
+/// p''(c)/2 h^2, c the disc's centre, the Taylor coefficients in
+/// double-double, the quadratic solved in double. Near a pair whose other
+/// roots lie at a distance D, those are within about |h|^2 / D of the pair's
+/// roots, against the disc's radius for the spread on a circle: Aberth's
+/// sweeps start where they converge at once. False (x untouched) where the
+/// quadratic gives no finite pair inside the disc. Approximations only.
+template <bool kFma>
+__attribute__((always_inline)) inline bool pair_start(const DoubleDouble* c, int n, const RootDisc& d,
+                                                      Complex<DoubleDouble>* x) {
+    const Complex<DoubleDouble> z(DoubleDouble(d.re), DoubleDouble(d.im));
+    Complex<DoubleDouble> a0(c[n]), a1(DoubleDouble(0.0)), a2(DoubleDouble(0.0));
+    for (int k = n - 1; k >= 0; --k) {
+        a2 = dd_cmul<kFma>(a2, z) + a1;
+        a1 = dd_cmul<kFma>(a1, z) + a0;
+        a0 = add_real(dd_cmul<kFma>(a0, z), c[k]);
+    }
+    const Complex<double> q0 = to_double(a0), q1 = to_double(a1), q2 = to_double(a2);
+    if (!(mag2_approx(q2) > 0.0)) return false;
+    // h = (-q1 +- sqrt(q1^2 - 4 q2 q0)) / (2 q2), the larger one first (no
+    // cancellation), the other from the product of the roots, q0 / q2.
+    const Complex<double> disc = q1 * q1 - mul_real(q2 * q0, 4.0);
+    const double r = std::sqrt(mag_approx(disc));
+    const double ang = 0.5 * std::atan2(disc.im, disc.re);
+    Complex<double> root(r * std::cos(ang), r * std::sin(ang));
+    if (q1.re * root.re + q1.im * root.im < 0.0) root = -root;  // (-q1 - root: no cancellation)
+    const Complex<double> big = mul_real(-(q1 + root), 1.0) / mul_real(q2, 2.0);
+    if (!(mag2_approx(big) > 0.0)) return false;
+    const Complex<double> small = (q0 / q2) / big;
+    const double limit = d.radius * d.radius;
+    if (!is_finite(big) || !is_finite(small) || !(mag2_approx(big) <= limit) || !(mag2_approx(small) <= limit)) return false;
+    x[0] = Complex<DoubleDouble>(z.re + DoubleDouble(big.re), z.im + DoubleDouble(big.im));
+    x[1] = Complex<DoubleDouble>(z.re + DoubleDouble(small.re), z.im + DoubleDouble(small.im));
+    return true;
+}
+
 }  // namespace
 
-double aberth_sweep_dd(const DoubleDouble* c, int n, Complex<DoubleDouble>* x, const bool* which, bool fma) {
-    return fma && has_fma() ? aberth_sweep_fma(c, n, x, which) : aberth_sweep<false>(c, n, x, which);
+#ifdef ARGAND_DD_FMA
+__attribute__((target("fma"))) double aberth_sweep_fma(const DoubleDouble* c, int n, Complex<DoubleDouble>* x,
+                                                       const bool* which, bool* noise) {
+    return aberth_sweep_body<true>(c, n, x, which, noise);
+}
+#endif
+
+double aberth_sweep_dd(const DoubleDouble* c, int n, Complex<DoubleDouble>* x, const bool* which, bool fma,
+                       bool* noise) {
+#ifdef ARGAND_DD_FMA
+    if (fma && has_fma()) return aberth_sweep_fma(c, n, x, which, noise);
+#endif
+    return aberth_sweep_body<false>(c, n, x, which, noise);
 }
 
 bool refine_disc_dd(const RayCoefficients<DoubleDouble>& p, bool real, RootDisc& d) {
@@ -212,7 +261,10 @@ bool refine_disc_dd(const RayCoefficients<DoubleDouble>& p, bool real, RootDisc&
     return true;
 }
 
-bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
+namespace {
+
+template <bool kFma>
+__attribute__((always_inline)) inline bool isolate_dd_body(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
     if (!p.finite) return false;
     int n = p.n;
     while (n > 0 && is_zero(p.c[n]) && p.r[n] == 0.0) --n;  // exact roots at infinity
@@ -220,12 +272,19 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
     if (is_zero(p.c[0]) && p.r[0] == 0.0) return false;     // an exact root at 0: not here
     const double lead_lo = add_down(abs_down(p.c[n]), -p.r[n]);
     if (!(lead_lo > 0.0)) return false;
-    // Starting points: each disc's centre, a cluster's spread on a circle.
+    // Starting points: each disc's centre, a cluster's spread on a circle;
+    // a pair (count 2) at the roots of p's quadratic Taylor polynomial at
+    // its centre (pair_start), where that is finite.
     Complex<DoubleDouble> x[kMaxDegree];
     bool in_cluster[kMaxDegree];
     int m = 0;
     for (int i = 0; i < res.n_discs && m < n; ++i) {
         const RootDisc& d = res.discs[i];
+        if (d.count == 2 && m + 2 <= n && pair_start<kFma>(p.c, n, d, x + m)) {
+            in_cluster[m] = in_cluster[m + 1] = true;
+            m += 2;
+            continue;
+        }
         for (int k = 0; k < d.count && m < n; ++k) {
             const double a = 2.0 * 3.14159265358979323846 * k / d.count + 0.4;
             const double rho = d.count > 1 ? 0.5 * d.radius : 0.0;
@@ -234,10 +293,8 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
         }
     }
     if (m != n) return false;
-    // Aberth-Ehrlich in double-double (approximations only), one sweep over
-    // the roots `which` selects; returns the largest relative correction.
-    const bool fma = has_fma();
-    auto sweep = [&](const bool* which) { return aberth_sweep_dd(p.c, n, x, which, fma); };
+    // Aberth-Ehrlich in double-double (approximations only): sweeps over
+    // the roots a mask selects (aberth_sweep_body).
     // First the clusters' roots alone, the others held at their double
     // discs' centres: Aberth's fixed points are the roots of p whatever the
     // other approximations are (they set only the rate), and the roots
@@ -248,7 +305,8 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
     // of p there (about 2^-104 relative over the cluster's separation),
     // above the 2^-100 target, and would run all 60 sweeps: once the largest
     // relative correction is below 2^-64 and has failed twice in a row to
-    // halve the smallest seen, the approximations are as good as this
+    // halve the smallest seen, or once p at every cluster root is within its
+    // evaluation's rounding noise, the approximations are as good as this
     // precision makes them, and the sweeps stop. Then the other roots: one
     // sweep, a second only where its largest correction was above 2^-40 (a
     // centre not at double accuracy). From a double centre, Aberth's cubic
@@ -260,8 +318,9 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
     double smallest = INFINITY;
     int stalled = 0;
     for (int it = 0; it < 60; ++it) {
-        const double largest = sweep(in_cluster);
-        if (largest < 0x1p-100) break;
+        bool noise = false;
+        const double largest = aberth_sweep_body<kFma>(p.c, n, x, in_cluster, &noise);
+        if (largest < 0x1p-100 || noise) break;
         if (largest <= 0x1p-64) {
             stalled = largest > 0.5 * smallest ? stalled + 1 : 0;
             if (stalled >= 2) break;
@@ -270,7 +329,7 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
     }
     bool outside[kMaxDegree];
     for (int i = 0; i < n; ++i) outside[i] = !in_cluster[i];
-    if (sweep(outside) > 0x1p-40) sweep(outside);
+    if (aberth_sweep_body<kFma>(p.c, n, x, outside, nullptr) > 0x1p-40) aberth_sweep_body<kFma>(p.c, n, x, outside, nullptr);
     // Smith's radii over the coefficient balls, outward-rounded.
     using E = ErrorModel<DoubleDouble>;
     double cre[kMaxDegree], cim[kMaxDegree], rad[kMaxDegree];
@@ -278,7 +337,7 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
         if (!is_finite(x[i])) return false;
         Complex<DoubleDouble> v;
         double e;
-        if (!eval_dd(p.c, n, x[i], v, e)) return false;
+        if (!eval_dd_body<kFma>(p.c, n, x[i], v, e)) return false;
         const double num = add_up(add_up(mag_up(v), e), radius_sum(p.r, n, mag_up(x[i])));
         double den = lead_lo;
         for (int j = 0; j < n; ++j) {
@@ -303,6 +362,21 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
     for (int i = 0; i < n; ++i) res.discs[i] = RootDisc{cre[i], cim[i], rad[i], 1, true, false};
     res.wants_exact = false;
     return true;
+}
+
+#ifdef ARGAND_DD_FMA
+__attribute__((target("fma"))) bool isolate_dd_fma(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
+    return isolate_dd_body<true>(p, res);
+}
+#endif
+
+}  // namespace
+
+bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res) {
+#ifdef ARGAND_DD_FMA
+    if (has_fma()) return isolate_dd_fma(p, res);
+#endif
+    return isolate_dd_body<false>(p, res);
 }
 
 }  // namespace argand::detail

@@ -35,7 +35,10 @@ bool isolate_dd(const RayCoefficients<DoubleDouble>& p, RootsResult& res);
 /// (null: all), in place; returns the largest relative correction.
 /// Approximations only. `fma`: the products' error-free parts as FMA
 /// instructions where this CPU has them (else, and with false, Dekker's
-/// split): the same bits either way, only faster.
-double aberth_sweep_dd(const DoubleDouble* c, int n, Complex<DoubleDouble>* x, const bool* which, bool fma);
+/// split): the same bits either way, only faster. `noise` (optional): set
+/// true where p at every selected approximation was within an estimate of
+/// its evaluation's rounding noise (isolate_dd then stops sweeping).
+double aberth_sweep_dd(const DoubleDouble* c, int n, Complex<DoubleDouble>* x, const bool* which, bool fma,
+                       bool* noise = nullptr);
 
 }  // namespace argand::detail
