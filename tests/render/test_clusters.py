@@ -1,8 +1,9 @@
 """A batch lane whose Smith discs are proven but overlap (near-double roots:
 a ray through a node of Endrass's octic, say) keeps its own discs merged into
-cluster discs (SoaRows::provisional) instead of solving the row again; the
-row is solved as before only where those discs do not decide the pixel
-(Tracer::settle).
+cluster discs (SoaRows::provisional) instead of solving the row again. Where
+those discs do not decide the pixel, the ladder's double-double level comes
+first (the cluster re-isolated from them), and the row is solved as before
+(Tracer::settle) only where that does not decide either.
 
 The merged discs are checked here against the exact truth: for every pixel
 whose explanation shows them, each disc holds exactly its count of the roots
@@ -70,7 +71,7 @@ def test_merged_lane_discs_hold_exactly_their_counts(name, size, delta):
     scene = SCENES[name]()
     params = FrameParams(delta=delta, width=size, height=size)
     objects = scene_objects(scene)
-    merged_rows = clusters = settled = 0
+    merged_rows = clusters = settled = by_double_double = 0
     problems = []
     for y in range(size):
         for x in range(size):
@@ -81,6 +82,7 @@ def test_merged_lane_discs_hold_exactly_their_counts(name, size, delta):
                 if not poly["provisional"]:
                     continue
                 merged_rows += 1
+                by_double_double += e["escalation"] == 3 and e["status"] == 0
                 oo, od = object_ray(objects[k], e["origin"], e["direction"])
                 exact_poly = ray_polynomial(objects[k], oo, od)
                 discs = [d for d in e["discs"] if d["object"] == k]
@@ -93,11 +95,31 @@ def test_merged_lane_discs_hold_exactly_their_counts(name, size, delta):
                                         f"count {d['count']} holds {got} exact roots")
     assert not problems, "\n".join(problems[:10])
     # (Not vacuous: every scene gives merged rows with clusters; on
-    # Endrass's octic some pixels need the row solved again, and that path
-    # is what decides them.)
+    # Endrass's octic some pixels need more than the merged discs, and the
+    # double-double level decides them from those discs, with no row solved
+    # again.)
     assert merged_rows >= 10 and clusters >= 10, (merged_rows, clusters)
     if name == "endrass-octic":
-        assert settled >= 5, settled
+        assert by_double_double >= 5 and settled == 0, (by_double_double, settled)
+
+
+def test_a_true_double_root_is_solved_again_then_proven_by_the_exact_tier():
+    """The first root a ray meets is a double root of the exact polynomial
+    (the sphere of radius 2 squared): no solve splits it, neither double-
+    double from the merged discs nor the row solved again (settle), and the
+    exact tier proves its multiplicity (level 5, status 1). Batched and
+    scalar kernels agree on every pixel's status and hit."""
+    scene = scene_from_dict({"objects": [{"surface": "(x^2+y^2+z^2-4)^2*(x^2+y^2+z^2-1)", "clip_radius": 2.5}]})
+    params = FrameParams(delta=0.0, width=21, height=21)
+    e = explain_pixel(scene, params, 10, 10)
+    assert e["polynomials"][0]["settled"] and e["escalation"] == 5 and e["status"] == 1 and e["hit"], \
+        format_explanation(e)
+    assert e["exact"]["multiple"] and abs(e["root"].real - e["exact"]["root"].real) < 1e-9
+    batched = render_frame(scene, params, workers=1)
+    scalar = render_frame(scene, dataclasses.replace(params, engine=EngineOptions(kernel="scalar")), workers=1)
+    assert np.array_equal(batched.aovs["status"], scalar.aovs["status"])
+    assert np.array_equal(batched.rgba[..., 3] > 0, scalar.rgba[..., 3] > 0)
+    assert np.count_nonzero(np.asarray(batched.aovs["escalation"]) == 5) >= 50
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
@@ -112,17 +134,26 @@ def test_merged_discs_change_no_decision_against_the_scalar_kernel(name):
 
 
 def test_explain_says_when_merged_discs_decided_or_did_not():
-    scene = load_scene("endrass-octic")
-    params = FrameParams(delta=0.0, width=40, height=40)
+    """Endrass's octic: the merged discs decide most pixels of their rows
+    alone, double-double from them the rest; a true double root (the
+    sphere of radius 2 squared) has its row solved again."""
     said = set()
-    for y in range(40):
-        for x in range(40):
+    cases = [(load_scene("endrass-octic"), 40, [(x, y) for y in range(40) for x in range(40)]),
+             (scene_from_dict({"objects": [{"surface": "(x^2+y^2+z^2-4)^2*(x^2+y^2+z^2-1)", "clip_radius": 2.5}]}),
+              21, [(10, 10), (8, 12)])]
+    for scene, size, pixels in cases:
+        params = FrameParams(delta=0.0, width=size, height=size)
+        for x, y in pixels:
             e = explain_pixel(scene, params, x, y)
             poly = e["polynomials"][0]
             text = "\n".join(format_explanation(e))
-            merged = "the batch lane's own Smith discs, merged where they overlap" in text
-            again = "the batch lane's merged discs did not decide the pixel, so the row was solved again" in text
-            assert merged == poly["provisional"] and again == poly["settled"]
-            said |= {"merged"} if merged else set()
+            alone = "merged where they overlap" in text and "they decided the pixel" in text
+            with_dd = "merged where they overlap" in text and "double-double level re-isolated" in text
+            again = "did not decide the pixel, nor did double-double from them, so the row was solved again" in text
+            assert alone + with_dd <= 1
+            assert (alone or with_dd) == poly["provisional"] and again == poly["settled"]
+            assert with_dd == (poly["provisional"] and e["escalation"] == 3)
+            said |= {"merged"} if alone else set()
+            said |= {"merged, double-double"} if with_dd else set()
             said |= {"settled"} if again else set()
-    assert said == {"merged", "settled"}
+    assert said == {"merged", "merged, double-double", "settled"}

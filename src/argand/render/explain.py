@@ -55,12 +55,16 @@ def format_explanation(e: dict) -> list[str]:
         )
         for k, (c, r) in enumerate(zip(p["coeffs"], p["radius"])):
             lines.append(f"  c_{k} = {c!r} [{float(c).hex()}]  r_{k} = {r:.3e}")
-        if p.get("provisional"):
+        if p.get("provisional") and e.get("escalation", 0) >= 3:
+            lines.append("  discs: the batch lane's own Smith discs, merged where they overlap (each cluster holds "
+                         "exactly its count of roots); they did not decide the pixel alone, so the ladder's "
+                         "double-double level re-isolated the clusters from them, and the row was not solved again")
+        elif p.get("provisional"):
             lines.append("  discs: the batch lane's own Smith discs, merged where they overlap (each cluster holds "
                          "exactly its count of roots); they decided the pixel, so the row was not solved again")
         if p.get("settled"):
-            lines.append("  discs: the batch lane's merged discs did not decide the pixel, so the row was solved "
-                         "again from the lane's approximations (find_roots)")
+            lines.append("  discs: the batch lane's merged discs did not decide the pixel, nor did double-double "
+                         "from them, so the row was solved again from the lane's approximations (find_roots)")
         if p.get("outside_sphere"):
             lines.append("  not solved: the ray provably misses the object's clipping sphere "
                          "(|o + s d| > radius for every s >= 0), so none of its roots can be shown")
