@@ -13,6 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[1]
 
 #: Never imported by loading the CLI.
@@ -184,3 +186,21 @@ def test_the_progress_bar_shows_once_the_work_has_taken_its_delay(tmp_path):
         # 2 frames of 4x2 tiles of 8 pixels
         assert ("16/16 tiles" in run.stderr) == shown, run.stderr[-2000:]
         assert sorted(p.name for p in out.glob("frame_*.exr")) == ["frame_0000.exr", "frame_0001.exr"]
+
+
+@pytest.mark.parametrize("value", ["soon", "-1", "nan"])
+def test_a_bad_progress_delay_is_refused_before_any_frame_is_written(tmp_path, value):
+    """ARGAND_PROGRESS_AFTER that is not a number of seconds >= 0 stops
+    `argand render` with an error naming it and the value, and writes no
+    frame (an unset or "inf" value is fine: the default, or never)."""
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "argand.cli", "render", "whitney", "--size", "16x16", "--out", str(out)],
+                         capture_output=True, text=True, cwd=REPO / "tests",
+                         env=dict(os.environ, ARGAND_PROGRESS_AFTER=value, COLUMNS="200"), timeout=300)
+    assert run.returncode == 2, run.stderr[-2000:]
+    assert "ARGAND_PROGRESS_AFTER" in run.stderr and repr(value) in run.stderr, run.stderr[-2000:]
+    assert not list(out.glob("frame_*"))
+    ok = subprocess.run([sys.executable, "-m", "argand.cli", "render", "whitney", "--size", "16x16", "--out",
+                         str(tmp_path / "ok")], capture_output=True, text=True, cwd=REPO / "tests",
+                        env=dict(os.environ, ARGAND_PROGRESS_AFTER="inf"), timeout=300)
+    assert ok.returncode == 0, ok.stderr[-2000:]

@@ -143,6 +143,24 @@ err = _Later("rich.console", console={"stderr": True})
 PROGRESS_AFTER_S = 0.5
 
 
+def progress_after() -> float:
+    """ARGAND_PROGRESS_AFTER in seconds (PROGRESS_AFTER_S when unset; "inf":
+    never); anything else that is not a number >= 0 stops the command with
+    an error that says so."""
+    import math
+
+    text = os.environ.get("ARGAND_PROGRESS_AFTER")
+    if text is None or not text.strip():
+        return PROGRESS_AFTER_S
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not value >= 0:  # (NaN too)
+        fail(f"ARGAND_PROGRESS_AFTER must be a number of seconds >= 0 (or inf: never), got {text!r}")
+    return value
+
+
 class _LaterProgress:
     """A rich Progress of one task that is made only once the work has
     taken longer than ``after`` seconds (its elapsed time counted from the
@@ -153,10 +171,7 @@ class _LaterProgress:
         import time
 
         if after is None:
-            try:
-                after = float(os.environ.get("ARGAND_PROGRESS_AFTER", PROGRESS_AFTER_S))
-            except ValueError:
-                after = PROGRESS_AFTER_S
+            after = progress_after()
         self._clock = time.monotonic
         self._start = self._clock()
         self._after, self._unit = after, unit
