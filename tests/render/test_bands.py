@@ -158,6 +158,27 @@ def test_certified_pixels_of_bands_rendered_together_are_right(name):
     assert checked > 200
 
 
+def figures_without_pixels_are_the_rendered_ones(scene, samples: int, bands, size=(40, 24)) -> None:
+    from argand.render.frames import INTERLEAVED_CHANNELS, render_tile_bands_into, tiles
+
+    width, height = size
+    params = [FrameParams(sigma=s, delta=d, width=width, height=height, samples=samples) for s, d in bands]
+    plans = [plan(scene, p) for p in params]
+    counted = 0
+    for r in tiles(width, height, 16):
+        shape = (r.y1 - r.y0, r.x1 - r.x0, len(INTERLEAVED_CHANNELS))
+        full = render_tile_bands_into(plans, r, [(np.empty(shape, np.float32), 0, 0) for _ in plans])
+        only = render_tile_bands_into(plans, r, [None] * len(plans))
+        mixed = render_tile_bands_into(plans, r, [None if b % 2 else (np.empty(shape, np.float32), 0, 0)
+                                                  for b in range(len(plans))])
+        alone = [render_tile_bands_into([p], r, [None])[0] for p in plans]
+        for a, b, c, d in zip(full, only, mixed, alone):
+            for x in (b, c, d):
+                assert x[:2] == a[:2] and x[2].tolist() == a[2].tolist() and x[3].tolist() == a[3].tolist(), r
+            counted += int(a[2][:4].sum())
+    assert counted == width * height * len(plans)
+
+
 @pytest.mark.parametrize("name", sorted(PRESETS))
 @pytest.mark.parametrize("samples", [1, 4])
 def test_a_bands_figures_without_its_pixels_are_the_rendered_ones(name, samples):
@@ -165,21 +186,16 @@ def test_a_bands_figures_without_its_pixels_are_the_rendered_ones(name, samples)
     frames whose files are made on request) is counted, not written: its
     escalations, root calls, pixels per status, hits and pixels per ladder
     level are the ones the band gets with its pixels, whether the other
-    bands of the tile keep theirs or not."""
-    from argand.render.frames import INTERLEAVED_CHANNELS, TileRect, render_tile_bands_into, tiles
+    bands of the tile keep theirs or not, and alone. (Such bands of a
+    one-object scene decide from the sample's roots filled once:
+    Tracer::decide_counted.)"""
+    figures_without_pixels_are_the_rendered_ones(to_core_scene(load_scene(name)), samples, BANDS[:5])
 
-    scene = to_core_scene(load_scene(name))
-    params = [FrameParams(sigma=s, delta=d, width=40, height=24, samples=samples) for s, d in BANDS[:5]]
-    plans = [plan(scene, p) for p in params]
-    counted = 0
-    for r in tiles(40, 24, 16):
-        shape = (r.y1 - r.y0, r.x1 - r.x0, len(INTERLEAVED_CHANNELS))
-        full = render_tile_bands_into(plans, r, [(np.empty(shape, np.float32), 0, 0) for _ in plans])
-        only = render_tile_bands_into(plans, r, [None] * len(plans))
-        mixed = render_tile_bands_into(plans, r, [None if b % 2 else (np.empty(shape, np.float32), 0, 0)
-                                                  for b in range(len(plans))])
-        for a, b, c in zip(full, only, mixed):
-            for x in (b, c):
-                assert x[:2] == a[:2] and x[2].tolist() == a[2].tolist() and x[3].tolist() == a[3].tolist(), (r, name)
-            counted += int(a[2][:4].sum())
-    assert counted == 40 * 24 * len(plans)
+
+@pytest.mark.parametrize("family", FAMILIES)
+@pytest.mark.parametrize("degree", [2, 5, 8, 12])
+def test_a_bands_figures_without_its_pixels_on_random_surfaces(family, degree):
+    """The same on random surfaces of degree 2 to 12 (clusters, the ladder
+    and the exact tier among their pixels), every band of BANDS."""
+    scene = to_core_scene(random_scene(family, degree, seed=degree * 31 + 7))
+    figures_without_pixels_are_the_rendered_ones(scene, 1, BANDS, size=(32, 24))

@@ -75,27 +75,32 @@ public:
     /// decide_fast for a scene of one object: the same decisions from the
     /// discs' verdicts and choice (classify_discs_*, finish_choice).
     bool decide_one(const ObjectRoots* roots, HitInfo& h) const {
+        int best = -1, eligible = 0;
+        if (!decide_one_verdict(roots, best, eligible)) return false;
+        h.eligible = eligible;
+        h.status = kCertified;
+        if (best >= 0) set_hit(roots, 0, best, h);
+        return true;
+    }
+
+    /// decide_one's decision alone: true where it certifies the pixel, with
+    /// `best` the disc it shows (-1: a proven miss) and `eligible` its
+    /// eligible count; nothing of the hit is made (a band counted, not
+    /// written, needs no more).
+    bool decide_one_verdict(const ObjectRoots* roots, int& best, int& eligible) const {
         const ObjectRoots& r = roots[0];
+        best = -1;
+        eligible = 0;
         if (r.status != Status::Ok || !r.complete) return false;  // (degenerate or incomplete)
-        if (r.outside_sphere) {  // (no disc: a proven miss)
-            h.eligible = 0;
-            h.status = kCertified;
-            return true;
-        }
+        if (r.outside_sphere) return true;  // (no disc: a proven miss)
         const RootDisc* discs = r.res.discs;
         detail::DiscVerdicts v;
         classify_(discs, r.res.n_discs, classify_plans_[0], r.ray, v, r.res.memo);
-        if (v.best < 0) {
-            if (v.live != 0) return false;  // (a live disc blocks the miss)
-            h.eligible = 0;
-            h.status = kCertified;
-            return true;
-        }
+        if (v.best < 0) return v.live == 0;  // (a live disc blocks the miss)
         if (discs[v.best].count > 1) return false;  // a cluster chosen
         if (v.blockers != 0 && !blockers_are_twins(discs, r.res.n_discs, v.best, v.blockers)) return false;
-        h.eligible = v.count;
-        h.status = kCertified;
-        set_hit(roots, 0, v.best, h);
+        best = v.best;
+        eligible = v.count;
         return true;
     }
 

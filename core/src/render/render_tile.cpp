@@ -181,6 +181,14 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
     const bool any_bounce = std::find(bounces.begin(), bounces.end(), 1) != bounces.end();
     ShadeMemo memo[PrimaryBatch::kCells];
     PolishMemo polished[PrimaryBatch::kCells];
+    // Bands counted, not written, of a one-object scene the batch solves,
+    // one sample per pixel, no bounce: their decisions read the sample's
+    // roots filled once (Tracer::decide_counted), not once per band.
+    const bool counted_path = all_batched && plan.scene.objects.size() == 1 && side == 1 && !any_bounce;
+    int counted_bands = 0;
+    for (const auto& band : bands) counted_bands += band->out.rgba == nullptr;
+    std::vector<ObjectRoots> shared(counted_path && counted_bands > 0 ? PrimaryBatch::kCells : 0);
+    bool shared_filled[PrimaryBatch::kCells];
     const bool share_colours = bands.size() > 1;  // (a lone frame has no other band to share with)
     detail::SampleRowInput row_in;
     for (int a = 0; a < 3; ++a) {
@@ -222,7 +230,7 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                         if (record) batch.record(record->bytes, cells);
                     }
                 }
-                for (int c = 0; c < cells; ++c) memo[c].valid = polished[c].valid = false;
+                for (int c = 0; c < cells; ++c) memo[c].valid = polished[c].valid = shared_filled[c] = false;
                 for (auto& band : bands) {
                     Tracer& tracer = band->tracer;
                     const std::size_t stride = static_cast<std::size_t>(band->out.stride);
@@ -231,11 +239,31 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                     // value and no colour (shade then reads nothing the
                     // figures count: no ray, no root call), so neither is made.
                     const bool values = band->out.rgba != nullptr || any_bounce;
+                    const bool counted = !shared.empty() && band->out.rgba == nullptr;
                     for (int c = 0; c < cells; ++c) {
                         const BatchedCell pre{&batch, c};
                         const int sx = b0 + c;
                         if (sx % kSeedBlock == 0)
                             for (Seeds& s : band->seeds) s.valid = false;
+                        if (counted) {
+                            // (write_single's figures for the certified
+                            // sample intersect_batched would give.)
+                            if (!shared_filled[c]) {
+                                batch.fill(0, c, shared[c], false);
+                                shared[c].have_dd = false;
+                                shared_filled[c] = true;
+                            }
+                            bool hit;
+                            std::uint8_t level;
+                            if (tracer.decide_counted(shared[c], hit, level)) {
+                                TileView& out = band->out;
+                                if (level > kLevelFirst) ++out.escalations;
+                                ++out.by_status[kCertified & 3];
+                                ++out.by_level[level & 7];
+                                out.hits += hit;
+                                continue;
+                            }
+                        }
                         // (The run's directions are sample_direction's, to the bit.)
                         const double dir[3] = {dx[c], dy[c], dz[c]};
                         SampleResult sample;

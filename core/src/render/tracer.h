@@ -122,6 +122,23 @@ public:
         return true;
     }
 
+    /// intersect_batched for a band counted, not written (no planes), whose
+    /// hits bounce no ray, in a scene of one object the batch solved:
+    /// decide_one on the sample's roots `r` (PrimaryBatch::fill'ed once for
+    /// every such band of the sample: fill reads no band). True where
+    /// intersect_batched returns true, with what its hit adds to the
+    /// figures (`hit`, `level`) and its root call counted; false (nothing
+    /// counted) where it returns false: the caller takes that path.
+    bool decide_counted(const ObjectRoots& r, bool& hit, std::uint8_t& level) {
+        if (decider_.full_only()) return false;
+        int best, eligible;
+        if (!decider_.decide_one_verdict(&r, best, eligible)) return false;
+        root_calls += !r.outside_sphere;
+        hit = best >= 0;
+        level = r.res.escalation > 0 ? kLevelRootTier : kLevelFirst;
+        return true;
+    }
+
     /// A hit shows its root with im >= 0: the ray polynomial is real, so
     /// the conjugate of a root is a root of the same modulus, and the band
     /// (|arg| in [sigma, sigma + delta]) holds both. Which of the two the
