@@ -157,3 +157,43 @@ def test_explain_says_when_merged_discs_decided_or_did_not():
             said |= {"merged, double-double"} if with_dd else set()
             said |= {"settled"} if again else set()
     assert said == {"merged", "merged, double-double", "settled"}
+
+
+@pytest.mark.parametrize("name, sigma, delta", [
+    ("chmutov-octic", 0.0, math.pi / 9),
+    ("barth-sextic", 0.0, math.pi / 9),
+    ("togliatti", 0.3, 0.6),
+    ("endrass-octic", 0.0, 0.0),
+])
+def test_a_disc_the_batch_flags_real_holds_one_real_root(name, sigma, delta):
+    """The batch flags a one-root disc real where no other disc can meet its
+    mirror image (real_by_mirror, once per sample for every band): every
+    such disc an explanation shows holds exactly one root of the pixel's
+    exact rational ray polynomial (python-flint), and that root is real
+    (Arb isolates a real root of an integer polynomial with an imaginary
+    part of exactly zero). A pixel showing such a root writes im = 0."""
+    scene = load_scene(name)
+    size = 23
+    params = FrameParams(sigma=sigma, delta=delta, width=size, height=size)
+    objects = scene_objects(scene)
+    frame = render_frame(scene, params, workers=1)
+    flagged = zero_written = 0
+    for y in range(0, size, 2):
+        for x in range(0, size, 2):
+            e = explain_pixel(scene, params, x, y)
+            poly = ray_polynomial(objects[0], *object_ray(objects[0], e["origin"], e["direction"]))
+            for i, d in enumerate(e["discs"]):
+                if not (d["real"] and d["count"] == 1):
+                    continue
+                flagged += 1
+                c = flint.acb(exact(d["center"].real), exact(d["center"].imag))
+                r = flint.arb(exact(d["radius"]))
+                with Precision(256):
+                    inside = [ball for ball, mult in poly.complex_roots() for _ in range(int(mult)) if abs(ball - c) < r]
+                assert len(inside) == 1 and inside[0].imag.is_zero(), (x, y, d, inside)
+                if i == e["chosen"] and e["status"] == 0 and e["hit"]:
+                    assert frame.aovs["im"][y, x] == 0.0, (x, y)
+                    zero_written += 1
+    assert flagged >= 20, flagged
+    if sigma == 0.0:  # (the band holds the positive real axis: real roots are shown)
+        assert zero_written >= 5, zero_written

@@ -29,7 +29,9 @@ enum class Method : int {
 /// multiplicity (a proof, under IEEE-754 binary64 round-to-nearest), and it is
 /// disjoint from every other verified disc of the same polynomial.
 /// If real (only ever set together with verified): the disc contains at least
-/// one real root (it is symmetric about the real axis and count is odd).
+/// one real root (it is symmetric about the real axis and count is odd; the
+/// renderer's batch also flags a count-1 disc that no other disc of its
+/// polynomial can meet the mirror image of: its one root is real).
 /// If not verified: center is the best approximation available, radius an
 /// estimate of its error that is NOT proven, count the number of roots the
 /// entry stands for (not proven).

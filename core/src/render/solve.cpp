@@ -4,6 +4,7 @@
 #include "solve.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
@@ -79,6 +80,22 @@ void PrimaryBatch::solve(const double* dx, const double* dy, const double* dz, i
                 for (; i < nd; ++i) complete &= dd[i].verified;
             }
             o.complete[c] = complete ? 1 : 0;
+            // A one-root disc that no other disc's mirror image can meet
+            // holds a real root (real_by_mirror: the discs hold every root,
+            // and its root's conjugate is a root, so in it): flagged real
+            // here, once for every band, instead of by each band's
+            // classify (band_fast_verified gives the same verdict either
+            // way, and the vector classify keeps the disc instead of
+            // sending it to the scalar reference).
+            if (complete) {
+                RootsResult& res = o.res[c];
+                for (int i = 0; i < res.n_discs; ++i) {
+                    RootDisc& d = res.discs[i];
+                    if (d.count == 1 && !d.real && std::fabs(d.im) <= d.radius &&
+                        detail::real_by_mirror(res.discs, res.n_discs, i))
+                        d.real = true;
+                }
+            }
         }
         if (!o.seeded) continue;
         // These samples' roots seed the samples below them (as the

@@ -201,11 +201,14 @@ public:
         h.modulus = im == 0.0 && !std::isnan(re) ? std::fabs(re) : std::hypot(re, im);
     }
 
-    /// A certified hit in a band that is the positive real axis (sigma =
-    /// delta = 0, or a real object): its root is proven real (band_verdict
-    /// says Yes on the axis only for a disc proven real).
+    /// A certified hit whose root is proven real: in a band that is the
+    /// positive real axis (sigma = delta = 0, or a real object; band_verdict
+    /// says Yes on the axis only for a disc proven real), or in any band, a
+    /// one-root disc flagged real (the batch's mirror test,
+    /// PrimaryBatch::solve: the root in it is real).
     bool proven_real_hit(const HitInfo& h) const {
-        return h.hit && h.status == kCertified && decider_.real_axis(h.object);
+        return h.hit && h.status == kCertified &&
+               (decider_.real_axis(h.object) || (h.disc.real && h.disc.count == 1 && h.disc.verified));
     }
 
     /// A root proven real shows its value on the real line: the disc's
