@@ -135,6 +135,21 @@ def main(path: str) -> int:
         if derived.rgba.tobytes() != alone.rgba.tobytes() or any(
                 np.asarray(derived.aovs[k]).tobytes() != np.asarray(alone.aovs[k]).tobytes() for k in alone.aovs):
             problems.append(f"chmutov sigma={band.sigma} delta={band.delta}: derived from the field differs")
+    # Bands counted, not written (the farm's frames whose files come on
+    # request: the sample's roots filled once for them all): the figures of
+    # the bands rendered with their pixels.
+    from argand.render.convert import to_core_scene
+    from argand.render.frames import INTERLEAVED_CHANNELS, plan, render_tile_bands_into, tiles
+
+    core_octic = to_core_scene(octic)
+    plans = [plan(core_octic, replace(band, width=24, height=16)) for band in bands]
+    for r in tiles(24, 16, 8):
+        shape = (r.y1 - r.y0, r.x1 - r.x0, len(INTERLEAVED_CHANNELS))
+        full = render_tile_bands_into(plans, r, [(np.empty(shape, np.float32), 0, 0) for _ in plans])
+        counted = render_tile_bands_into(plans, r, [None] * len(plans))
+        if any(a[:2] != b[:2] or a[2].tolist() != b[2].tolist() or a[3].tolist() != b[3].tolist()
+               for a, b in zip(full, counted)):
+            problems.append(f"chmutov tile {r}: the counted bands' figures differ from the written ones")
     rect = next(iter(field.tiles))
     cut = RootField(field.fingerprint, field.width, field.height, field.tile, dict(field.tiles))
     cut.tiles[rect] = cut.tiles[rect][: len(cut.tiles[rect]) // 2]
@@ -162,7 +177,7 @@ def main(path: str) -> int:
     for p in problems:
         print("FAIL:", p)
     print(f"sanitizer smoke: {len(polynomials)} polynomials x 4 methods, a batch of {len(batch)}, "
-          f"2 tiles, a frame of 6 and Endrass's octic with both kernels: {'ok' if not problems else f'{len(problems)} problems'}")
+          f"2 tiles, a frame of 6, Endrass's octic with both kernels, counted bands: {'ok' if not problems else f'{len(problems)} problems'}")
     return 1 if problems else 0
 
 #: More objects than the renderer's per-ray stack array once held (16).
