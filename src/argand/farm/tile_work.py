@@ -188,10 +188,11 @@ def claim_siblings(settings: Settings, job_id: str, frame_index: int, tiles: lis
             siblings.setdefault(f, []).append(i)
         for f in siblings:
             siblings[f].sort()
-            if (job_id, f) not in _marked:
-                c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == f,
-                                              Frame.status == FRAME.step("queued", "rendering")).values(status="rendering"))
-                _marked.add((job_id, f))
+        unmarked = [f for f in siblings if (job_id, f) not in _marked]
+        if unmarked:  # (one statement for the window's frames, not one each)
+            c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index.in_(unmarked),
+                                          Frame.status == FRAME.step("queued", "rendering")).values(status="rendering"))
+            _marked.update((job_id, f) for f in unmarked)
     return siblings
 
 
