@@ -71,6 +71,10 @@ def test_roots_at_infinity_and_constants():
         (["render", "bicube", "--size", "big"], "--size must look like"),
         (["render", "bicube", "--exr-compression", "lzma"], "--exr-compression: EXR compression must be one of"),
         (["render", "bicube", "--exr-compression", "zip:10"], "1..9"),
+        # Counted before anything is expanded (an atlas of 10^5 steps is 5e9 frames).
+        (["render", "bicube", "--atlas", "100000"], "5000050000 frames exceed the limit of 10000"),
+        (["render", "bicube", "--deltas", "0:1:999999999"], "999999999 frames exceed the limit of 10000"),
+        (["render", "bicube", "--sigmas", "0:1:101", "--deltas", "0:1:100"], "10100 frames exceed the limit"),
     ],
 )
 def test_bad_input_exits_2_with_a_message(args, message):

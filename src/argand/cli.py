@@ -365,6 +365,7 @@ def render(
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, animation.gif and .mp4,
     and atlas.png for a grid of (sigma, delta)."""
     _one_blas_thread()
+    from argand.farm.job_limits import MAX_FRAMES
     from argand.frames.frame_set import FrameSet
     from argand.media.frame_files import check_exr_compression
     from argand.render import FrameParams
@@ -374,7 +375,9 @@ def render(
 
     try:
         # The API builds a job's frames the same way: the same pairs and the same refusals.
-        grid = FrameSet.from_axes(sigma=sigma, sigmas=sigmas, delta=delta, deltas=deltas, atlas=atlas)
+        # (Counted before anything is expanded: an atlas of 10^5 steps is 5e9 frames.)
+        grid = FrameSet.from_axes(sigma=sigma, sigmas=sigmas, delta=delta, deltas=deltas, atlas=atlas,
+                                  max_frames=MAX_FRAMES)
     except ValueError as exc:
         fail(str(exc))
     if atlas_layout not in ("uniform", "roots"):
