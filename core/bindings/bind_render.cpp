@@ -526,7 +526,7 @@ void init_render(py::module_& m) {
     m.def(
         "plan_frame",
         [](const py::object& scene, double sigma, double delta, int width, int height, const std::string& method,
-           int max_depth, bool hue_by_argument, bool seed_from_neighbour, int exact_pixels_per_tile,
+           int max_depth, bool hue_by_argument, bool seed_from_neighbour, int exact_pixels_per_block,
            int exact_max_bits, int samples, const std::string& kernel, bool cull, const std::string& decide,
            const std::string& shade, bool real) {
             const SceneSpec& spec =
@@ -540,7 +540,7 @@ void init_render(py::module_& m) {
             fp.max_depth = max_depth;
             fp.hue_by_argument = hue_by_argument;
             fp.seed_from_neighbour = seed_from_neighbour;
-            fp.exact_pixels_per_tile = exact_pixels_per_tile;
+            fp.exact_pixels_per_block = exact_pixels_per_block;
             fp.exact_max_bits = exact_max_bits;
             fp.samples = samples;
             if (!batch_isa_from_name(kernel.c_str(), fp.engine.kernel))
@@ -559,7 +559,7 @@ void init_render(py::module_& m) {
         },
         py::arg("scene"), py::arg("sigma"), py::arg("delta"), py::arg("width"), py::arg("height"),
         py::arg("method") = "auto", py::arg("max_depth") = 3, py::arg("hue_by_argument") = false,
-        py::arg("seed_from_neighbour") = true, py::arg("exact_pixels_per_tile") = FrameParams{}.exact_pixels_per_tile,
+        py::arg("seed_from_neighbour") = true, py::arg("exact_pixels_per_block") = FrameParams{}.exact_pixels_per_block,
         py::arg("exact_max_bits") = FrameParams{}.exact_max_bits, py::arg("samples") = 1, py::arg("kernel") = "auto",
         py::arg("cull") = true, py::arg("decide") = "fast", py::arg("shade") = "fast", py::arg("real") = false);
     m.def(
@@ -918,7 +918,7 @@ void init_render(py::module_& m) {
     m.attr("MAX_FRAME_SIDE") = kMaxFrameSide;
     m.attr("MAX_SAMPLES") = kMaxSamples;
     m.attr("EXACT_BITS_LIMIT") = kMaxExactBits;
-    m.attr("EXACT_PIXELS_PER_TILE") = FrameParams{}.exact_pixels_per_tile;
+    m.attr("EXACT_PIXELS_PER_BLOCK") = FrameParams{}.exact_pixels_per_block;
     m.attr("EXACT_DEFAULT_BITS") = FrameParams{}.exact_max_bits;
     m.attr("BAND_RULE") = kBandRule;
     py::dict status_names, level_names;

@@ -482,7 +482,7 @@ static void test_tiles_and_limits() {
 }
 
 /// The exact tier's hook contract: called only for primary rays not proven
-/// after level 3, at most exact_pixels_per_tile times per tile, with the
+/// after level 3, at most exact_pixels_per_block times per 8x8 block, with the
 /// pixel's own ray; its decided answer is what the pixel shows, its
 /// undecided answer keeps the ladder's picture, and pixels beyond the budget
 /// are level 6. (The solver here answers from the query alone: the real one
@@ -512,10 +512,18 @@ static void test_exact_hook() {
         a.status = kUndecided;
         return a;
     };
-    pl.params.exact_pixels_per_tile = 3;
+    pl.params.exact_pixels_per_block = 3;
     TileAOVs t;
     render_tile(pl, TileRect{0, 0, 9, 9}, t, &undecided);
-    CHECK(calls == 3 && rays_match);
+    // The budget is per frame-aligned block of kSeedBlock x kSeedBlock
+    // samples: the 9x9 frame has four (8x8, 1x8, 8x1, 1x1).
+    int open_in[2][2] = {{0, 0}, {0, 0}};
+    for (int y = 0; y < 9; ++y)
+        for (int x = 0; x < 9; ++x) open_in[y / kSeedBlock][x / kSeedBlock] += plain.status[y * 9 + x] != kCertified;
+    int budgeted = 0;
+    for (auto& row : open_in)
+        for (int n : row) budgeted += std::min(n, 3);
+    CHECK(budgeted < open && calls == budgeted && rays_match);
     int at_exact = 0, over = 0;
     for (std::size_t i = 0; i < t.status.size(); ++i) {
         at_exact += t.escalation[i] == kLevelExact;
@@ -523,7 +531,7 @@ static void test_exact_hook() {
         CHECK(t.status[i] == plain.status[i]);            // undecided: the ladder's status
         CHECK(t.rgba[4 * i + 3] == plain.rgba[4 * i + 3]);  // and its picture
     }
-    CHECK(at_exact == 3 && over == open - 3);
+    CHECK(at_exact == budgeted && over == open - budgeted);
     // A decided answer (here: a proven miss) is what the pixel shows.
     ExactSolver miss = [&](const FramePlan&, const ExactQuery&) {
         ExactAnswer a;
@@ -531,14 +539,14 @@ static void test_exact_hook() {
         a.status = kCertified;
         return a;
     };
-    pl.params.exact_pixels_per_tile = 100;
+    pl.params.exact_pixels_per_block = 100;
     render_tile(pl, TileRect{0, 0, 9, 9}, t, &miss);
     for (std::size_t i = 0; i < t.status.size(); ++i) {
         CHECK(t.status[i] == kCertified);
         if (plain.status[i] != kCertified) CHECK(t.escalation[i] == kLevelExact && t.rgba[4 * i + 3] == 0.0f);
     }
     // Off (budget 0) or no hook: the ladder stops at level 3.
-    pl.params.exact_pixels_per_tile = 0;
+    pl.params.exact_pixels_per_block = 0;
     calls = 0;
     render_tile(pl, TileRect{0, 0, 9, 9}, t, &undecided);
     CHECK(calls == 0 && t.escalation == plain.escalation);

@@ -355,10 +355,10 @@ def render(
         None, "--explain", metavar="X,Y[,SAMPLE]", help="X,Y (or X,Y,SAMPLE with --samples): print that pixel's (sample's) ray, ray "
         "polynomial with coefficient radii, discs, decisions, the exact tier's steps and status (first frame only), "
         "and render nothing."),
-    exact_per_tile: Optional[int] = typer.Option(
-        None, "--exact-per-tile", metavar="N", help="The exact tier: at most N pixels per tile decided on the exact rational "
-        "ray polynomial when the double-double tier leaves them unproven (0: off; default: the renderer's, "
-        "argand.render.frames.EXACT_PIXELS_PER_TILE)."),
+    exact_per_block: Optional[int] = typer.Option(
+        None, "--exact-per-block", metavar="N", help="The exact tier: at most N rays of each 8x8 block of samples decided on the "
+        "exact rational ray polynomial when the double-double tier leaves them unproven (0: off; default: the "
+        "renderer's, argand.render.frames.EXACT_PIXELS_PER_BLOCK, 8)."),
     exact_bits: Optional[int] = typer.Option(
         None, "--exact-bits", metavar="BITS", help="The exact tier's highest precision in bits (default: EXACT_DEFAULT_BITS)."),
 ) -> None:
@@ -399,8 +399,8 @@ def render(
         from argand.render.convert import to_core_scene
         grid = FrameSet.from_axes(atlas=atlas, atlas_cuts=root_atlas_cuts(to_core_scene(loaded), width, height, atlas))
     exact = {}
-    if exact_per_tile is not None:
-        exact["exact_pixels_per_tile"] = exact_per_tile
+    if exact_per_block is not None:
+        exact["exact_pixels_per_block"] = exact_per_block
     if exact_bits is not None:
         exact["exact_max_bits"] = exact_bits
     try:

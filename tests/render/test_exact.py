@@ -23,6 +23,7 @@ import pytest
 from tests.helpers.pixel_truth import check_frame, check_pixel, pixel_truth, rendered_pixel, scene_objects
 from tests.helpers.random_surfaces import random_scene
 from tests.farm.test_work import farm_parts, submit  # noqa: F401  (a fixture)
+from tests.render.test_bands import assert_same_bits
 from tests.render.test_truth import GRAZING, bisect_to_tangency, centre_truth, hit_miss_pair, with_look_at
 
 from argand.render import FrameParams, TileRect, primary_ray, render_frame, render_tile
@@ -31,7 +32,7 @@ from argand.render.explain import explain_pixel
 from argand.render.frames import LADDER_LEVEL_NAMES, EXACT_OVER_CAP_LEVEL
 from argand.scene import load_scene, scene_from_dict
 
-OFF = {"exact_pixels_per_tile": 0}
+OFF = {"exact_pixels_per_block": 0}
 EXACT, MULTIPLE, OVER_CAP = 4, 5, EXACT_OVER_CAP_LEVEL
 
 
@@ -172,7 +173,8 @@ def test_real_roots_exactly_on_the_clipping_sphere_are_decided_exactly():
     before = render_frame(scene, FrameParams(width=9, height=9, **OFF), workers=1)
     hits_before = int(np.count_nonzero(before.aovs["status"] == 3))
     assert hits_before > 4
-    result = render_frame(scene, FrameParams(width=9, height=9), workers=1)
+    # (A budget of the whole 8x8 block: every ray here needs the tier.)
+    result = render_frame(scene, FrameParams(width=9, height=9, exact_pixels_per_block=64), workers=1)
     assert result.certified_share == 1.0
     assert int(np.count_nonzero(result.aovs["escalation"] == EXACT)) == hits_before
     for y, x in np.argwhere(result.aovs["escalation"] == EXACT):
@@ -188,20 +190,31 @@ def test_real_roots_exactly_on_the_clipping_sphere_are_decided_exactly():
         assert result.aovs["re"][y, x] == np.float32(t) and result.aovs["im"][y, x] == 0
 
 
-def test_the_tiles_exact_budget_holds_and_the_pixels_beyond_it_are_counted():
+def test_the_blocks_exact_budget_holds_and_the_pixels_beyond_it_are_counted():
     scene = sphere_on_its_clip()
     open_pixels = int(np.count_nonzero(render_frame(scene, FrameParams(width=9, height=9, **OFF),
                                                     workers=1).aovs["status"] == 3))
-    result = render_frame(scene, FrameParams(width=9, height=9, exact_pixels_per_tile=4), workers=1)
+    result = render_frame(scene, FrameParams(width=9, height=9, exact_pixels_per_block=4), workers=1)
     levels, status = result.aovs["escalation"], result.aovs["status"]
-    assert np.count_nonzero(levels == EXACT) == 4 == result.figures["exact_pixels"]
-    assert np.count_nonzero(levels == OVER_CAP) == open_pixels - 4 == result.figures["exact_over_cap"]
+    # The budget is per frame-aligned 8x8 block: the 9x9 frame has four.
+    want = sum(min(4, int(np.count_nonzero(before[y:y + 8, x:x + 8] == 3)))
+               for before in [render_frame(scene, FrameParams(width=9, height=9, **OFF), workers=1).aovs["status"]]
+               for y in (0, 8) for x in (0, 8))
+    assert np.count_nonzero(levels == EXACT) == want == result.figures["exact_pixels"]
+    assert np.count_nonzero(levels == OVER_CAP) == open_pixels - want == result.figures["exact_over_cap"]
     assert np.all(status[levels == OVER_CAP] == 3) and np.all(status[levels == EXACT] == 0)
-    # The budget is per tile: 8x8 tiles of a 24x24 frame give each tile its own.
-    small = render_frame(scene, FrameParams(width=24, height=24, exact_pixels_per_tile=1), tile=8, workers=1)
-    per_tile = [int(np.count_nonzero(small.aovs["escalation"][y:y + 8, x:x + 8] == EXACT))
-                for y in range(0, 24, 8) for x in range(0, 24, 8)]
-    assert max(per_tile) == 1 and sum(per_tile) > 1
+    # Each block spends its own budget, whatever the tiling, the threads or
+    # the kernel: a frame whose every hit needs the tier is the same bits
+    # from tiles of 8, 16, 24, 32 and 64 (the budget was per tile once, and
+    # such frames differed with the tile size).
+    size = dict(width=45, height=37)
+    frames = [render_frame(scene, FrameParams(**size, exact_pixels_per_block=2), tile=t, workers=w)
+              for t, w in ((8, 1), (16, 2), (24, 1), (32, 2), (64, 1))]
+    for other in frames[1:]:
+        assert_same_bits(other, frames[0], "tiles")
+    levels = frames[0].aovs["escalation"]
+    per_block = [int(np.count_nonzero(levels[y:y + 8, x:x + 8] == EXACT)) for y in range(0, 37, 8) for x in range(0, 45, 8)]
+    assert max(per_block) == 2 and sum(per_block) > 2 and np.count_nonzero(levels == OVER_CAP) > 0
     # Off: nothing reaches the tier.
     off = render_frame(scene, FrameParams(width=9, height=9, **OFF), workers=1)
     assert off.figures["exact_pixels"] == 0 and off.figures["exact_over_cap"] == 0
@@ -213,7 +226,7 @@ def test_a_modulus_tie_between_two_objects_stays_undecided_at_the_precision_cap(
     and the cap, at the frame's exact_max_bits."""
     scene = scene_from_dict({"objects": [{"surface": "x^2 + y^2 + z^2 - 1"}] * 2,
                              "camera": {"position": [0.0, -4.0, 0.3], "look_at": [0.0, 0.0, 0.0]}})
-    params = FrameParams(width=9, height=9, exact_max_bits=256)
+    params = FrameParams(width=9, height=9, exact_max_bits=256, exact_pixels_per_block=64)
     result = render_frame(scene, params, workers=1)
     hits = result.rgba[..., 3] > 0
     assert hits.any()
@@ -226,8 +239,8 @@ def test_a_modulus_tie_between_two_objects_stays_undecided_at_the_precision_cap(
 
 
 def test_exact_tier_limits_are_checked():
-    with pytest.raises(ValueError, match="exact_pixels_per_tile"):
-        FrameParams(exact_pixels_per_tile=-1)
+    with pytest.raises(ValueError, match="exact_pixels_per_block"):
+        FrameParams(exact_pixels_per_block=-1)
     with pytest.raises(ValueError, match="exact_max_bits"):
         FrameParams(exact_max_bits=32)
 
@@ -248,7 +261,7 @@ def test_cli_explain_prints_the_exact_tiers_steps(tmp_path):
     assert "exact tier" in out and "squarefree factors: degree 1 with multiplicity 2" in out
     assert "64 bits:" in out and "ladder level 5 (exact: multiple root proven)" in out
     off = subprocess.run([sys.executable, "-m", "argand.cli", "render", str(spec), "--size", "9x9", "--explain", "4,4",
-                          "--exact-per-tile", "0"], capture_output=True, text=True)
+                          "--exact-per-block", "0"], capture_output=True, text=True)
     assert off.returncode == 0 and "exact tier" not in off.stdout
 
 

@@ -205,7 +205,7 @@ def test_non_finite_ray_polynomials_start_on_the_first_level(power, coeff, scale
         "objects": [{"surface": f"{coeff}*(x + y + z - 1)^{power}", "transform": {"scale": scale}}],
         "camera": {"position": [0.0, 0.0, 0.0], "look_at": [1.0, 1.0, 1.0]},
     })
-    params = FrameParams(width=16, height=16, samples=samples, exact_pixels_per_tile=0)
+    params = FrameParams(width=16, height=16, samples=samples, exact_pixels_per_block=0)
     kernel = _core.batch_kernel() if kernel == "best" else kernel
     frame = render_with(kernel, scene, params)
     status, level = np.asarray(frame.aovs["status"]), np.asarray(frame.aovs["escalation"])

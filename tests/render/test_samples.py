@@ -64,9 +64,9 @@ def blocks(a: np.ndarray, side: int) -> np.ndarray:
 def renders(make, delta, samples, width, height, tile, exact):
     scene, side = make(), math.isqrt(samples)
     coarse = render_frame(scene, FrameParams(delta=delta, width=width, height=height, samples=samples,
-                                             exact_pixels_per_tile=exact), tile=tile, workers=1)
+                                             exact_pixels_per_block=exact), tile=tile, workers=1)
     fine = render_frame(scene, FrameParams(delta=delta, width=side * width, height=side * height,
-                                           exact_pixels_per_tile=exact), tile=side * tile, workers=1)
+                                           exact_pixels_per_block=exact), tile=side * tile, workers=1)
     return scene, side, coarse, fine
 
 
@@ -131,7 +131,7 @@ def test_each_sample_s_status_and_answer_hold_against_the_exact_truth():
     right root of its shown sample."""
     make, delta, samples, width, height, tile, exact = CASES[0][1:]
     scene, side, coarse, fine = renders(make, delta, samples, width, height, tile, exact)
-    params = FrameParams(delta=delta, width=width, height=height, samples=samples, exact_pixels_per_tile=exact)
+    params = FrameParams(delta=delta, width=width, height=height, samples=samples, exact_pixels_per_block=exact)
     objects = scene_objects(scene)
     frame_plan = plan(scene, params)
     checked = 0

@@ -146,9 +146,15 @@ struct FrameParams {
     bool seed_from_neighbour = true;
     int samples = 1;             // per pixel: a square (1, 4, 9, ..., kMaxSamples), see sample_side
     // The exact tier (ladder level 4, an ExactSolver given to render_tile):
-    // at most this many pixels per tile go to it (0: off), and it works up
-    // to this many bits of precision.
-    int exact_pixels_per_tile = 64;
+    // at most this many samples of each block of kSeedBlock x kSeedBlock
+    // samples go to it (0: off; the first ones, in tracing order), and it
+    // works up to this many bits of precision. A budget per frame-aligned
+    // block, not per tile: a block lies inside one tile (tiles are
+    // kSeedBlock pixels multiples) and its samples are traced in the same
+    // order whatever the tiling or thread, so which rays get the tier does
+    // not depend on them. 8: a singular line through a block is served
+    // whole, and at most an eighth of a frame's rays cost an exact solve.
+    int exact_pixels_per_block = 8;
     int exact_max_bits = 2048;
     EngineOptions engine;
 };
@@ -220,8 +226,8 @@ enum LadderLevel : std::uint8_t {
                              // precision cap was reached
     kLevelExactMultiple = 5, // the exact tier proved a multiple root at the pixel's
                              // root (or the ray in the surface): status 1, proven
-    kLevelExactOverCap = 6,  // not proven after level 3, and the tile's exact-tier
-                             // budget (exact_pixels_per_tile) was spent
+    kLevelExactOverCap = 6,  // not proven after level 3, and the block's exact-tier
+                             // budget (exact_pixels_per_block) was spent
 };
 /// The names of the ladder levels, by level (exported as LADDER_LEVEL_NAMES).
 constexpr const char* kLadderLevelNames[] = {"first",          "root double-double",          "unseeded retry",
@@ -382,7 +388,8 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params);
 /// Renders the pixels of `rect` (clamped to the frame). Thread-safe for
 /// distinct tiles of the same plan. Never touches Python itself; `exact`
 /// (optional) is called for primary rays still unproven after level 3, at
-/// most params.exact_pixels_per_tile times per tile.
+/// most params.exact_pixels_per_block times per block of kSeedBlock x
+/// kSeedBlock samples.
 void render_tile(const FramePlan& plan, const TileRect& rect, TileAOVs& out, const ExactSolver* exact = nullptr);
 /// The same pixels into `out`'s planes (the bits render_tile into a
 /// TileAOVs gives): out's pointers are the tile's pixel (0, 0), of the

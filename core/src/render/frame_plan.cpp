@@ -83,8 +83,8 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params) {
     if (sample_side(params.samples) == 0)
         throw std::invalid_argument("samples must be a square from 1 to " + std::to_string(kMaxSamples) +
                                     " (1, 4, 9, 16, 25, 36, 49 or 64), got " + std::to_string(params.samples));
-    if (params.exact_pixels_per_tile < 0)
-        throw std::invalid_argument("exact_pixels_per_tile must be >= 0 (0: no exact tier)");
+    if (params.exact_pixels_per_block < 0)
+        throw std::invalid_argument("exact_pixels_per_block must be >= 0 (0: no exact tier)");
     if (params.exact_max_bits < 64 || params.exact_max_bits > kMaxExactBits)
         throw std::invalid_argument("exact_max_bits must be in 64.." + std::to_string(kMaxExactBits));
     if (!batch_isa_supported(params.engine.kernel))
@@ -131,7 +131,7 @@ std::uint64_t rays_fingerprint(const FramePlan& a) {
     std::uint64_t h = 1469598103934665603ull;
     const FrameParams& p = a.params;
     mix(h, p.width), mix(h, p.height), mix(h, static_cast<int>(p.method)), mix(h, p.max_depth);
-    mix(h, p.hue_by_argument), mix(h, p.seed_from_neighbour), mix(h, p.samples), mix(h, p.exact_pixels_per_tile);
+    mix(h, p.hue_by_argument), mix(h, p.seed_from_neighbour), mix(h, p.samples), mix(h, p.exact_pixels_per_block);
     mix(h, p.exact_max_bits), mix(h, static_cast<int>(p.engine.kernel)), mix(h, p.engine.cull), mix(h, p.engine.real);
     mix(h, static_cast<int>(p.engine.decide)), mix(h, static_cast<int>(p.engine.shade));
     mix(h, a.tan_half_fov), mix(h, a.scene_distance);
@@ -152,7 +152,7 @@ bool same_rays(const FramePlan& a, const FramePlan& b) {
     const FrameParams &p = a.params, &q = b.params;
     if (p.width != q.width || p.height != q.height || p.method != q.method || p.max_depth != q.max_depth ||
         p.hue_by_argument != q.hue_by_argument || p.seed_from_neighbour != q.seed_from_neighbour ||
-        p.samples != q.samples || p.exact_pixels_per_tile != q.exact_pixels_per_tile ||
+        p.samples != q.samples || p.exact_pixels_per_block != q.exact_pixels_per_block ||
         p.exact_max_bits != q.exact_max_bits || p.engine.kernel != q.engine.kernel || p.engine.cull != q.engine.cull ||
         p.engine.real != q.engine.real ||
         p.engine.decide != q.engine.decide || p.engine.shade != q.engine.shade)

@@ -97,16 +97,22 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
         h = decider_.decide(roots, infos);
     }
     const bool exact_tier = h.status != kCertified && primary && exact_ && *exact_ &&
-                            plan_.params.exact_pixels_per_tile > 0 && plan_.params.method != Method::Unverified &&
+                            plan_.params.exact_pixels_per_block > 0 && plan_.params.method != Method::Unverified &&
                             (trace != nullptr || !explaining_);
     bool exact_ran = false;
     if (exact_tier) {
-        // Level 4: the exact tier, within the tile's budget (--explain
+        // Level 4: the exact tier, within the block's budget (--explain
         // runs it for its pixel whatever the budget).
-        if (trace == nullptr && exact_used_ >= plan_.params.exact_pixels_per_tile) {
+        auto used = std::find_if(exact_used_.rbegin(), exact_used_.rend(),
+                                 [&](const auto& b) { return b.first == exact_block_; });
+        if (used == exact_used_.rend()) {
+            exact_used_.emplace_back(exact_block_, 0);
+            used = exact_used_.rbegin();
+        }
+        if (trace == nullptr && used->second >= plan_.params.exact_pixels_per_block) {
             level = kLevelExactOverCap;
         } else {
-            ++exact_used_;
+            ++used->second;
             ExactQuery q{pixel_x_, pixel_y_, Ray{}, trace != nullptr};
             for (int a = 0; a < 3; ++a) {
                 q.ray.origin[a] = o[a];

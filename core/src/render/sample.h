@@ -39,6 +39,7 @@ struct SampleResult {
     for (int a = 0; a < 3; ++a) tracer.current_direction_[a] = ray.direction[a];
     tracer.pixel_x_ = sx_cell / side;  // the pixel holding the sample (for the exact tier)
     tracer.pixel_y_ = sy_cell / side;
+    tracer.exact_block_ = static_cast<std::int64_t>(sy_cell / kSeedBlock) << 32 | (sx_cell / kSeedBlock);
     SampleResult s;
     s.hit = tracer.intersect(ray.origin, ray.direction, true, seeds, 0, trace, pre, filled);
     if (trace) trace->ray = ray;

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <utility>
 #include <vector>
 
 #include "argand/render.h"
@@ -243,13 +244,18 @@ private:
 public:
     double current_direction_[3] = {0, 0, 0};
     int pixel_x_ = 0, pixel_y_ = 0;  // the pixel being traced (for the exact tier)
+    // The block of kSeedBlock x kSeedBlock samples holding the sample being
+    // traced (row << 32 | column): the exact tier's budget is per block.
+    std::int64_t exact_block_ = 0;
     bool explaining_ = false;         // explain_pixel: the exact tier runs only for the traced pixel
 
 private:
     const FramePlan& plan_;
     const ExactSolver* exact_ = nullptr;
     bool cull_ = true;  // ray_misses_sphere skips an object's roots (EngineOptions::cull)
-    int exact_used_ = 0;  // pixels of this tile sent to the exact tier
+    // Samples sent to the exact tier, per block of this tile (exact_block_).
+    // (Few blocks reach the tier: a short list searched from its end.)
+    std::vector<std::pair<std::int64_t, int>> exact_used_;
     std::vector<ObjectRoots> scratch_;
     std::vector<std::vector<DiscInfo>> infos_;
     Decider decider_;  // the band's decisions (and the choice record reads)

@@ -36,7 +36,7 @@ MAX_SURFACE_DEGREE: int
 MAX_FRAME_SIDE: int
 MAX_SAMPLES: int
 EXACT_BITS_LIMIT: int
-EXACT_PIXELS_PER_TILE: int
+EXACT_PIXELS_PER_BLOCK: int
 EXACT_DEFAULT_BITS: int
 BAND_RULE: str
 INTERLEAVED_CHANNELS: tuple[str, ...]
@@ -233,7 +233,7 @@ def plan_frame(
     max_depth: int = 3,
     hue_by_argument: bool = False,
     seed_from_neighbour: bool = True,
-    exact_pixels_per_tile: int = ...,
+    exact_pixels_per_block: int = ...,
     exact_max_bits: int = ...,
     samples: int = 1,
     kernel: str = "auto",

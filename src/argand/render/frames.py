@@ -47,11 +47,12 @@ EXACT_LEVELS = (4, 5)
 EXACT_MULTIPLE_LEVEL = 5
 EXACT_OVER_CAP_LEVEL = 6
 
-#: The exact tier's bounds (defined in C++): the pixels per tile it may take
-#: and its highest working precision in bits, by default (FrameParams'
-#: exact_pixels_per_tile and exact_max_bits), and the largest precision a
+#: The exact tier's bounds (defined in C++): the rays per 8x8 block of
+#: samples it may take (a frame-aligned block, so the frame does not depend
+#: on its tiling) and its highest working precision in bits, by default (FrameParams'
+#: exact_pixels_per_block and exact_max_bits), and the largest precision a
 #: frame may ask for.
-EXACT_PIXELS_PER_TILE: int = _core.EXACT_PIXELS_PER_TILE
+EXACT_PIXELS_PER_BLOCK: int = _core.EXACT_PIXELS_PER_BLOCK
 EXACT_DEFAULT_BITS: int = _core.EXACT_DEFAULT_BITS
 EXACT_BITS_LIMIT: int = _core.EXACT_BITS_LIMIT
 
@@ -78,9 +79,9 @@ class FrameParams:
     #: Per pixel, a square (1, 4, ..., MAX_SAMPLES): a side x side grid of
     #: strata, each sampled at its centre.
     samples: int = 1
-    #: The exact tier: at most this many pixels per tile (0: off), up to
-    #: this many bits of precision.
-    exact_pixels_per_tile: int = EXACT_PIXELS_PER_TILE
+    #: The exact tier: at most this many rays per 8x8 block of samples (0:
+    #: off), up to this many bits of precision.
+    exact_pixels_per_block: int = EXACT_PIXELS_PER_BLOCK
     exact_max_bits: int = EXACT_DEFAULT_BITS
     #: The engine's modes (argand.render.options); the defaults unless a
     #: caller passes others (the CLI and the worker read them from the environment).
@@ -97,9 +98,9 @@ class FrameParams:
         if not (1 <= self.width <= MAX_FRAME_SIDE and 1 <= self.height <= MAX_FRAME_SIDE):
             side = MAX_FRAME_SIDE
             raise ValueError(f"frame size must be between 1x1 and {side}x{side}, got {self.width}x{self.height}")
-        if not (isinstance(self.exact_pixels_per_tile, int) and self.exact_pixels_per_tile >= 0):
-            raise ValueError(f"exact_pixels_per_tile must be an integer >= 0 (0: no exact tier), "
-                             f"got {self.exact_pixels_per_tile!r}")
+        if not (isinstance(self.exact_pixels_per_block, int) and self.exact_pixels_per_block >= 0):
+            raise ValueError(f"exact_pixels_per_block must be an integer >= 0 (0: no exact tier), "
+                             f"got {self.exact_pixels_per_block!r}")
         if not (isinstance(self.exact_max_bits, int) and 64 <= self.exact_max_bits <= EXACT_BITS_LIMIT):
             raise ValueError(f"exact_max_bits must be an integer in 64..{EXACT_BITS_LIMIT}, got {self.exact_max_bits!r}")
 
@@ -183,7 +184,7 @@ def plan(core_scene: dict, params: FrameParams) -> Any:
         params.method,
         int(params.max_depth),
         bool(params.hue_by_argument),
-        exact_pixels_per_tile=int(params.exact_pixels_per_tile),
+        exact_pixels_per_block=int(params.exact_pixels_per_block),
         exact_max_bits=int(params.exact_max_bits),
         samples=int(params.samples),
         kernel=params.engine.kernel,
@@ -464,7 +465,7 @@ def frame_figures(result: FrameResult) -> dict[str, Any]:
         "exact_share": exact / n,
         "exact_multiple_roots": int(levels[EXACT_MULTIPLE_LEVEL]),
         "exact_over_cap": int(levels[EXACT_OVER_CAP_LEVEL]),
-        "exact_pixels_per_tile": p.exact_pixels_per_tile,
+        "exact_pixels_per_block": p.exact_pixels_per_block,
         "exact_max_bits": p.exact_max_bits,
         "root_calls": result.root_calls,
     }
