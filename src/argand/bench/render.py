@@ -549,7 +549,7 @@ def markdown(report: dict) -> str:
 
 def exact_cell(f: dict) -> str:
     """The exact tier's pixels and share of a frame (and the pixels its
-    per-tile budget left out, when any)."""
+    per-block budget left out, when any)."""
     if "exact_pixels" not in f:
         return "–"
     cell = f"{f['exact_pixels']} ({100 * f['exact_share']:.4f}%)"

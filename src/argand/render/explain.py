@@ -8,7 +8,7 @@ The ray's origin and direction are the exact doubles the renderer uses;
 tier (ladder level 4), its steps are printed too: the exact polynomial's
 squarefree factors, the root balls at each precision with their decisions,
 and its conclusion (the tier runs for the explained pixel whatever its
-tile's budget).
+block's budget).
 """
 
 from __future__ import annotations

@@ -459,7 +459,7 @@ def frame_figures(result: FrameResult) -> dict[str, Any]:
         "escalated_share": result.escalations / n,
         # Pixels per ladder level (LADDER_LEVEL_NAMES), and the exact tier's
         # share: pixels it decided or tried (levels 4, 5), multiple roots it
-        # proved, pixels its per-tile budget left out.
+        # proved, pixels its per-block budget left out.
         "escalation_levels": {LADDER_LEVEL_NAMES[k]: int(levels[k]) for k in range(len(LADDER_LEVEL_NAMES))},
         "exact_pixels": exact,
         "exact_share": exact / n,
