@@ -417,6 +417,23 @@ def test_yaml_errors(tmp_path, content, message):
     assert str(info.value).startswith(f"{path}: ")
 
 
+def test_numbers_without_a_dot_in_yaml_are_numbers(tmp_path):
+    """1e-3 and 2E1 are numbers in YAML 1.2 and JSON; PyYAML (YAML 1.1)
+    read them as strings, and a scene refused them as "not a number"."""
+    path = tmp_path / "exponents.yaml"
+    path.write_text("objects:\n  - surface: x^2 + y^2 + z^2 - 1\n    clip_radius: 2E0\n"
+                    "    transform: {rotate: [0, 0, 1e1], scale: 5e-1, translate: [+1e0, -2e-1, 0]}\n")
+    obj = load_scene(path).objects[0]
+    assert obj.clip_radius == 2.0
+    assert obj.transform.rotate == (0.0, 0.0, 10.0) and obj.transform.scale == 0.5
+    assert obj.transform.translate == (1.0, -0.2, 0.0)
+    # The same scene as JSON reads the same.
+    json_path = tmp_path / "exponents.json"
+    json_path.write_text(json.dumps({"objects": [{"surface": "x^2 + y^2 + z^2 - 1", "clip_radius": 2e0, "transform": {
+        "rotate": [0, 0, 1e1], "scale": 5e-1, "translate": [1e0, -2e-1, 0]}}]}))
+    assert load_scene(json_path) == load_scene(path)
+
+
 def test_duplicate_key_error_names_its_line(tmp_path):
     path = tmp_path / "twice.yaml"
     path.write_text("objects:\n  - surface: 'x^2'\n    clip_radius: 1\n    clip_radius: 2\n")

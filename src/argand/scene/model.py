@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 import typing
 from pathlib import Path
 from typing import Any
@@ -268,6 +269,11 @@ def _yaml_loader():
                 seen[key] = True
             return super().construct_mapping(node, deep=deep)
 
+    # YAML 1.1 (PyYAML) reads 1e-3 or 2E5, a number without a dot, as a
+    # string, so `clip_radius: 1e-3` was refused as "not a number": a float
+    # resolver for those as well, as YAML 1.2 and JSON read them.
+    UniqueKeyLoader.add_implicit_resolver(
+        "tag:yaml.org,2002:float", re.compile(r"^[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+$"), list("-+0123456789"))
     return UniqueKeyLoader
 
 
