@@ -365,7 +365,7 @@ def render(
     """Render frames locally (no server): EXR with AOVs, PNG, JSON figures, animation.gif and .mp4,
     and atlas.png for a grid of (sigma, delta)."""
     _one_blas_thread()
-    from argand.farm.job_limits import MAX_FRAMES
+    from argand.frames.defaults import MAX_FRAMES
     from argand.frames.frame_set import FrameSet
     from argand.media.frame_files import check_exr_compression
     from argand.render import FrameParams

@@ -8,8 +8,8 @@ from __future__ import annotations
 # limits (defined in C++), named here as there.
 from argand.render.frames import MAX_FRAME_SIDE, MAX_OBJECTS
 
-#: Frames in one job (a list of deltas or a sweep's count).
-MAX_FRAMES = 10_000
+#: Frames in one job (a list of deltas or a sweep's count): `argand render`'s limit too.
+from argand.frames.defaults import MAX_FRAMES
 #: A page number of GET /api/jobs (its offset stays far inside a 64-bit integer).
 MAX_PAGE = 1_000_000
 
