@@ -116,9 +116,19 @@ def test_presets_batched_equals_scalar(name, delta):
     batched = render_with(best, scene, params)
     assert_same_decisions(scalar, batched, f"{name} delta={delta:.4f} scalar vs {best}", scene, params,
                           ("scalar", best))
-    # Batched frames prove what they claim: their certified pixels against the truth.
-    check = check_frame(scene, params, batched, sample_pixels(params.width, params.height, 60, seed=15))
-    assert check.wrong == 0, check.disagreements[:3]
+    # A hit on a one-root disc that no other disc's mirror image meets is a
+    # real root, proven, and writes im = 0 on both paths (the scalar one
+    # wrote find_roots' centre, im some 1e-10, on hundreds of a preset's
+    # pixels at delta = pi/9). (On product surfaces a near pair may keep one
+    # kernel's disc from the proof and not the other's: presets only.)
+    both = (scalar.aovs["status"] == 0) & (batched.aovs["status"] == 0) & (scalar.rgba[..., 3] > 0) \
+        & (batched.rgba[..., 3] > 0)
+    real_a, real_b = np.asarray(scalar.aovs["im"]) == 0, np.asarray(batched.aovs["im"]) == 0
+    assert np.array_equal(real_a[both], real_b[both]), np.argwhere(both & (real_a != real_b))[:5].tolist()
+    # Both frames prove what they claim: their certified pixels against the truth.
+    for frame in (batched, scalar):
+        check = check_frame(scene, params, frame, sample_pixels(params.width, params.height, 60, seed=15))
+        assert check.wrong == 0, check.disagreements[:3]
 
 
 @pytest.mark.parametrize("kernel", KERNELS[1:])
