@@ -107,6 +107,13 @@ bool real_by_mirror(const RootDisc* all, int n_all, int self) {
     return true;
 }
 
+void flag_real_by_mirror(RootDisc* discs, int n) {
+    for (int i = 0; i < n; ++i) {
+        RootDisc& d = discs[i];
+        if (d.count == 1 && !d.real && std::fabs(d.im) <= d.radius && real_by_mirror(discs, n, i)) d.real = true;
+    }
+}
+
 bool is_mirror_twin(const RootDisc& b, const RootDisc& j, const RootDisc* all, int n_all, bool all_verified) {
     if (!all_verified || !b.verified || b.count != 1 || !j.verified || j.count != 1) return false;
     if (!may_meet_mirror(j, b)) return false;

@@ -48,6 +48,13 @@ inline bool may_meet_mirror(const RootDisc& a, const RootDisc& b) {
 /// proven_real's mirror test alone (d verified, count 1, meeting its mirror).
 bool real_by_mirror(const RootDisc* all, int n_all, int self);
 
+/// Flags real every one-root disc of `discs` (all verified: they hold every
+/// root of a real polynomial) that meets its mirror image and no other
+/// disc's (real_by_mirror): its root's conjugate is a root, so in it. After
+/// a solve, once for every band (PrimaryBatch::solve, Tracer::solve), so
+/// that a hit on it writes im = 0 whatever the kernel that found it.
+void flag_real_by_mirror(RootDisc* discs, int n);
+
 /// Is the root in disc all[self] (count 1, verified) real? True when the
 /// disc says so, or when every other disc of the same polynomial (all
 /// verified, so they cover every root) is proven disjoint from the mirror

@@ -159,22 +159,24 @@ def test_explain_says_when_merged_discs_decided_or_did_not():
     assert said == {"merged", "merged, double-double", "settled"}
 
 
+@pytest.mark.parametrize("kernel", ["auto", "scalar"])
 @pytest.mark.parametrize("name, sigma, delta", [
     ("chmutov-octic", 0.0, math.pi / 9),
     ("barth-sextic", 0.0, math.pi / 9),
     ("togliatti", 0.3, 0.6),
     ("endrass-octic", 0.0, 0.0),
 ])
-def test_a_disc_the_batch_flags_real_holds_one_real_root(name, sigma, delta):
+def test_a_disc_the_batch_flags_real_holds_one_real_root(name, sigma, delta, kernel):
     """The batch flags a one-root disc real where no other disc can meet its
     mirror image (real_by_mirror, once per sample for every band): every
     such disc an explanation shows holds exactly one root of the pixel's
     exact rational ray polynomial (python-flint), and that root is real
     (Arb isolates a real root of an integer polynomial with an imaginary
-    part of exactly zero). A pixel showing such a root writes im = 0."""
+    part of exactly zero). A pixel showing such a root writes im = 0. The
+    scalar kernel (Tracer::solve) flags its discs the same way."""
     scene = load_scene(name)
     size = 23
-    params = FrameParams(sigma=sigma, delta=delta, width=size, height=size)
+    params = FrameParams(sigma=sigma, delta=delta, width=size, height=size, engine=EngineOptions(kernel=kernel))
     objects = scene_objects(scene)
     frame = render_frame(scene, params, workers=1)
     flagged = zero_written = 0

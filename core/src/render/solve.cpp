@@ -87,15 +87,7 @@ void PrimaryBatch::solve(const double* dx, const double* dy, const double* dz, i
             // classify (band_fast_verified gives the same verdict either
             // way, and the vector classify keeps the disc instead of
             // sending it to the scalar reference).
-            if (complete) {
-                RootsResult& res = o.res[c];
-                for (int i = 0; i < res.n_discs; ++i) {
-                    RootDisc& d = res.discs[i];
-                    if (d.count == 1 && !d.real && std::fabs(d.im) <= d.radius &&
-                        detail::real_by_mirror(res.discs, res.n_discs, i))
-                        d.real = true;
-                }
-            }
+            if (complete) detail::flag_real_by_mirror(o.res[c].discs, o.res[c].n_discs);
         }
         if (!o.seeded) continue;
         // These samples' roots seed the samples below them (as the
@@ -444,19 +436,10 @@ void Tracer::solve(ObjectRoots& r, int degree, const Seeds* seed) {
     r.res.bind(r.own);
     r.complete = r.status == Status::Ok;
     for (int i = 0; i < r.res.n_discs && r.complete; ++i) r.complete = r.res.discs[i].verified;
-    if (!r.complete) return;
-    // As PrimaryBatch::solve: a one-root disc that no other disc's mirror
-    // image can meet holds a real root (real_by_mirror: the discs hold
-    // every root, and its root's conjugate is a root, so in it), flagged
-    // real here, so that a hit on it writes im = 0 on this path as on the
-    // batched one (find_roots snaps only approximations within 64 ulps of
-    // the axis; the band verdicts are the same either way).
-    // (r.res views r.own's discs.)
-    for (int i = 0; i < r.own.n_discs; ++i) {
-        RootDisc& d = r.own.discs[i];
-        if (d.count == 1 && !d.real && std::fabs(d.im) <= d.radius && real_by_mirror(r.own.discs, r.own.n_discs, i))
-            d.real = true;
-    }
+    // As PrimaryBatch::solve (find_roots snaps only approximations within
+    // 64 ulps of the axis; the band verdicts are the same either way). (r.res
+    // views r.own's discs.)
+    if (r.complete) flag_real_by_mirror(r.own.discs, r.own.n_discs);
 }
 
 }  // namespace argand::detail

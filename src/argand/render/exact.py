@@ -4,7 +4,7 @@ rational ray polynomial of its ray.
 The C++ renderer calls :func:`decide_pixel` (through the binding, with the
 GIL taken for the call) for a primary ray whose decision is still not proven
 after the double-double tier, at most ``exact_pixels_per_block`` times per
-tile. Everything here is exact or rigorous:
+8x8 block of samples. Everything here is exact or rigorous:
 
 1. **The exact ray polynomial.** Every double at its exact rational value
    (``flint.fmpq``): the ray's origin and direction (the doubles the renderer
