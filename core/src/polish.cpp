@@ -21,6 +21,8 @@ constexpr double kSettled = 0x1p-64;
 // follow (each some ten times the cost of a double step) settle in two
 // instead of four or five from a centre 1e-3 off.
 constexpr double kNearDouble = 0x1p-30;
+// canonical_root's steps at most (from 2^-20 off, halving near a double root).
+constexpr int kCanonicalSteps = 40;
 // Newton's iteration on F at the point (polish_root_at_point) ends once a
 // step is below this (relative): the iterate is then within the step's
 // square of the root, or within the evaluation's own noise, far below a
@@ -149,6 +151,67 @@ bool polish_root(const double* c, int n, const RootDisc& d, double& re, double& 
     return settle(c, n, d, CDD(DD(start.re), DD(start.im)), re, im);
 }
 
+namespace {
+/// canonical_root's iteration (T: double on the real line, CD off it),
+/// inside the disc centred at (dre, dim) of radius r.
+template <class T> bool canonical_in(const double* c, int n, double dre, double dim, double r, T z, double& re,
+                                     double& im, double* slope) {
+    // (The start may lie outside the disc, and so may the iterates on the
+    // way: the end must lie in it. Near a double root the steps only halve:
+    // up to kCanonicalSteps of them.)
+    // (Squared sizes: estimates, nothing is claimed of them.)
+    double size = INFINITY, slope2 = 0.0;
+    int settled = 0;  // steps since the iteration settled
+    for (int step = 0; step < kCanonicalSteps && settled < 3; ++step) {
+        T p, dp;
+        horner(c, n, z, p, dp);
+        if (!finite(p) || !finite(dp) || (re_hi(dp) == 0.0 && im_hi(dp) == 0.0)) return false;
+        const T dz = p / dp, next = z - dz;
+        const double size2 = re_hi(dz) * re_hi(dz) + im_hi(dz) * im_hi(dz);
+        if (settled && !(size2 <= 0.25 * size)) break;  // (at the rounding noise: kept where it is)
+        slope2 = re_hi(dp) * re_hi(dp) + im_hi(dp) * im_hi(dp);  // (|p'| at the iterate stepped from)
+        if (!finite(next)) return false;
+        z = next;
+        size = size2;
+        if (size == 0.0) break;
+        if (settled || size <= kNearDouble * kNearDouble * (re_hi(z) * re_hi(z) + im_hi(z) * im_hi(z))) ++settled;
+    }
+    const double off_re = re_hi(z) - dre, off_im = im_hi(z) - dim;
+    if ((!settled && size != 0.0) || !(off_re * off_re + off_im * off_im <= r * r)) return false;
+    re = re_hi(z);
+    im = im_hi(z);
+    if (slope) *slope = std::sqrt(slope2);
+    return true;
+}
+}  // namespace
+
+bool canonical_root(const double* c, int n, const RootDisc& d, double& re, double& im, bool real, double* slope) {
+    real = real || d.real;
+    if (n < 1 || !d.verified || d.count != 1 || !std::isfinite(d.re) || !std::isfinite(d.im) ||
+        !std::isfinite(d.radius))
+        return false;
+    const double dim = real ? 0.0 : std::fabs(d.im);  // (the upper half-plane's disc)
+    int e;
+    std::frexp(std::max(std::fabs(d.re), dim), &e);
+    const double g = std::ldexp(1.0, e - 20);  // (a power of two: the rounding below is exact)
+    const double sre = std::nearbyint(d.re / g) * g;
+    if (real) return canonical_in(c, n, d.re, 0.0, d.radius, sre, re, im, slope);
+    // (A disc across the real axis: on it first, where the iteration
+    // settles only at a real root, then the disc's one root; so a real root
+    // shows im = 0 whether or not its disc was proven real.)
+    if (dim <= d.radius && canonical_in(c, n, d.re, dim, d.radius, sre, re, im, slope)) return true;
+    // (Off the axis the start is too: a start on it stays on it.)
+    const double sim = std::max(std::nearbyint(dim / g) * g, g);
+    return canonical_in(c, n, d.re, dim, d.radius, CD(sre, sim), re, im, slope);
+}
+
+bool one_float(double x, double r) {
+    if (!std::isfinite(x) || !(r >= 0.0)) return false;
+    return static_cast<float>(next_down(x - r)) == static_cast<float>(next_up(x + r));
+}
+
+__attribute__((noinline)) double round_to_float(double x) { return static_cast<float>(x); }
+
 void polish_start(const double* c, int n, const RootDisc& d, double& re, double& im, bool real) {
     real = real || d.real;
     if (n < 1) return;
@@ -163,6 +226,13 @@ void polish_start(const double* c, int n, const RootDisc& d, double& re, double&
     const CD start = near_root(c, n, d, z, p, dp);
     re = start.re;
     im = start.im;
+}
+
+bool polish_ill_conditioned_at(const double* r, int n, double re, double im, double slope) {
+    const double m = std::hypot(re, im);
+    double moved = 0.0;  // sum of r_k |z|^k
+    for (int k = n; k >= 0; --k) moved = moved * m + r[k];
+    return !(std::isfinite(moved) && std::isfinite(slope) && moved <= kIllConditioned * m * slope);
 }
 
 bool polish_ill_conditioned(const double* c, const double* r, int n, double re, double im) {

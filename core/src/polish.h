@@ -41,6 +41,33 @@ bool wants_polish(const RootDisc& d);
 /// where the centre is kept: its real part then, true).
 bool polish_root(const double* c, int n, const RootDisc& d, double& re, double& im, bool real = false);
 
+/// The root in d (verified, count 1) by Newton's iteration in double from
+/// a start that does not depend on d's centre to within d's width: the
+/// centre rounded to a grid of 2^-20 of its modulus (on the real line
+/// where `real` or d.real; off it, on the upper half-plane, the conjugate
+/// of a disc below the axis taken; a disc across the axis is tried on it
+/// first), then steps until one is below 2^-30
+/// of the root, and at most two more, each at most half the one before.
+/// Two discs around one root (another kernel's, another seed's) give the
+/// same double, bit for bit, unless their centres round to different
+/// grid points. True with the root in (re, im) (im >= 0 off the real
+/// line); false (untouched) where an iterate leaves d (or its conjugate),
+/// the iteration does not settle, or meets a zero or non-finite derivative.
+/// `slope` (optional): |p'| near the root, where it settles.
+bool canonical_root(const double* c, int n, const RootDisc& d, double& re, double& im, bool real = false,
+                    double* slope = nullptr);
+
+/// Every point of [x - r, x + r] rounds to the same float32 (to nearest;
+/// false where the interval holds a rounding step, or is not finite).
+/// Rounding is monotone, so its two ends decide.
+bool one_float(double x, double r);
+
+/// x rounded to float32 (to nearest), as a double. Out of line on purpose:
+/// GCC 12.2 at -O2/-O3 (its SLP vectorizer) stored the unrounded doubles for
+/// an inlined pair (double)(float)re, (double)(float)im written to a struct,
+/// rounding only the copy it compared.
+double round_to_float(double x);
+
 /// Newton's iteration in double on c from d's centre (polish_root's first
 /// phase: to about a double's last place where it converges inside d):
 /// (re, im), a start for polish_root_at_point. On the real line where
@@ -55,6 +82,9 @@ void polish_start(const double* c, int n, const RootDisc& d, double& re, double&
 /// ill-conditioned roots, not a bound, and proves nothing). True also where
 /// that is not finite.
 bool polish_ill_conditioned(const double* c, const double* r, int n, double re, double im);
+
+/// polish_ill_conditioned at (re, im) with |p'| there given (`slope`).
+bool polish_ill_conditioned_at(const double* r, int n, double re, double im, double slope);
 
 /// A ray in an object's space: F(origin + t direction) is its polynomial.
 struct RayPoint {

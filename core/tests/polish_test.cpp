@@ -128,6 +128,58 @@ int main() {
         CHECK(detail::polish_ill_conditioned(c, inf, 2, std::sqrt(2.0), 0.0));
         CHECK(detail::polish_ill_conditioned(c, wide, 2, 1.0, 1.0));  // (complex: the complex Horner)
     }
+    // canonical_root: the same double from every centre of a disc around
+    // one root (the centres spread over 1e-9, where polish_root keeps the
+    // centre as it is), on the real line and off it, below the axis too
+    // (the conjugate, im >= 0): within a few ulps of sqrt(2); of 1 + sqrt(2) i
+    // for t^2 - 2t + 3. False for a disc without the root, of two roots, or
+    // unverified.
+    {
+        const double c[] = {-2.0, 0.0, 1.0}, q[] = {3.0, -2.0, 1.0};
+        const double s2 = std::sqrt(2.0);
+        double re0 = NAN, im0 = NAN, cre0 = NAN, cim0 = NAN;
+        CHECK(detail::canonical_root(c, 2, disc(s2, 0.0, 2e-9, true), re0, im0));
+        CHECK(std::fabs(re0 - s2) <= 4e-16 && im0 == 0.0);
+        CHECK(detail::canonical_root(q, 2, disc(1.0, s2, 3e-9, false), cre0, cim0));
+        CHECK(std::fabs(cre0 - 1.0) <= 4e-16 && std::fabs(cim0 - s2) <= 4e-16);
+        for (int i = 0; i < 200; ++i) {
+            double re = NAN, im = NAN;
+            const double off = 1e-9 * u(rng), off2 = 1e-9 * u(rng);
+            CHECK(detail::canonical_root(c, 2, disc(s2 + off, 0.0, 2.5e-9, true), re, im));
+            CHECK(re == re0 && im == 0.0);
+            CHECK(detail::canonical_root(q, 2, disc(1.0 + off, s2 - off2, 3e-9, false), re, im));
+            CHECK(re == cre0 && im == cim0);
+            CHECK(detail::canonical_root(q, 2, disc(1.0 - off2, -s2 + off, 3e-9, false), re, im));
+            CHECK(re == cre0 && im == cim0);  // (below the axis: the conjugate)
+        }
+        double re = 7.0, im = 7.0;
+        CHECK(!detail::canonical_root(c, 2, disc(3.0, 0.0, 0.1, true), re, im));
+        CHECK(!detail::canonical_root(c, 2, disc(s2, 0.0, 1e-9, true, 2), re, im));
+        CHECK(!detail::canonical_root(c, 2, disc(s2, 0.0, 1e-9, true, 1, false), re, im));
+        CHECK(re == 7.0 && im == 7.0);  // untouched
+    }
+    // one_float: one float32 for the whole interval, or false where a
+    // rounding step (the midpoint of two floats) lies in it.
+    CHECK(detail::one_float(1.0, 0.0));
+    CHECK(detail::one_float(1.0 + 0x1p-30, 0x1p-30));
+    CHECK(!detail::one_float(1.0 + 0x1p-24, 0x1p-40));  // (between 1 and 1 + 2^-23)
+    CHECK(detail::one_float(-3.0 - 0x1p-40, 0x1p-40));
+    CHECK(!detail::one_float(0.0, 1e-30));  // (-1e-30 and 1e-30 are floats of their own)
+    CHECK(!detail::one_float(NAN, 0.0));
+    CHECK(!detail::one_float(1.0, NAN));
+    // polish_ill_conditioned_at: the test of polish_ill_conditioned with the
+    // slope given (t^2 - 2 at sqrt(2), slope 2 sqrt(2)).
+    {
+        const double tiny[] = {1e-20, 1e-20, 1e-20}, wide[] = {1e-6, 1e-6, 1e-6};
+        CHECK(!detail::polish_ill_conditioned_at(tiny, 2, std::sqrt(2.0), 0.0, 2.0 * std::sqrt(2.0)));
+        CHECK(detail::polish_ill_conditioned_at(wide, 2, std::sqrt(2.0), 0.0, 2.0 * std::sqrt(2.0)));
+        CHECK(detail::polish_ill_conditioned_at(tiny, 2, std::sqrt(2.0), 0.0, NAN));
+    }
+    // round_to_float: to nearest float32, ties to even.
+    CHECK(detail::round_to_float(1.0 + 0x1p-30) == 1.0);
+    CHECK(detail::round_to_float(1.0 + 0x1p-23 - 0x1p-30) == 1.0 + 0x1p-23);
+    CHECK(detail::round_to_float(1.0 + 0x1p-24) == 1.0);
+    CHECK(detail::round_to_float(-3.0) == -3.0);
     // wants_polish: wide discs of one verified root only.
     CHECK(wants_polish(disc(4.2, 0.0, 0.05, true)));
     CHECK(!wants_polish(disc(4.2, 0.0, 1e-9, true)));

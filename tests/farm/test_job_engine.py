@@ -26,24 +26,26 @@ def test_workers_and_the_api_render_a_job_with_the_options_it_was_submitted_with
     settings, _redis = farm_parts
     api = settings.model_copy(update={"engine": SCALAR})  # the submitting process ran ARGAND_KERNEL=scalar
     worker = settings  # a worker host with the defaults (kernel auto)
-    job_id = submit(api, "chmutov-octic", [0.0, 0.3], 48, 40, 16)
+    job_id = submit(api, "endrass-octic", [0.0, 0.3], 48, 40, 16)
     with session_scope(settings.sqlalchemy_url) as s:
         assert EngineOptions.from_stored(s.get(Job, job_id).engine) == SCALAR
     for frame in (0, 1):
         assert tile_work.run_tiles(worker, job_id, frame, list(range(9)), "w") == "rendered"
-    scene = load_scene("chmutov-octic")
+    scene = load_scene("endrass-octic")
     for frame, delta in ((0, 0.0), (1, 0.3)):
         scalar = render_frame(scene, FrameParams(delta=delta, width=48, height=40, engine=SCALAR), tile=16, workers=1)
         batched = render_frame(scene, FrameParams(delta=delta, width=48, height=40), tile=16, workers=1)
         names, px = read_exr(settings.store_path / "jobs" / job_id / f"frame_{frame:04d}.exr")
-        for k in ("Z", "arg", "re", "im"):
+        for k in ("Z", "arg", "re", "im", "escalation"):
             assert px[..., names.index(k)].tobytes() == scalar.aovs[k].astype(np.float32).tobytes(), (frame, k)
-        # (The test can fail: the two kernels are different algorithms, whose values differ here.)
-        assert any(scalar.aovs[k].tobytes() != batched.aovs[k].tobytes() for k in ("Z", "arg", "re", "im"))
+        # (The test can fail: the two kernels are different algorithms. They
+        # show the same values (Tracer::show_root), but climb the ladder
+        # differently: level 2, the unseeded retry, is the scalar path's.)
+        assert scalar.aovs["escalation"].tobytes() != batched.aovs["escalation"].tobytes()
     # The API's own options are the defaults; the band it answers is the job's scalar render.
     band = bands.band(worker, job_id, "0", "0.3", keep_result=True)
     scalar = render_frame(scene, FrameParams(delta=0.3, width=48, height=40, engine=SCALAR), tile=16, workers=1)
-    for k in ("Z", "arg", "re", "im", "status"):
+    for k in ("Z", "arg", "re", "im", "status", "escalation"):
         assert band.result.aovs[k].tobytes() == scalar.aovs[k].tobytes(), k
 
 

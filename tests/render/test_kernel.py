@@ -106,6 +106,20 @@ def assert_same_decisions(a, b, what: str, scene=None, params=None, kernels=("sc
     return int(far.sum())
 
 
+def assert_same_values(a, b, where: np.ndarray, what: str) -> None:
+    """The numbers the pixels in ``where`` (certified hits in both frames)
+    show are the same bits in both: the root rounded to float32 whatever
+    disc proved it (Tracer::show_float), and the colour shaded at it."""
+    assert where.any(), f"{what}: no certified hit to compare"
+    for key in ("Z", "re", "im", "arg"):
+        x, y = np.asarray(a.aovs[key])[where], np.asarray(b.aovs[key])[where]
+        differ = x.view(np.uint32) != y.view(np.uint32)
+        assert not differ.any(), f"{what}: {key} differs in {int(differ.sum())} certified hits, e.g. " \
+            f"{np.argwhere(where)[differ][:3].tolist()}"
+    differ = (a.rgba[where] != b.rgba[where]).any(axis=-1)
+    assert not differ.any(), f"{what}: colour differs in {int(differ.sum())} certified hits"
+
+
 @pytest.mark.parametrize("name", PAPER_PRESETS + CLASSIC_PRESETS)
 @pytest.mark.parametrize("delta", [0.0, math.pi / 9])
 def test_presets_batched_equals_scalar(name, delta):
@@ -125,6 +139,7 @@ def test_presets_batched_equals_scalar(name, delta):
         & (batched.rgba[..., 3] > 0)
     real_a, real_b = np.asarray(scalar.aovs["im"]) == 0, np.asarray(batched.aovs["im"]) == 0
     assert np.array_equal(real_a[both], real_b[both]), np.argwhere(both & (real_a != real_b))[:5].tolist()
+    assert_same_values(scalar, batched, both, f"{name} delta={delta:.4f}")
     # Both frames prove what they claim: their certified pixels against the truth.
     for frame in (batched, scalar):
         check = check_frame(scene, params, frame, sample_pixels(params.width, params.height, 60, seed=15))
@@ -324,6 +339,8 @@ def test_degrees_9_to_12_batched_equals_scalar(name):
     scalar = render_with("scalar", scene, params)
     batched = render_with(best, scene, params)
     assert_same_decisions(scalar, batched, f"{name} scalar vs {best}", scene, params, ("scalar", best), loose=True)
+    certified = lambda f: (np.asarray(f.aovs["status"]) == 0) & (f.rgba[..., 3] > 0)  # noqa: E731
+    assert_same_values(scalar, batched, certified(scalar) & certified(batched), f"{name} scalar vs {best}")
     check = check_frame(scene, params, batched, sample_pixels(params.width, params.height, 25, seed=15))
     assert check.wrong == 0, check.disagreements[:3]
     for x, y in [(20, 15), (33, 7), (5, 26)]:
@@ -332,3 +349,31 @@ def test_degrees_9_to_12_batched_equals_scalar(name):
             assert np.array(pb["coeffs"]).tobytes() == np.array(ps["coeffs"]).tobytes(), (name, x, y)
         assert eb["status"] == batched.aovs["status"][y, x]
         assert eb["hit"] == bool(batched.rgba[y, x, 3] > 0)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_random_surfaces_show_the_same_values_on_every_kernel(seed):
+    """Random surfaces of every family and degree 3 to 12, in a random band,
+    cut into random tiles on one or two threads: every certified hit shows
+    the same float32 values and colour on the scalar and the batched
+    kernel, and on the real-root path at sigma = delta = 0 (Tracer::show_root:
+    the root rounded to float32, from a start that does not depend on the
+    disc), although their discs differ."""
+    from tests.helpers.random_surfaces import FAMILIES, random_scene
+
+    rng = np.random.default_rng([seed, 77])
+    family = FAMILIES[seed % len(FAMILIES)]
+    degree = int(rng.integers(3, 13))
+    scene = random_scene(family, degree, seed=1000 + seed)
+    sigma, delta = (0.0, 0.0) if seed % 3 == 0 else (float(rng.uniform(0, 0.6)), float(rng.uniform(0.1, 0.8)))
+    params = FrameParams(sigma=sigma, delta=delta, width=40, height=36)
+    best = _core.batch_kernel()
+    frames = {"scalar": render_frame(scene, with_kernel("scalar", params), tile=16, workers=1),
+              best: render_frame(scene, with_kernel(best, params), tile=int(rng.choice([8, 32, 64])), workers=2)}
+    if sigma == delta == 0.0:
+        frames["real"] = render_frame(scene, dataclasses.replace(params, engine=EngineOptions(real=True)), workers=1)
+    certified = {k: (np.asarray(f.aovs["status"]) == 0) & (f.rgba[..., 3] > 0) for k, f in frames.items()}
+    for k in frames:
+        if k != best:
+            assert_same_values(frames[best], frames[k], certified[best] & certified[k],
+                               f"{family} degree {degree} sigma={sigma:.3f} delta={delta:.3f}: {best} vs {k}")

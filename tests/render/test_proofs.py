@@ -202,11 +202,17 @@ def test_explain_runs_render_tiles_path():
             assert e["escalation"] == int(result.aovs["escalation"][y, x])
             assert e["hit"] == bool(result.rgba[y, x, 3] > 0)
             if e["hit"]:
-                z = e["root"]  # the chosen disc's centre (or its conjugate: the upper one), or the exact tier's root
+                # The root shown: a point of the chosen disc (or of its
+                # conjugate: the upper one), or the exact tier's root,
+                # rounded to float32 (Tracer::show_root).
+                z = e["root"]
                 assert z.imag >= 0
+                assert float(np.float32(z.real)) == z.real and float(np.float32(z.imag)) == z.imag
                 if e["chosen"] >= 0:
-                    centre = e["discs"][e["chosen"]]["center"]
-                    assert z in (centre, centre.conjugate())
+                    disc = e["discs"][e["chosen"]]
+                    centre = disc["center"]
+                    reach = disc["radius"] * (1 + 1e-12) + 2.0 ** -23 * abs(z)
+                    assert min(abs(z - centre), abs(z - centre.conjugate())) <= reach, (x, y, z, disc)
                 assert np.float32(z.real) == result.aovs["re"][y, x] and np.float32(z.imag) == result.aovs["im"][y, x]
 
 

@@ -93,6 +93,15 @@ def test_presets_decide_as_the_complex_path_and_agree_with_the_truth(name):
     assert assert_truthful(scene, params, real, pixels, name) > 0
     # No value rougher than the complex path's where the two differ.
     assert imprecise(scene, params, real, pixels) <= imprecise(scene, params, complex_, pixels)
+    # And the values are the same bits: a certified hit shows its root
+    # rounded to float32 whichever path's disc proved it (Tracer::show_float).
+    certified = lambda f: (np.asarray(f.aovs["status"]) == 0) & (f.rgba[..., 3] > 0)  # noqa: E731
+    where = certified(complex_) & certified(real)
+    assert where.any()
+    for key in ("Z", "re", "im", "arg"):
+        a, b = np.asarray(complex_.aovs[key])[where], np.asarray(real.aovs[key])[where]
+        assert np.array_equal(a.view(np.uint32), b.view(np.uint32)), (name, key, int((a != b).sum()))
+    assert np.array_equal(complex_.rgba[where], real.rgba[where]), name
 
 
 def test_the_real_path_is_taken_and_proves_most_pixels():

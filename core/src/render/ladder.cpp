@@ -139,7 +139,7 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
             if (trace) trace->exact = std::move(answer);
         }
     }
-    if (h.hit && detail::wants_polish(h.disc)) {
+    if (h.hit) {
         double c[kMaxDegree + 1], rad[kMaxDegree + 1];
         const int n = plan_.scene.objects[h.object].degree;
         const ObjectRoots& r = roots[h.object];
@@ -149,9 +149,7 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
             std::copy(r.poly.c, r.poly.c + n + 1, c);
             std::copy(r.poly.r, r.poly.r + n + 1, rad);
         }
-        polish(h, c, rad, n, proven_real_hit(h), primary ? d : nullptr);
-    } else if (proven_real_hit(h)) {
-        to_real_line(h);
+        show_root(h, c, rad, n, proven_real_hit(h), primary ? d : nullptr);
     }
     upper_half(h);
     h.level = level;

@@ -94,28 +94,24 @@ public:
         root_calls += calls;
         if (values && h.hit) {
             const bool real = proven_real_hit(h);
-            if (detail::wants_polish(h.disc)) {
-                if (memo != nullptr && memo->same(h, real)) {
-                    h.disc.re = memo->re;
-                    h.disc.im = memo->im;
-                    h.modulus = memo->modulus;
-                } else {
-                    const RootDisc before = h.disc;
-                    double c[kMaxDegree + 1], r[kMaxDegree + 1];
-                    pre.batch->coefficients(h.object, pre.cell, c, r);
-                    polish(h, c, r, plan_.scene.objects[h.object].degree, real, dir);
-                    if (memo != nullptr) {
-                        memo->valid = true;
-                        memo->real = real;
-                        memo->object = h.object;
-                        memo->disc = before;
-                        memo->re = h.disc.re;
-                        memo->im = h.disc.im;
-                        memo->modulus = h.modulus;
-                    }
+            if (memo != nullptr && memo->same(h, real)) {  // (another band's, for this disc: the same bits)
+                h.disc.re = memo->re;
+                h.disc.im = memo->im;
+                h.modulus = memo->modulus;
+            } else {
+                const RootDisc before = h.disc;
+                double c[kMaxDegree + 1], r[kMaxDegree + 1];
+                pre.batch->coefficients(h.object, pre.cell, c, r);
+                show_root(h, c, r, plan_.scene.objects[h.object].degree, real, dir);
+                if (memo != nullptr) {
+                    memo->valid = true;
+                    memo->real = real;
+                    memo->object = h.object;
+                    memo->disc = before;
+                    memo->re = h.disc.re;
+                    memo->im = h.disc.im;
+                    memo->modulus = h.modulus;
                 }
-            } else if (real) {
-                to_real_line(h);
             }
         }
         upper_half(h);
@@ -165,6 +161,57 @@ public:
     /// (`dir`: its world direction; null for other rays, whose
     /// coefficients are expanded at their own origin) is polished again
     /// with F evaluated at the point along the ray (polish_root_at_point).
+    /// The value a hit shows, in the AOVs (Z, re, im, arg) and in its
+    /// colour (shaded at it): its root rounded to float32, the AOVs'
+    /// precision, the same bits whatever kernel, seeds, tiling or
+    /// escalation proved its disc. The disc's one root by canonical_root
+    /// (Newton's iteration in double from a start that does not depend on
+    /// the disc's centre); where the coefficients' radii may move that root
+    /// by more than a float32 shows (polish_ill_conditioned, at that root),
+    /// a primary ray's root (`dir`: its world direction) is polished again
+    /// with F evaluated at the point along the ray (polish_root_at_point),
+    /// from there. Where canonical_root does not settle: a wide disc's root
+    /// polished as before (polish), else the disc's centre. The disc's
+    /// proof and every decision stay.
+    void show_root(HitInfo& h, const double* c, const double* r, int n, bool real, const double* dir) {
+        // (The proven disc, on the upper half-plane: the conjugate of a
+        // root is a root, and upper_half shows that one anyway.)
+        RootDisc disc = h.disc;
+        if (!real && !disc.real && disc.im < 0.0) disc.im = -disc.im;
+        // (A disc whose every point rounds to one float32, in re and in im,
+        // holds a root that rounds to it: canonical_root's too, which lies
+        // in it; the common case, at no cost. (A wide disc is not that
+        // narrow.) On the real line, a root proven real, im is 0. A centre
+        // on the axis is not a proof: its disc crosses the axis, and is
+        // settled below, on the axis first.)
+        const bool on_line = real || disc.real;
+        if (disc.verified && disc.count == 1 && detail::one_float(disc.re, disc.radius) &&
+            (on_line || detail::one_float(disc.im, disc.radius))) {
+            set_float(h, disc.re, on_line ? 0.0 : disc.im);
+            return;
+        }
+        double re, im;
+        double slope;
+        if (detail::canonical_root(c, n, disc, re, im, real, &slope)) {
+            if (dir != nullptr && detail::polish_ill_conditioned_at(r, n, re, im, slope)) {
+                detail::RayPoint ray = ray_point(h.object, dir);
+                double a = re, b = im;
+                if (detail::polish_root_at_point(ray, c, n, disc, a, b, real)) {
+                    re = a;
+                    im = b;
+                }
+            }
+            set_float(h, re, im);
+            return;
+        }
+        if (detail::wants_polish(disc)) polish(h, c, r, n, real, dir);
+        else if (real) to_real_line(h);
+        // (A disc across the real axis: its imaginary extent holds both
+        // signs, and the centre's is noise; 0, its middle, is shown.)
+        const bool across = h.disc.im != 0.0 && std::fabs(h.disc.im) <= h.disc.radius;
+        set_float(h, h.disc.re, across ? 0.0 : h.disc.im);
+    }
+
     void polish(HitInfo& h, const double* c, const double* r, int n, bool real, const double* dir) {
         const RootDisc disc = h.disc;  // (the proven disc; set_root moves h's value)
         double re, im;
@@ -180,6 +227,11 @@ public:
         }
         if (detail::polish_root(c, n, disc, re, im, real)) set_root(h, re, im);
         else if (real) to_real_line(h);
+    }
+
+    /// h shows (re, im) rounded to float32 (an imaginary part 0 as +0).
+    static void set_float(HitInfo& h, double re, double im) {
+        set_root(h, detail::round_to_float(re), detail::round_to_float(im) + 0.0);
     }
 
     /// The primary ray along world direction `dir` in object `obj`'s space.
