@@ -147,20 +147,6 @@ public:
         if (h.hit && h.disc.im < 0.0) h.disc.im = -h.disc.im;
     }
 
-    /// The hit's value (its disc's centre, which the AOVs and the shading
-    /// read) replaced by the disc's one root to double accuracy
-    /// (polish_root), where it settles; the disc's proof and the decision
-    /// stay. So a wide disc writes its root, not the solver's approximation.
-    /// `real`: the hit's root is proven real (proven_real_hit): the
-    /// iteration stays on the real line, and the value is written there
-    /// (im = 0) even where it does not settle.
-    /// The root of the double coefficients c is the exact polynomial's
-    /// within what their radii r move it: where that may be more than a
-    /// float32 AOV shows (polish_ill_conditioned: a root near another, or
-    /// a surface far from the eye for its degree), a primary ray's root
-    /// (`dir`: its world direction; null for other rays, whose
-    /// coefficients are expanded at their own origin) is polished again
-    /// with F evaluated at the point along the ray (polish_root_at_point).
     /// The value a hit shows, in the AOVs (Z, re, im, arg) and in its
     /// colour (shaded at it): its root rounded to float32, the AOVs'
     /// precision, the same bits whatever kernel, seeds, tiling or
@@ -212,6 +198,21 @@ public:
         set_float(h, h.disc.re, across ? 0.0 : h.disc.im);
     }
 
+    /// show_root's fallback for a wide disc where canonical_root does not
+    /// settle: the hit's value (its disc's centre) replaced by the disc's
+    /// one root to double accuracy
+    /// (polish_root), where it settles; the disc's proof and the decision
+    /// stay. So a wide disc writes its root, not the solver's approximation.
+    /// `real`: the hit's root is proven real (proven_real_hit): the
+    /// iteration stays on the real line, and the value is written there
+    /// (im = 0) even where it does not settle.
+    /// The root of the double coefficients c is the exact polynomial's
+    /// within what their radii r move it: where that may be more than a
+    /// float32 AOV shows (polish_ill_conditioned: a root near another, or
+    /// a surface far from the eye for its degree), a primary ray's root
+    /// (`dir`: its world direction; null for other rays, whose
+    /// coefficients are expanded at their own origin) is polished again
+    /// with F evaluated at the point along the ray (polish_root_at_point).
     void polish(HitInfo& h, const double* c, const double* r, int n, bool real, const double* dir) {
         const RootDisc disc = h.disc;  // (the proven disc; set_root moves h's value)
         double re, im;
