@@ -158,26 +158,24 @@ template <class T> bool canonical_in(const double* c, int n, double dre, double 
                                      double& im, double* slope) {
     // (The start may lie outside the disc, and so may the iterates on the
     // way: the end must lie in it. Near a double root the steps only halve:
-    // up to kCanonicalSteps of them.)
-    // (Squared sizes: estimates, nothing is claimed of them.)
+    // up to kCanonicalSteps of them. Squared sizes: estimates, nothing is
+    // claimed of them. The end depends on the start, which is the same for
+    // every disc around the root, not on how close to the root it is.)
     double size = INFINITY, slope2 = 0.0;
-    int settled = 0;  // steps since the iteration settled
-    for (int step = 0; step < kCanonicalSteps && settled < 3; ++step) {
+    bool settled = false;
+    for (int step = 0; step < kCanonicalSteps && !settled; ++step) {
         T p, dp;
         horner(c, n, z, p, dp);
         if (!finite(p) || !finite(dp) || (re_hi(dp) == 0.0 && im_hi(dp) == 0.0)) return false;
         const T dz = p / dp, next = z - dz;
-        const double size2 = re_hi(dz) * re_hi(dz) + im_hi(dz) * im_hi(dz);
-        if (settled && !(size2 <= 0.25 * size)) break;  // (at the rounding noise: kept where it is)
-        slope2 = re_hi(dp) * re_hi(dp) + im_hi(dp) * im_hi(dp);  // (|p'| at the iterate stepped from)
         if (!finite(next)) return false;
+        slope2 = re_hi(dp) * re_hi(dp) + im_hi(dp) * im_hi(dp);  // (|p'| at the iterate stepped from)
         z = next;
-        size = size2;
-        if (size == 0.0) break;
-        if (settled || size <= kNearDouble * kNearDouble * (re_hi(z) * re_hi(z) + im_hi(z) * im_hi(z))) ++settled;
+        size = re_hi(dz) * re_hi(dz) + im_hi(dz) * im_hi(dz);
+        settled = size <= kNearDouble * kNearDouble * (re_hi(z) * re_hi(z) + im_hi(z) * im_hi(z));
     }
     const double off_re = re_hi(z) - dre, off_im = im_hi(z) - dim;
-    if ((!settled && size != 0.0) || !(off_re * off_re + off_im * off_im <= r * r)) return false;
+    if (!settled || !(off_re * off_re + off_im * off_im <= r * r)) return false;
     re = re_hi(z);
     im = im_hi(z);
     if (slope) *slope = std::sqrt(slope2);

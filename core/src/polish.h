@@ -46,8 +46,8 @@ bool polish_root(const double* c, int n, const RootDisc& d, double& re, double& 
 /// centre rounded to a grid of 2^-20 of its modulus (on the real line
 /// where `real` or d.real; off it, on the upper half-plane, the conjugate
 /// of a disc below the axis taken; a disc across the axis is tried on it
-/// first), then steps until one is below 2^-30
-/// of the root, and at most two more, each at most half the one before.
+/// first), then steps until one is below 2^-30 of the root (the next
+/// error about its square: far below a float32's step).
 /// Two discs around one root (another kernel's, another seed's) give the
 /// same double, bit for bit, unless their centres round to different
 /// grid points. True with the root in (re, im) (im >= 0 off the real

@@ -232,7 +232,12 @@ public:
 
     /// h shows (re, im) rounded to float32 (an imaginary part 0 as +0).
     static void set_float(HitInfo& h, double re, double im) {
-        set_root(h, detail::round_to_float(re), detail::round_to_float(im) + 0.0);
+        const double a = detail::round_to_float(re), b = detail::round_to_float(im) + 0.0;
+        h.disc.re = a;
+        h.disc.im = b;
+        // (Floats: their squares are exact in double and their sum rounds
+        // once, far from overflow and underflow; no hypot needed.)
+        h.modulus = b == 0.0 && !std::isnan(a) ? std::fabs(a) : std::sqrt(a * a + b * b);
     }
 
     /// The primary ray along world direction `dir` in object `obj`'s space.
