@@ -245,10 +245,7 @@ bool polish_ill_conditioned(const double* c, const double* r, int n, double re, 
         horner(c, n, CD(re, im), p, dp);
         slope = std::hypot(dp.re, dp.im);
     }
-    const double m = std::hypot(re, im);
-    double moved = 0.0;  // sum of r_k |z|^k
-    for (int k = n; k >= 0; --k) moved = moved * m + r[k];
-    return !(std::isfinite(moved) && std::isfinite(slope) && moved <= kIllConditioned * m * slope);
+    return polish_ill_conditioned_at(r, n, re, im, slope);
 }
 
 namespace {

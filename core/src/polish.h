@@ -51,8 +51,9 @@ bool polish_root(const double* c, int n, const RootDisc& d, double& re, double& 
 /// Two discs around one root (another kernel's, another seed's) give the
 /// same double, bit for bit, unless their centres round to different
 /// grid points. True with the root in (re, im) (im >= 0 off the real
-/// line); false (untouched) where an iterate leaves d (or its conjugate),
-/// the iteration does not settle, or meets a zero or non-finite derivative.
+/// line); false (untouched) where the iteration does not settle, its end
+/// lies outside d (or its conjugate; the iterates on the way may leave it),
+/// or it meets a zero or non-finite derivative.
 /// `slope` (optional): |p'| near the root, where it settles.
 bool canonical_root(const double* c, int n, const RootDisc& d, double& re, double& im, bool real = false,
                     double* slope = nullptr);

@@ -140,16 +140,20 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
         }
     }
     if (h.hit) {
-        double c[kMaxDegree + 1], rad[kMaxDegree + 1];
-        const int n = plan_.scene.objects[h.object].degree;
-        const ObjectRoots& r = roots[h.object];
-        if (primary && pre != nullptr && pre->batch->batched(h.object)) {
-            pre->batch->coefficients(h.object, pre->cell, c, rad);
-        } else {
-            std::copy(r.poly.c, r.poly.c + n + 1, c);
-            std::copy(r.poly.r, r.poly.r + n + 1, rad);
-        }
-        show_root(h, c, rad, n, proven_real_hit(h), primary ? d : nullptr);
+        const int object = h.object, n = plan_.scene.objects[object].degree;
+        const ObjectRoots& r = roots[object];
+        const bool from_batch = primary && pre != nullptr && pre->batch->batched(object);
+        show_root(
+            h,
+            [&](double* c, double* rad) {
+                if (from_batch) {
+                    pre->batch->coefficients(object, pre->cell, c, rad);
+                } else {
+                    std::copy(r.poly.c, r.poly.c + n + 1, c);
+                    std::copy(r.poly.r, r.poly.r + n + 1, rad);
+                }
+            },
+            n, proven_real_hit(h), primary ? d : nullptr);
     }
     upper_half(h);
     h.level = level;

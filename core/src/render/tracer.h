@@ -100,9 +100,10 @@ public:
                 h.modulus = memo->modulus;
             } else {
                 const RootDisc before = h.disc;
-                double c[kMaxDegree + 1], r[kMaxDegree + 1];
-                pre.batch->coefficients(h.object, pre.cell, c, r);
-                show_root(h, c, r, plan_.scene.objects[h.object].degree, real, dir);
+                const int object = h.object;
+                show_root(
+                    h, [&](double* c, double* r) { pre.batch->coefficients(object, pre.cell, c, r); },
+                    plan_.scene.objects[object].degree, real, dir);
                 if (memo != nullptr) {
                     memo->valid = true;
                     memo->real = real;
@@ -159,7 +160,11 @@ public:
     /// from there. Where canonical_root does not settle: a wide disc's root
     /// polished as before (polish), else the disc's centre. The disc's
     /// proof and every decision stay.
-    void show_root(HitInfo& h, const double* c, const double* r, int n, bool real, const double* dir) {
+    /// `coefficients(c, r)` fills the ray polynomial's coefficients and
+    /// radii (n + 1 each): called only where the disc does not settle the
+    /// value by itself (the common case needs none).
+    template <class Coefficients>
+    void show_root(HitInfo& h, Coefficients&& coefficients, int n, bool real, const double* dir) {
         // (The proven disc, on the upper half-plane: the conjugate of a
         // root is a root, and upper_half shows that one anyway.)
         RootDisc disc = h.disc;
@@ -176,6 +181,8 @@ public:
             set_float(h, disc.re, on_line ? 0.0 : disc.im);
             return;
         }
+        double c[kMaxDegree + 1], r[kMaxDegree + 1];
+        coefficients(c, r);
         double re, im;
         double slope;
         if (detail::canonical_root(c, n, disc, re, im, real, &slope)) {
