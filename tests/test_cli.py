@@ -161,7 +161,7 @@ def test_render_writes_frames_aovs_and_animation(tmp_path):
         share = pixels[..., names.index("certified_share")]
         assert np.array_equal(share, (pixels[..., names.index("status")] == 0).astype(np.float32))
         assert set(np.unique(pixels[..., names.index("status")])) <= {0.0, 1.0, 2.0, 3.0}
-        assert set(np.unique(pixels[..., names.index("escalation")])) <= {0.0, 1.0, 2.0, 3.0}
+        assert set(np.unique(pixels[..., names.index("escalation")])) <= {0.0, 1.0, 2.0, 3.0, 4.0}
         alpha = pixels[..., names.index("A")]
         assert np.all(np.isfinite(pixels[..., names.index("Z")][alpha > 0]))
         figures = json.loads((out / f"frame_{i:04d}.json").read_text())

@@ -820,6 +820,20 @@ void init_render(py::module_& m) {
         "The ray polynomial F(o + t d) of one object, lowest degree first; with_radius: (coeffs, radius) where "
         "radius[k] bounds |exact coefficient - coeffs[k]|.",
         py::arg("plan"), py::arg("object"), py::arg("origin"), py::arg("direction"), py::arg("with_radius") = false);
+    m.def(
+        "rebased_ray_polynomial",
+        [](const FramePlan& plan, int object, std::array<double, 3> direction, double t0) {
+            if (object < 0 || object >= static_cast<int>(plan.scene.objects.size()))
+                throw py::value_error("object must be in 0.." + std::to_string(plan.scene.objects.size() - 1));
+            const int n = plan.scene.objects[object].degree;
+            py::array_t<double> c(n + 1), r(n + 1);
+            rebased_ray_polynomial(plan, object, direction.data(), t0, c.mutable_data(), r.mutable_data());
+            return py::make_tuple(c, r);
+        },
+        "The primary ray polynomial along `direction` (from the plan's eye) about the point at t0: (coeffs, radius) "
+        "of q(s) = p(t0 + s), p(t) = F(eye + t direction), radius[k] bounding |exact q_k - coeffs[k]| (infinite "
+        "where the expansion overflowed). The ladder's rebased level re-isolates a cluster from it.",
+        py::arg("plan"), py::arg("object"), py::arg("direction"), py::arg("t0"));
     auto primary = [](const FramePlan& p, int x, int y, int sample) {
         if (x < 0 || x >= p.params.width || y < 0 || y >= p.params.height)
             throw py::value_error("pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is not inside the " +

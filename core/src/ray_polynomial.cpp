@@ -237,7 +237,223 @@ void expand_terms(const SurfaceSpec& s, int n, const double* om, const double* o
     }
 }
 
+/// general_ray_polynomial's expansion and bound (its comment), from the
+/// object-space origin and direction (om, dm: computed; oa, da: bounds
+/// A >= |exact|, the exact within 5u A of the computed; 0 only for an exact
+/// zero).
+void expand_with_bound(const SurfaceSpec& s, const double om[3], const double oa[3], const double dm[3],
+                       const double da[3], RayCoefficients<double>& out) {
+    const int n = s.degree;
+    // Powers (o'_i + t d'_i)^a as polynomials in t, and their magnitudes:
+    // on the stack for the usual degrees; thread-local above (200 KB on the
+    // stack per secondary ray would be probed page by page on every call).
+    double sum[kMaxDegree + 1], mag[kMaxDegree + 1];
+    int added[kMaxDegree + 1];  // summands of each coefficient (roundings of its sum)
+    double lowest = INFINITY, highest = 0.0;
+    constexpr int kSmall = 12;
+    if (n < kSmall) {
+        double pw[3][kSmall][kSmall], pm[3][kSmall][kSmall];
+        expand_terms<kSmall>(s, n, om, oa, dm, da, pw, pm, sum, mag, added, lowest, highest);
+    } else {
+        using Table = double[kMaxDegree + 1][kMaxDegree + 1];
+        static thread_local Table tls_pw[3], tls_pm[3];
+        expand_terms<kMaxDegree + 1>(s, n, om, oa, dm, da, tls_pw, tls_pm, sum, mag, added, lowest, highest);
+    }
+    // No product underflows when every nonzero factor is large enough.
+    double amin = 1.0, amax = 1.0;
+    for (int a = 0; a < 3; ++a)
+        for (double v : {oa[a], da[a]})
+            if (v > 0.0) {
+                amin = v < amin ? v : amin;
+                amax = v > amax ? v : amax;
+            }
+    bool slack = !(lowest >= kProductFloor);
+    if (!slack && lowest < INFINITY) {
+        double p = lowest;
+        for (int k = 0; k < n; ++k) p *= amin;
+        slack = !(p >= kProductFloor);
+    }
+    const double terms = static_cast<double>(s.terms.size());
+    double grow = 1.0;
+    if (slack)
+        for (int k = 0; k <= n; ++k) grow = mul_up(grow, amax);
+    out.n = n;
+    out.finite = true;
+    for (int k = 0; k <= n; ++k) {
+        out.c[k] = sum[k];
+        // factor_k = 2 (5n + 2n + 6 + N_k) u, an integer times 2^-52 below
+        // 2^-40: exact in round-to-nearest, and so is 1 + factor_k.
+        const double factor = 2.0 * (5.0 * n + (2.0 * n + 6.0 + added[k])) * kU;
+        double r = mag[k] == 0.0 ? 0.0 : next_up(next_up((1.0 + factor) * mag[k]) * factor);
+        // (An absolute loss in one product is carried by the coefficient and
+        // the remaining factors: at most max(1, |coeff|) max(1, A)^n.)
+        if (slack) r = add_up(r, mul_up(mul_up((3.0 * n + terms + 8.0) * kSlackPerOp, 1.0 + highest), grow));
+        out.r[k] = r;
+        out.finite = out.finite && std::isfinite(sum[k]) && std::isfinite(r);
+    }
+}
+
+/// Direction part of general_ray_polynomial: d' = linear d, computed (dm),
+/// its bound A (da) and radius (drad: 6u A).
+void general_direction(const SurfaceSpec& s, const double d[3], double dm[3], double da[3], double drad[3]) {
+    for (int r = 0; r < 3; ++r) {
+        const double* L = s.linear + 3 * r;
+        double vd = 0.0, sd = 0.0;
+        bool zero_d = true;
+        for (int c = 0; c < 3; ++c) {
+            vd += L[c] * d[c];
+            sd += std::fabs(L[c]) * std::fabs(d[c]);
+            if (L[c] != 0.0 && d[c] != 0.0) zero_d = false;
+        }
+        dm[r] = vd;
+        da[r] = zero_d ? 0.0 : floor_at(kProductFloor, next_up(next_up(sd * (1.0 + 8.0 * kU)) + 8.0 * kDenormMin));
+        drad[r] = da[r] == 0.0 ? 0.0 : mul_up(6.0 * kU, da[r]);
+    }
+}
+
 }  // namespace
+
+namespace {
+
+/// A ball whose radius is summed in round-to-nearest (rebased_body): each
+/// radius is an expression of + and * over nonnegative doubles, so its
+/// computed value is at least the exact one times (1 - u)^depth, and one
+/// inflation at the end makes it an upper bound. The products' and sums'
+/// own rounding errors are taken exactly (FMA or Dekker's product, Knuth's
+/// TwoSum): a ball radius near the actual error, not an a priori count.
+struct RunBall {
+    double m, r;
+};
+
+template <bool kFma>
+__attribute__((always_inline)) inline double product_error(double a, double b, double p) {
+    if constexpr (kFma) {
+        return std::fabs(__builtin_fma(a, b, -p));
+    } else {
+        constexpr double kSplit = 134217729.0;  // 2^27 + 1 (Dekker; exact for |a|, |b| < 2^996)
+        const double ta = kSplit * a, a_hi = ta - (ta - a), a_lo = a - a_hi;
+        const double tb = kSplit * b, b_hi = tb - (tb - b), b_lo = b - b_hi;
+        return std::fabs(((a_hi * b_hi - p) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo);
+    }
+}
+
+template <bool kFma>
+__attribute__((always_inline)) inline RunBall times(RunBall x, RunBall y) {
+    const double p = x.m * y.m;
+    return {p, product_error<kFma>(x.m, y.m, p) + std::fabs(x.m) * y.r + x.r * (std::fabs(y.m) + y.r)};
+}
+
+__attribute__((always_inline)) inline RunBall plus(RunBall x, RunBall y) {
+    const double s = x.m + y.m;
+    const double bb = s - x.m;
+    return {s, x.r + y.r + std::fabs((x.m - (s - bb)) + (y.m - bb))};
+}
+
+/// The expansion of rebased_ray_polynomial about the enclosed point b along
+/// the enclosed direction v. Returns the depth bound (the largest number of
+/// round-to-nearest operations on any radius's path, for the inflation);
+/// `ops` gets a bound on the number of operations in all and `highest` the
+/// largest |coefficient| of F (for the underflow slack).
+template <bool kFma>
+__attribute__((always_inline)) inline int rebased_body(const SurfaceSpec& s, const RunBall b[3], const RunBall v[3],
+                                                       RunBall* sum, double& ops, double& highest) {
+    const int n = s.degree;
+    RunBall pw[3][kMaxDegree + 1][kMaxDegree + 1];
+    for (int axis = 0; axis < 3; ++axis) {
+        pw[axis][0][0] = {1.0, 0.0};
+        for (int a = 1; a <= n; ++a) {
+            pw[axis][a][0] = times<kFma>(pw[axis][a - 1][0], b[axis]);
+            for (int k = 1; k < a; ++k)
+                pw[axis][a][k] = plus(times<kFma>(pw[axis][a - 1][k], b[axis]), times<kFma>(pw[axis][a - 1][k - 1], v[axis]));
+            pw[axis][a][a] = times<kFma>(pw[axis][a - 1][a - 1], v[axis]);
+        }
+    }
+    for (int k = 0; k <= n; ++k) sum[k] = {0.0, 0.0};
+    int added = 0;  // summands in all, a bound on any coefficient's
+    for (const Term& term : s.terms) {
+        if (term.coeff == 0.0) continue;
+        const RunBall coeff{term.coeff, 0.0};
+        highest = std::fmax(highest, std::fabs(term.coeff));
+        const RunBall* px = pw[0][term.ex];
+        const RunBall* py = pw[1][term.ey];
+        const RunBall* pz = pw[2][term.ez];
+        for (int i = 0; i <= term.ex; ++i)
+            for (int j = 0; j <= term.ey; ++j) {
+                const RunBall xy = times<kFma>(times<kFma>(coeff, px[i]), py[j]);
+                for (int l = 0; l <= term.ez; ++l) sum[i + j + l] = plus(sum[i + j + l], times<kFma>(xy, pz[l]));
+                added += term.ez + 1;
+            }
+    }
+    // (A power's radius: 6 operations per step, n steps; a term's product
+    // 3 more (6 operations each); a sum one per summand, 3 for its error.
+    // In all: 12 per power entry, 12 per summand and its product.)
+    ops = 36.0 * (n + 1) * (n + 1) + 12.0 * added;
+    return 6 * n + 18 + 4 * added;
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+__attribute__((target("fma"))) int rebased_fma(const SurfaceSpec& s, const RunBall b[3], const RunBall v[3],
+                                               RunBall* sum, double& ops, double& highest) {
+    return rebased_body<true>(s, b, v, sum, ops, highest);
+}
+bool cpu_has_fma() {
+    static const bool yes = __builtin_cpu_supports("fma");
+    return yes;
+}
+#else
+int rebased_fma(const SurfaceSpec& s, const RunBall b[3], const RunBall v[3], RunBall* sum, double& ops,
+                double& highest) {
+    return rebased_body<false>(s, b, v, sum, ops, highest);
+}
+bool cpu_has_fma() { return false; }
+#endif
+
+}  // namespace
+
+void rebased_ray_polynomial(const SurfaceSpec& s, const FramePlan::ObjectPlan& op, const double d[3], double t0,
+                            RayCoefficients<double>& out) {
+    const int n = s.degree;
+    out.n = n;
+    out.finite = false;
+    if (n < 0 || n > kMaxDegree || !std::isfinite(t0)) return;
+    double dm[3], da[3], drad[3];
+    general_direction(s, d, dm, da, drad);
+    RunBall b[3], v[3];
+    for (int r = 0; r < 3; ++r) {
+        // b = o' + t0 d', enclosed in interval.h's balls (o' is the plan's
+        // ball, d' lies within drad of dm).
+        const Ball dv(dm[r], drad[r]);
+        const Ball p = op.origin[r] + Ball(t0) * dv;
+        if (!is_finite(p)) return;
+        b[r] = {p.mid, p.rad};
+        v[r] = {dm[r], drad[r]};
+    }
+    RunBall sum[kMaxDegree + 1];
+    double ops = 0.0, highest = 0.0;
+    const int depth = cpu_has_fma() ? rebased_fma(s, b, v, sum, ops, highest)
+                                    : rebased_body<false>(s, b, v, sum, ops, highest);
+    // Each radius: its computed value times (1 - u)^-depth <= 1 + 2 depth u
+    // (depth u < 1/2), rounded up. Plus what gradual underflow may hide
+    // from the exact product and sum errors (below 2^-1074 each, carried
+    // by the coefficient and the remaining factors, as
+    // general_ray_polynomial's slack): ops 2^-1018 (1 + highest)
+    // max(1, A)^n, A the largest |b| or |v|; far below any radius unless
+    // the ray is huge.
+    double amax = 1.0;
+    for (int r = 0; r < 3; ++r)
+        amax = std::fmax(amax, std::fmax(add_up(std::fabs(b[r].m), b[r].r), add_up(std::fabs(v[r].m), v[r].r)));
+    double grow_a = 1.0;
+    for (int k = 0; k < n; ++k) grow_a = mul_up(grow_a, amax);
+    const double grow = add_up(1.0, mul_up(2.0 * kU, static_cast<double>(depth)));
+    const double slack = mul_up(mul_up(mul_up(ops, kSlackPerOp), add_up(1.0, highest)), grow_a);
+    bool finite = depth < (1 << 20) && std::isfinite(slack);
+    for (int k = 0; k <= n; ++k) {
+        out.c[k] = sum[k].m;
+        out.r[k] = add_up(mul_up(sum[k].r, grow), slack);
+        finite = finite && std::isfinite(out.c[k]) && std::isfinite(out.r[k]);
+    }
+    out.finite = finite;
+}
 
 void plan_object(const SurfaceSpec& s, const double eye[3], FramePlan::ObjectPlan& op) {
     const int n = s.degree;
@@ -476,7 +692,6 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
     // charged) the A-relative error of o' and d' (as object_direction), 2n
     // the roundings of the powers on any path, 6 those of the triple
     // products, and N_k the number of summands added into coefficient k.
-    const int n = s.degree;
     double om[3], oa[3], orad[3], dm[3], da[3], drad[3];
     const double diff[3] = {o[0] - s.translate[0], o[1] - s.translate[1], o[2] - s.translate[2]};
     double diff_abs[3];
@@ -506,53 +721,7 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
         ray.origin[r] = Ball(om[r], orad[r]);
         ray.direction[r] = Ball(dm[r], drad[r]);
     }
-    // Powers (o'_i + t d'_i)^a as polynomials in t, and their magnitudes:
-    // on the stack for the usual degrees; thread-local above (200 KB on the
-    // stack per secondary ray would be probed page by page on every call).
-    double sum[kMaxDegree + 1], mag[kMaxDegree + 1];
-    int added[kMaxDegree + 1];  // summands of each coefficient (roundings of its sum)
-    double lowest = INFINITY, highest = 0.0;
-    constexpr int kSmall = 12;
-    if (n < kSmall) {
-        double pw[3][kSmall][kSmall], pm[3][kSmall][kSmall];
-        expand_terms<kSmall>(s, n, om, oa, dm, da, pw, pm, sum, mag, added, lowest, highest);
-    } else {
-        using Table = double[kMaxDegree + 1][kMaxDegree + 1];
-        static thread_local Table tls_pw[3], tls_pm[3];
-        expand_terms<kMaxDegree + 1>(s, n, om, oa, dm, da, tls_pw, tls_pm, sum, mag, added, lowest, highest);
-    }
-    // No product underflows when every nonzero factor is large enough.
-    double amin = 1.0, amax = 1.0;
-    for (int a = 0; a < 3; ++a)
-        for (double v : {oa[a], da[a]})
-            if (v > 0.0) {
-                amin = v < amin ? v : amin;
-                amax = v > amax ? v : amax;
-            }
-    bool slack = !(lowest >= kProductFloor);
-    if (!slack && lowest < INFINITY) {
-        double p = lowest;
-        for (int k = 0; k < n; ++k) p *= amin;
-        slack = !(p >= kProductFloor);
-    }
-    const double terms = static_cast<double>(s.terms.size());
-    double grow = 1.0;
-    if (slack)
-        for (int k = 0; k <= n; ++k) grow = mul_up(grow, amax);
-    out.n = n;
-    out.finite = true;
-    for (int k = 0; k <= n; ++k) {
-        out.c[k] = sum[k];
-        // factor_k = 2 (5n + 2n + 6 + N_k) u, an integer times 2^-52 below
-        // 2^-40: exact in round-to-nearest, and so is 1 + factor_k.
-        const double factor = 2.0 * (5.0 * n + (2.0 * n + 6.0 + added[k])) * kU;
-        double r = mag[k] == 0.0 ? 0.0 : next_up(next_up((1.0 + factor) * mag[k]) * factor);
-        // (An absolute loss in one product is carried by the coefficient and
-        // the remaining factors: at most max(1, |coeff|) max(1, A)^n.)
-        if (slack) r = add_up(r, mul_up(mul_up((3.0 * n + terms + 8.0) * kSlackPerOp, 1.0 + highest), grow));
-        out.r[k] = r;
-        out.finite = out.finite && std::isfinite(sum[k]) && std::isfinite(r);
-    }
+    expand_with_bound(s, om, oa, dm, da, out);
 }
 
 }  // namespace argand::detail

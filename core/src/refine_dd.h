@@ -1,5 +1,5 @@
 // refine_dd.h: root finding in double-double for the renderer's ladder
-// (level 3, core/src/render/ladder.cpp): a verified disc of a ray
+// (level 4, core/src/render/ladder.cpp): a verified disc of a ray
 // polynomial shrunk, or a cluster re-isolated, with the double-double ray
 // coefficients (ray_polynomial.h's primary_ray_polynomial_dd). Internal
 // header; every disc it returns carries find_roots' contract.

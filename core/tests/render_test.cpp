@@ -482,14 +482,14 @@ static void test_tiles_and_limits() {
 }
 
 /// The exact tier's hook contract: called only for primary rays not proven
-/// after level 3, at most exact_pixels_per_block times per 8x8 block, with the
+/// after level 4, at most exact_pixels_per_block times per 8x8 block, with the
 /// pixel's own ray; its decided answer is what the pixel shows, its
 /// undecided answer keeps the ladder's picture, and pixels beyond the budget
-/// are level 6. (The solver here answers from the query alone: the real one
+/// are level 7. (The solver here answers from the query alone: the real one
 /// is argand.render.exact, tested in tests/render/test_exact.py.)
 static void test_exact_hook() {
     // The unit sphere clipped by the unit ball: every real root lies on the
-    // sphere, which no disc decides (status 3 after level 3).
+    // sphere, which no disc decides (status 3 after level 4).
     SceneSpec sc = sphere_scene(1.0);
     sc.camera.position[0] = 0.0;
     sc.camera.position[2] = 0.3;
@@ -545,7 +545,7 @@ static void test_exact_hook() {
         CHECK(t.status[i] == kCertified);
         if (plain.status[i] != kCertified) CHECK(t.escalation[i] == kLevelExact && t.rgba[4 * i + 3] == 0.0f);
     }
-    // Off (budget 0) or no hook: the ladder stops at level 3.
+    // Off (budget 0) or no hook: the ladder stops at level 4.
     pl.params.exact_pixels_per_block = 0;
     calls = 0;
     render_tile(pl, TileRect{0, 0, 9, 9}, t, &undecided);

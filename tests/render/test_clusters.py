@@ -24,6 +24,7 @@ from tests.helpers.pixel_truth import Precision, exact, object_ray, ray_polynomi
 from argand.render import FrameParams, render_frame
 from argand.render.options import EngineOptions
 from argand.render.explain import explain_pixel, format_explanation
+from argand.render.frames import DOUBLE_DOUBLE_LEVEL, EXACT_MULTIPLE_LEVEL, REBASED_LEVEL
 from argand.scene import load_scene, scene_from_dict
 
 
@@ -71,7 +72,7 @@ def test_merged_lane_discs_hold_exactly_their_counts(name, size, delta):
     scene = SCENES[name]()
     params = FrameParams(delta=delta, width=size, height=size)
     objects = scene_objects(scene)
-    merged_rows = clusters = settled = by_double_double = 0
+    merged_rows = clusters = settled = by_ladder = 0
     problems = []
     for y in range(size):
         for x in range(size):
@@ -82,7 +83,7 @@ def test_merged_lane_discs_hold_exactly_their_counts(name, size, delta):
                 if not poly["provisional"]:
                     continue
                 merged_rows += 1
-                by_double_double += e["escalation"] == 3 and e["status"] == 0
+                by_ladder += e["escalation"] in (REBASED_LEVEL, DOUBLE_DOUBLE_LEVEL) and e["status"] == 0
                 oo, od = object_ray(objects[k], e["origin"], e["direction"])
                 exact_poly = ray_polynomial(objects[k], oo, od)
                 discs = [d for d in e["discs"] if d["object"] == k]
@@ -96,23 +97,23 @@ def test_merged_lane_discs_hold_exactly_their_counts(name, size, delta):
     assert not problems, "\n".join(problems[:10])
     # (Not vacuous: every scene gives merged rows with clusters; on
     # Endrass's octic some pixels need more than the merged discs, and the
-    # double-double level decides them from those discs, with no row solved
-    # again.)
+    # ladder (the rebased ray, double-double) decides them from those discs,
+    # with no row solved again.)
     assert merged_rows >= 10 and clusters >= 10, (merged_rows, clusters)
     if name == "endrass-octic":
-        assert by_double_double >= 5 and settled == 0, (by_double_double, settled)
+        assert by_ladder >= 5 and settled == 0, (by_ladder, settled)
 
 
 def test_a_true_double_root_is_solved_again_then_proven_by_the_exact_tier():
     """The first root a ray meets is a double root of the exact polynomial
     (the sphere of radius 2 squared): no solve splits it, neither double-
     double from the merged discs nor the row solved again (settle), and the
-    exact tier proves its multiplicity (level 5, status 1). Batched and
+    exact tier proves its multiplicity (EXACT_MULTIPLE_LEVEL, status 1). Batched and
     scalar kernels agree on every pixel's status and hit."""
     scene = scene_from_dict({"objects": [{"surface": "(x^2+y^2+z^2-4)^2*(x^2+y^2+z^2-1)", "clip_radius": 2.5}]})
     params = FrameParams(delta=0.0, width=21, height=21)
     e = explain_pixel(scene, params, 10, 10)
-    assert e["polynomials"][0]["settled"] and e["escalation"] == 5 and e["status"] == 1 and e["hit"], \
+    assert e["polynomials"][0]["settled"] and e["escalation"] == EXACT_MULTIPLE_LEVEL and e["status"] == 1 and e["hit"], \
         format_explanation(e)
     # (The pixel shows the exact tier's root rounded to float32, as every hit.)
     assert e["exact"]["multiple"] and e["root"].real == float(np.float32(e["exact"]["root"].real))
@@ -120,7 +121,7 @@ def test_a_true_double_root_is_solved_again_then_proven_by_the_exact_tier():
     scalar = render_frame(scene, dataclasses.replace(params, engine=EngineOptions(kernel="scalar")), workers=1)
     assert np.array_equal(batched.aovs["status"], scalar.aovs["status"])
     assert np.array_equal(batched.rgba[..., 3] > 0, scalar.rgba[..., 3] > 0)
-    assert np.count_nonzero(np.asarray(batched.aovs["escalation"]) == 5) >= 50
+    assert np.count_nonzero(np.asarray(batched.aovs["escalation"]) == EXACT_MULTIPLE_LEVEL) >= 50
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
@@ -136,8 +137,9 @@ def test_merged_discs_change_no_decision_against_the_scalar_kernel(name):
 
 def test_explain_says_when_merged_discs_decided_or_did_not():
     """Endrass's octic: the merged discs decide most pixels of their rows
-    alone, double-double from them the rest; a true double root (the
-    sphere of radius 2 squared) has its row solved again."""
+    alone, the ladder's rebased ray polynomial (or double-double) from them
+    the rest; a true double root (the sphere of radius 2 squared) has its
+    row solved again."""
     said = set()
     cases = [(load_scene("endrass-octic"), 40, [(x, y) for y in range(40) for x in range(40)]),
              (scene_from_dict({"objects": [{"surface": "(x^2+y^2+z^2-4)^2*(x^2+y^2+z^2-1)", "clip_radius": 2.5}]}),
@@ -149,15 +151,18 @@ def test_explain_says_when_merged_discs_decided_or_did_not():
             poly = e["polynomials"][0]
             text = "\n".join(format_explanation(e))
             alone = "merged where they overlap" in text and "they decided the pixel" in text
-            with_dd = "merged where they overlap" in text and "double-double level re-isolated" in text
-            again = "did not decide the pixel, nor did double-double from them, so the row was solved again" in text
-            assert alone + with_dd <= 1
-            assert (alone or with_dd) == poly["provisional"] and again == poly["settled"]
-            assert with_dd == (poly["provisional"] and e["escalation"] == 3)
+            rebased = "merged where they overlap" in text and "rebased level re-isolated the clusters" in text
+            with_dd = "merged where they overlap" in text and "else double-double coefficients" in text
+            again = ("did not decide the pixel, nor did the ladder's re-isolation from them" in text
+                     and "so the row was solved again" in text)
+            assert alone + rebased + with_dd <= 1
+            assert (alone or rebased or with_dd) == poly["provisional"] and again == poly["settled"]
+            assert rebased == (poly["provisional"] and e["escalation"] == REBASED_LEVEL)
+            assert with_dd == (poly["provisional"] and e["escalation"] >= DOUBLE_DOUBLE_LEVEL)
             said |= {"merged"} if alone else set()
-            said |= {"merged, double-double"} if with_dd else set()
+            said |= {"merged, rebased"} if rebased else set()
             said |= {"settled"} if again else set()
-    assert said == {"merged", "merged, double-double", "settled"}
+    assert said == {"merged", "merged, rebased", "settled"}
 
 
 @pytest.mark.parametrize("kernel", ["auto", "scalar"])

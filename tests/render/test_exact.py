@@ -1,7 +1,7 @@
-"""The exact tier of the pixel ladder (levels 4-6, argand.render.exact).
+"""The exact tier of the pixel ladder (levels 5-7, argand.render.exact).
 
 Pixels that the double-double tier leaves unproven (status 1 clusters and
-status 3 undecided pixels at level 3: rays grazing a silhouette to within an
+status 3 undecided pixels after level 4: rays grazing a silhouette to within an
 ulp, rays at the singular lines of the paper's presets, roots on the
 clipping sphere) go to the exact tier, which decides them on the exact
 rational ray polynomial. Here: they come out certified, or status 1 with a
@@ -29,11 +29,17 @@ from tests.render.test_truth import GRAZING, bisect_to_tangency, centre_truth, h
 from argand.render import FrameParams, TileRect, primary_ray, render_frame, render_tile
 from argand.render.convert import to_core_scene
 from argand.render.explain import explain_pixel
-from argand.render.frames import LADDER_LEVEL_NAMES, EXACT_OVER_CAP_LEVEL
+from argand.render.frames import (
+    DOUBLE_DOUBLE_LEVEL,
+    EXACT_LEVEL,
+    EXACT_MULTIPLE_LEVEL,
+    EXACT_OVER_CAP_LEVEL,
+    LADDER_LEVEL_NAMES,
+)
 from argand.scene import load_scene, scene_from_dict
 
 OFF = {"exact_pixels_per_block": 0}
-EXACT, MULTIPLE, OVER_CAP = 4, 5, EXACT_OVER_CAP_LEVEL
+EXACT, MULTIPLE, OVER_CAP = EXACT_LEVEL, EXACT_MULTIPLE_LEVEL, EXACT_OVER_CAP_LEVEL
 
 
 def wrong(problems: list[str]) -> list[str]:
@@ -47,11 +53,11 @@ def test_ladder_levels_are_named():
 
 
 # ---------------------------------------------------------------------------
-# Grazing rays that the double-double tier leaves undecided
+# Grazing rays that the ladder (rebased ray, double-double) leaves undecided
 # ---------------------------------------------------------------------------
 
 #: The grazing cases whose last look_ats include centre pixels undecided
-#: (status 3) after level 3: a complex pair within 1e-8 of a band edge;
+#: (status 3) after level 4: a complex pair within 1e-8 of a band edge;
 #: degree 4 to 8 (the two octics at delta = pi/18 beside test_render_truth's).
 UNDECIDED_AT_LEVEL_3 = [g for g in GRAZING if g[0] in ("bicube-band", "dense-5", "dense-7", "product-6")] + [
     ("dense-8-band", lambda: random_scene("dense", 8, seed=4), math.pi / 18, [0.0, 0.0, 0.0], [0.0, 0.05, 0.05]),
@@ -78,7 +84,7 @@ def test_grazing_pixels_undecided_at_level_3_are_decided_exactly(name, make_scen
         status, level = int(after.aovs["status"][0, 0]), int(after.aovs["escalation"][0, 0])
         assert not wrong(check_pixel(truth, *rendered_pixel(after, 0, 0))), (name, list(look_at))
         if status_before == 0:
-            assert status == 0 and level <= 3  # the exact tier only sees what the ladder left
+            assert status == 0 and level <= DOUBLE_DOUBLE_LEVEL  # the exact tier only sees what the ladder left
             continue
         undecided_before += 1
         assert level in (EXACT, MULTIPLE), (name, list(look_at), level)
@@ -110,7 +116,7 @@ def test_a_ray_through_a_double_line_is_status_1_with_the_multiple_root_proven(n
     truth = pixel_truth(to_core_scene(scene), 0.0, 0.0, origin, direction)
     assert truth.decision == "hit" and truth.root.multiplicity == 2
     before = render_frame(scene, FrameParams(width=size, height=size, **OFF), workers=1)
-    assert before.aovs["status"][4, 4] == 1 and before.aovs["escalation"][4, 4] <= 3
+    assert before.aovs["status"][4, 4] == 1 and before.aovs["escalation"][4, 4] <= DOUBLE_DOUBLE_LEVEL
     result = render_frame(scene, FrameParams(width=size, height=size), workers=1)
     assert result.aovs["status"][4, 4] == 1 and result.aovs["escalation"][4, 4] == MULTIPLE
     assert result.rgba[4, 4, 3] == 1.0 and result.aovs["re"][4, 4] == np.float32(5.0) and result.aovs["im"][4, 4] == 0
@@ -259,7 +265,7 @@ def test_cli_explain_prints_the_exact_tiers_steps(tmp_path):
     assert r.returncode == 0, r.stderr
     out = r.stdout
     assert "exact tier" in out and "squarefree factors: degree 1 with multiplicity 2" in out
-    assert "64 bits:" in out and "ladder level 5 (exact: multiple root proven)" in out
+    assert "64 bits:" in out and f"ladder level {MULTIPLE} (exact: multiple root proven)" in out
     off = subprocess.run([sys.executable, "-m", "argand.cli", "render", str(spec), "--size", "9x9", "--explain", "4,4",
                           "--exact-per-block", "0"], capture_output=True, text=True)
     assert off.returncode == 0 and "exact tier" not in off.stdout

@@ -24,7 +24,7 @@ import pytest
 from argand.core import _core
 from argand.render import FrameParams, render_frame
 from argand.render.convert import to_core_scene
-from argand.render.frames import plan
+from argand.render.frames import DOUBLE_DOUBLE_LEVEL, REBASED_LEVEL, plan
 from argand.render.options import EngineOptions, engine_options_from_environment
 from argand.scene import load_scene, scene_from_dict
 from argand.scene.presets import CLASSIC_PRESETS, PAPER_PRESETS
@@ -282,7 +282,7 @@ def test_lane_parallel_ray_polynomials_are_the_scalar_ones(tmp_path):
 
 
 def test_refined_batched_pixels_replay():
-    """Pixels that climb to the double-double ray (level 3: refine changes
+    """Pixels that climb to the rebased or double-double ray (refine changes
     a batched object's discs, on render_tile's own copy of the batch's
     discs) give explain_pixel's decisions, and those of the first pixels of
     the same runs of 32, which read the batch's discs unchanged, too."""
@@ -291,8 +291,9 @@ def test_refined_batched_pixels_replay():
     best = _core.batch_kernel()
     frame = render_with(best, scene, params)
     level = np.asarray(frame.aovs["escalation"])
-    spots = np.argwhere(level == 3)
-    assert len(spots) >= 5, "the scene no longer reaches the double-double ray"
+    climbed = np.isin(level, (REBASED_LEVEL, DOUBLE_DOUBLE_LEVEL))
+    spots = np.argwhere(climbed)
+    assert len(spots) >= 5, "the scene no longer reaches the rebased or double-double ray"
     spots = list(spots[:: max(1, len(spots) // 6)])
     # Neighbours in the same run of 32 (the row's samples 0..31, 32..47).
     spots += [np.array([y, x + 1]) for y, x in spots[:3] if x + 1 < params.width]
@@ -304,7 +305,7 @@ def test_refined_batched_pixels_replay():
         if e["hit"]:
             assert np.float32(e["root"].real) == frame.aovs["re"][y, x]
             assert np.float32(e["root"].imag) == frame.aovs["im"][y, x]
-    check = check_frame(scene, params, frame, [(int(x), int(y)) for y, x in np.argwhere(level == 3)])
+    check = check_frame(scene, params, frame, [(int(x), int(y)) for y, x in np.argwhere(climbed)])
     assert check.wrong == 0, check.disagreements[:3]
 
 

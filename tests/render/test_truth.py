@@ -182,20 +182,23 @@ def test_certified_pixels_of_the_presets_agree_with_the_exact_truth(name, delta)
 
 @pytest.mark.parametrize("name", ["endrass-octic", "chmutov-octic"])
 @pytest.mark.parametrize("delta", BAND_WIDTHS)
-def test_pixels_decided_by_double_double_isolation_agree_with_the_exact_truth(name, delta):
-    """Rays near a surface's nodes leave clusters in double that the ladder's
-    double-double level re-isolates (refine_dd.cpp, isolate_dd: Aberth on
-    the clusters' roots, then on the others, then Smith's radii). Every
-    pixel decided at that level is checked, not a sample: at 64x64 the
-    Endrass octic has 16 to 70 of them."""
+def test_pixels_decided_by_the_ladders_re_isolation_agree_with_the_exact_truth(name, delta):
+    """Rays near a surface's nodes leave clusters in double that the ladder
+    re-isolates: in double from the ray polynomial about the cluster (the
+    rebased ray, ray_polynomial.cpp's rebased_ray_polynomial), else in
+    double-double (refine_dd.cpp, isolate_dd: Aberth on the clusters' roots,
+    then on the others, then Smith's radii). Every pixel decided at either
+    level is checked, not a sample: at 64x64 the Endrass octic has 16 to 70
+    of them."""
     scene = load_scene(name)
     params = FrameParams(delta=delta, width=64, height=64)
     result = render_frame(scene, params, workers=1)
-    (level,) = [code for code, text in LADDER_LEVEL_NAMES.items() if text == "double-double ray"]
-    ys, xs = np.nonzero(result.aovs["escalation"] == level)
+    levels = [code for code, text in LADDER_LEVEL_NAMES.items() if text in ("rebased ray", "double-double ray")]
+    assert len(levels) == 2
+    ys, xs = np.nonzero(np.isin(result.aovs["escalation"], levels))
     pixels = list(zip(xs.tolist(), ys.tolist()))
     check = check_frame(scene, params, result, pixels)
-    assert_never_wrong(frame_problems(check, f"{name}, delta {delta}, double-double level:"))
+    assert_never_wrong(frame_problems(check, f"{name}, delta {delta}, rebased and double-double levels:"))
     if name == "endrass-octic":
         assert check.certified >= 10, (len(pixels), check.certified)
 

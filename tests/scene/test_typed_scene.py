@@ -201,7 +201,7 @@ def test_scene_defaults_are_cpp_s_and_the_model_and_conversion_agree():
 
 def test_status_and_ladder_names_come_from_cpp():
     assert STATUS_NAMES == _core.STATUS_NAMES == {0: "certified", 1: "cluster", 2: "unverified", 3: "undecided"}
-    assert LADDER_LEVEL_NAMES == _core.LADDER_LEVEL_NAMES and LADDER_LEVEL_NAMES[4] == "exact" and len(LADDER_LEVEL_NAMES) == 7
+    assert LADDER_LEVEL_NAMES == _core.LADDER_LEVEL_NAMES and LADDER_LEVEL_NAMES[5] == "exact" and len(LADDER_LEVEL_NAMES) == 8
     frames_py = (Path(__file__).parents[2] / "src/argand/render/frames.py").read_text()
     assert '"certified"' not in frames_py and '"unseeded retry"' not in frames_py  # no second spelling
 

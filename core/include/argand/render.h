@@ -145,7 +145,7 @@ struct FrameParams {
     // samples per pixel has the seeds of the frame k times its size).
     bool seed_from_neighbour = true;
     int samples = 1;             // per pixel: a square (1, 4, 9, ..., kMaxSamples), see sample_side
-    // The exact tier (ladder level 4, an ExactSolver given to render_tile):
+    // The exact tier (ladder level 5, an ExactSolver given to render_tile):
     // at most this many samples of each block of kSeedBlock x kSeedBlock
     // samples go to it (0: off; the first ones, in tracing order), and it
     // works up to this many bits of precision. A budget per frame-aligned
@@ -220,19 +220,21 @@ enum LadderLevel : std::uint8_t {
     kLevelFirst = 0,      // decided from the first root discs
     kLevelRootTier = 1,   // the root core needed its double-double tier
     kLevelUnseeded = 2,   // retried without the neighbouring pixel's seeds
-    kLevelDoubleDouble = 3,  // discs refined with double-double ray coefficients
-    kLevelExact = 4,         // decided by the exact tier (ExactSolver) on the exact
+    kLevelRebased = 3,    // a cluster re-isolated in double from the ray polynomial
+                          // expanded about a point near it (rebased_ray_polynomial)
+    kLevelDoubleDouble = 4,  // discs refined with double-double ray coefficients
+    kLevelExact = 5,         // decided by the exact tier (ExactSolver) on the exact
                              // rational ray polynomial; status 3 after it: its
                              // precision cap was reached
-    kLevelExactMultiple = 5, // the exact tier proved a multiple root at the pixel's
+    kLevelExactMultiple = 6, // the exact tier proved a multiple root at the pixel's
                              // root (or the ray in the surface): status 1, proven
-    kLevelExactOverCap = 6,  // not proven after level 3, and the block's exact-tier
+    kLevelExactOverCap = 7,  // not proven after level 4, and the block's exact-tier
                              // budget (exact_pixels_per_block) was spent
 };
 /// The names of the ladder levels, by level (exported as LADDER_LEVEL_NAMES).
 constexpr const char* kLadderLevelNames[] = {"first",          "root double-double",          "unseeded retry",
-                                             "double-double ray", "exact", "exact: multiple root proven",
-                                             "exact: over the work cap"};
+                                             "rebased ray",    "double-double ray", "exact",
+                                             "exact: multiple root proven", "exact: over the work cap"};
 
 /// AOVs of one tile, row-major, (y1 - y0) rows of (x1 - x0) pixels.
 /// With several samples per pixel: the colour is the mean of the samples'
@@ -353,7 +355,7 @@ struct FramePlan {
     BandEdge lower_edge, upper_edge;
 };
 
-/// The exact tier: a pixel whose primary ray is not proven after level 3 is
+/// The exact tier: a pixel whose primary ray is not proven after level 4 is
 /// decided on the exact rational ray polynomial of its ray (the exact double
 /// origin and direction, the exact double coefficients and transform) by a
 /// solver outside the C++ core (the Python binding wraps
@@ -387,7 +389,7 @@ FramePlan plan_frame(const SceneSpec& scene, const FrameParams& params);
 
 /// Renders the pixels of `rect` (clamped to the frame). Thread-safe for
 /// distinct tiles of the same plan. Never touches Python itself; `exact`
-/// (optional) is called for primary rays still unproven after level 3, at
+/// (optional) is called for primary rays still unproven after level 4, at
 /// most params.exact_pixels_per_block times per block of kSeedBlock x
 /// kSeedBlock samples.
 void render_tile(const FramePlan& plan, const TileRect& rect, TileAOVs& out, const ExactSolver* exact = nullptr);
@@ -457,6 +459,11 @@ const char* render_kernel(const FramePlan& plan);
 /// when radius is given, radius[k] bounds |exact p_k - coeffs[k]|.
 void ray_polynomial(const FramePlan& plan, int object, const double origin[3], const double direction[3],
                     double* coeffs, double* radius = nullptr);
+/// The primary ray polynomial along `direction` (from the plan's eye)
+/// about the point at t0: q(s) = p(t0 + s), where p(t) = F(eye + t d), and
+/// radius[k] bounds |exact q_k - coeffs[k]| (the ladder's rebased level).
+void rebased_ray_polynomial(const FramePlan& plan, int object, const double direction[3], double t0, double* coeffs,
+                            double* radius);
 
 /// Everything render_tile decided for one pixel (`argand render --explain`).
 struct ExplainedDisc {

@@ -126,6 +126,17 @@ void ray_polynomial(const FramePlan& plan, int object, const double origin[3], c
     }
 }
 
+void rebased_ray_polynomial(const FramePlan& plan, int object, const double direction[3], double t0, double* coeffs,
+                            double* radius) {
+    const SurfaceSpec& s = plan.scene.objects.at(object);
+    detail::RayCoefficients<double> q;
+    detail::rebased_ray_polynomial(s, plan.objects.at(object), direction, t0, q);
+    for (int k = 0; k <= s.degree; ++k) {
+        coeffs[k] = q.c[k];
+        radius[k] = q.finite ? q.r[k] : INFINITY;
+    }
+}
+
 std::uint64_t rays_fingerprint(const FramePlan& a) {
     // The fields same_rays compares, in its order.
     std::uint64_t h = 1469598103934665603ull;

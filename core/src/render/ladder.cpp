@@ -1,7 +1,8 @@
 // render/ladder.cpp: a ray's roots and the escalation ladder (LadderLevel):
-// while the pixel's decision is not proven, the batch's merged discs
-// settled, a retry without neighbour seeds, double-double ray coefficients
-// that shrink the deciding discs (refine), then (a primary ray, within the
+// while the pixel's decision is not proven, a cluster re-isolated from the
+// ray polynomial about it (rebase) or with double-double ray coefficients,
+// which also shrink the deciding discs (refine), the batch's merged discs
+// settled, a retry without neighbour seeds, then (a primary ray, within the
 // tile's budget) the exact tier: an ExactSolver given by the caller decides
 // the pixel on the exact rational ray polynomial.
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "../refine_dd.h"
+#include "../root_kernels.h"
 #include "tracer.h"
 
 namespace argand::detail {
@@ -59,19 +61,23 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
     if (h.status != kCertified && primary && pre != nullptr) {
         // Discs a lane merged into clusters did not prove the pixel. Such a
         // cluster is nearly always a near-double root where the ray passes
-        // near a node of the surface, which no solve in double splits (on
-        // Endrass's octic, solving the row again in double decided 45 of
-        // 4,093 such pixels, at a fifth of the frame's time; double-double
-        // decided all of them): the ladder's double-double level first
+        // near a node of the surface, which no solve in double of the eye's
+        // polynomial splits (on Endrass's octic, solving the row again in
+        // double decided 45 of 4,093 such pixels, at a fifth of the frame's
+        // time; the polynomial about the cluster, in double, decides all but
+        // a few, double-double the rest): the ladder's re-isolation first
         // (refine: the cluster re-isolated from the merged discs). Where it
         // does not decide, the rows solved as find_roots_soa would without
         // merging (settle), decided again, and the ladder goes on as for
         // any pixel.
         bool provisional = false;
         for (int obj = 0; obj < n_obj; ++obj) provisional = provisional || roots[obj].provisional;
-        if (provisional && refine(roots, infos, pre->batch->ladder_memo(pre->cell))) {
-            level = kLevelDoubleDouble;
-            h = decider_.decide(roots, infos);
+        if (provisional) {
+            const std::uint8_t reached = refine(roots, infos, pre->batch->ladder_memo(pre->cell));
+            if (reached != kLevelFirst) {
+                level = std::max(level, reached);
+                h = decider_.decide(roots, infos);
+            }
         }
         if (h.status != kCertified) {
             bool settled = false;
@@ -91,17 +97,19 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
             if (roots[obj].seeded) solve(roots[obj], plan_.scene.objects[obj].degree, nullptr);
         h = decider_.decide(roots, infos);
     }
-    if (h.status != kCertified && primary &&
-        refine(roots, infos, pre != nullptr ? pre->batch->ladder_memo(pre->cell) : nullptr)) {
-        level = kLevelDoubleDouble;
-        h = decider_.decide(roots, infos);
+    if (h.status != kCertified && primary) {
+        const std::uint8_t reached = refine(roots, infos, pre != nullptr ? pre->batch->ladder_memo(pre->cell) : nullptr);
+        if (reached != kLevelFirst) {
+            level = std::max(level, reached);
+            h = decider_.decide(roots, infos);
+        }
     }
     const bool exact_tier = h.status != kCertified && primary && exact_ && *exact_ &&
                             plan_.params.exact_pixels_per_block > 0 && plan_.params.method != Method::Unverified &&
                             (trace != nullptr || !explaining_);
     bool exact_ran = false;
     if (exact_tier) {
-        // Level 4: the exact tier, within the block's budget (--explain
+        // Level 5: the exact tier, within the block's budget (--explain
         // runs it for its pixel whatever the budget).
         auto used = std::find_if(exact_used_.rbegin(), exact_used_.rend(),
                                  [&](const auto& b) { return b.first == exact_block_; });
@@ -190,8 +198,65 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
     return h;
 }
 
-bool Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, LadderMemo* memo) {
-    bool changed = false;
+bool Tracer::rebase(int obj, double t0, RootsResult& own) const {
+    const SurfaceSpec& s = plan_.scene.objects[obj];
+    const int n = s.degree;
+    // (Not for a polynomial with roots at infinity or an exact root at 0:
+    // the decider reads those from the discs as find_roots gives them.)
+    if (own.n_infinite != 0 || own.n_discs < 1 || !std::isfinite(t0)) return false;
+    for (int i = 0; i < own.n_discs; ++i) {
+        const RootDisc& d = own.discs[i];
+        if (d.re == 0.0 && d.im == 0.0 && d.radius == 0.0) return false;
+    }
+    RayCoefficients<double> q;
+    detail::rebased_ray_polynomial(s, plan_.objects[obj], current_direction_, t0, q);
+    if (!q.finite || !(add_down(std::fabs(q.c[n]), -q.r[n]) > 0.0)) return false;
+    // Seeds (speed only): the current discs about t0, a cluster's count
+    // spread on its circle.
+    double seed_re[kMaxDegree], seed_im[kMaxDegree];
+    int m = 0;
+    for (int i = 0; i < own.n_discs && m < n; ++i) {
+        const RootDisc& d = own.discs[i];
+        for (int k = 0; k < d.count && m < n; ++k) {
+            const double a = 2.0 * 3.14159265358979323846 * k / d.count + 0.4;
+            const double rho = d.count > 1 ? 0.5 * d.radius : 0.0;
+            seed_re[m] = d.re - t0 + rho * std::cos(a);
+            seed_im[m++] = d.im + rho * std::sin(a);
+        }
+    }
+    RootsResult out;
+    const bool seeded = m == n;
+    if (find_roots(q.c, n + 1, plan_.params.method, out, seeded ? seed_re : nullptr, seeded ? seed_im : nullptr, q.r) !=
+            Status::Ok ||
+        out.n_infinite != 0 || out.n_discs != n)
+        return false;
+    // The roots t = t0 + s: each centre rounded, its rounding error (TwoSum,
+    // exact) added to the radius; a disc's imaginary part and its proof of
+    // a real root stay (t0 is real).
+    for (int i = 0; i < n; ++i) {
+        RootDisc& d = out.discs[i];
+        if (!d.verified || d.count != 1) return false;
+        const double re = t0 + d.re;
+        const double err = add_error(t0, d.re, re);
+        d.re = re;
+        d.radius = add_up0(d.radius, err);
+        if (!std::isfinite(d.re) || !std::isfinite(d.radius)) return false;
+    }
+    for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j) {
+            const RootDisc &a = out.discs[i], &b = out.discs[j];
+            if (!(dist_down(a.re, a.im, b.re, b.im) > add_up(a.radius, b.radius))) return false;
+        }
+    flag_real_by_mirror(out.discs, n);
+    own.n_discs = n;
+    for (int i = 0; i < n; ++i) own.discs[i] = out.discs[i];
+    own.wants_exact = false;
+    own.escalation = std::max(own.escalation, out.escalation);
+    return true;
+}
+
+std::uint8_t Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, LadderMemo* memo) {
+    bool rebased = false, by_dd = false;
     auto ensure_dd = [&](int obj) {
         ObjectRoots& r = roots[obj];
         if (r.have_dd) return;
@@ -205,14 +270,16 @@ bool Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, Ladd
         detail::primary_ray_polynomial_dd(plan_.scene.objects[obj], plan_.objects[obj], current_direction_, r.poly_dd);
         if (memo && memo->dd.size() < LadderMemo::kEntries) memo->dd.push_back({obj, r.poly_dd});
     };
-    // isolate_dd on r's discs, or the answer a band of this sample got for
-    // the same discs.
-    auto isolate = [&](int obj, ObjectRoots& r) {
+    // rebase about the cluster's centre t0, else isolate_dd, on r's discs;
+    // or the answer a band of this sample got for the same discs. Returns
+    // whether the discs were re-isolated; `how` the level that did it.
+    auto isolate = [&](int obj, ObjectRoots& r, double t0, std::uint8_t& how) {
         RootsResult& own = r.writable();
         if (memo)
             for (const LadderMemo::Isolated& e : memo->isolated)
                 if (e.obj == obj && LadderMemo::same(e.in, own)) {
                     LadderMemo::copy(e.out, own);
+                    how = e.level;
                     return e.done;
                 }
         LadderMemo::Isolated* kept = nullptr;
@@ -222,9 +289,16 @@ bool Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, Ladd
             kept->obj = obj;
             LadderMemo::copy(own, kept->in);
         }
-        const bool done = detail::isolate_dd(r.poly_dd, own);
+        bool done = rebase(obj, t0, own);
+        how = kLevelRebased;
+        if (!done) {
+            ensure_dd(obj);
+            done = detail::isolate_dd(r.poly_dd, own);
+            how = kLevelDoubleDouble;
+        }
         if (kept) {
             kept->done = done;
+            kept->level = how;
             LadderMemo::copy(own, kept->out);
         }
         return done;
@@ -248,12 +322,13 @@ bool Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, Ladd
         ObjectRoots& r = roots[info.object];
         if (!info.live || isolated[info.object] || !r.complete) continue;
         if (r.res.discs[info.index].count < 2) continue;
-        ensure_dd(info.object);
-        const bool done = isolate(info.object, r);
+        std::uint8_t how = kLevelFirst;
+        const bool done = isolate(info.object, r, r.res.discs[info.index].re, how);
         r.res.bind(r.own);  // (its header may have changed)
         if (done) {
             isolated[info.object] = true;
-            changed = true;
+            rebased = rebased || how == kLevelRebased;
+            by_dd = by_dd || how == kLevelDoubleDouble;
         }
     }
     for (const DiscInfo& info : infos) {
@@ -267,10 +342,10 @@ bool Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, Ladd
             // A proven real root stays real: its disc is now centred on
             // the axis (Newton on the real line) and symmetric.
             if (real_before) disc.real = true;
-            changed = true;
+            by_dd = true;
         }
     }
-    return changed;
+    return by_dd ? kLevelDoubleDouble : rebased ? kLevelRebased : kLevelFirst;
 }
 
 }  // namespace argand::detail

@@ -72,6 +72,7 @@ struct LadderMemo {
     struct Isolated {
         int obj;
         bool done;
+        std::uint8_t level;  // (kLevelRebased or kLevelDoubleDouble: which re-isolated)
         RootsResult in, out;
     };
     struct Shrunk {

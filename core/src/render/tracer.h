@@ -297,12 +297,24 @@ private:
     /// find_roots on the object's ray polynomial (with its coefficient radii).
     void solve(ObjectRoots& r, int degree, const Seeds* seed);
 
-    /// Level 3: double-double ray coefficients; a polynomial with a live
-    /// cluster is re-isolated from scratch (isolate_dd), and every live
-    /// verified count-1 disc is shrunk. True if any disc changed.
+    /// Levels 3 and 4, for a primary ray: a polynomial with a live cluster
+    /// is re-isolated from scratch, first in double from the ray polynomial
+    /// about the cluster (rebase: level 3), else with double-double ray
+    /// coefficients (isolate_dd); then every live verified count-1 disc of
+    /// the others is shrunk with double-double coefficients (level 4).
+    /// Returns the level reached: kLevelDoubleDouble where a double-double
+    /// step changed a disc, else kLevelRebased where a rebase did, else
+    /// kLevelFirst (nothing changed).
     /// `memo` (optional): the sample's answers shared with the tile's other
     /// bands (LadderMemo): a question asked before takes its answer.
-    bool refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, LadderMemo* memo);
+    std::uint8_t refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, LadderMemo* memo);
+
+    /// Every root of the primary ray polynomial of object `obj`, in double,
+    /// from its expansion about the point at t0 (rebased_ray_polynomial):
+    /// true, with own's discs replaced by the proven discs of the roots
+    /// t0 + s, where every root gets its own verified disc, all pairwise
+    /// disjoint; false (own untouched) otherwise.
+    bool rebase(int obj, double t0, RootsResult& own) const;
 
     void record(const ObjectRoots* roots, const std::vector<DiscInfo>& infos, const HitInfo& h, PixelExplanation* t) const;
 

@@ -123,7 +123,7 @@ def exact_figures(figures: dict) -> dict:
 #: column's rays then pass within rounding of the presets' singular lines).
 ESCALATION_CASES = (("steiner", math.pi / 18), ("plucker", 0.0), ("chmutov-octic", 0.0), ("endrass-octic", math.pi / 18))
 #: One colour per ladder level (LADDER_LEVEL_NAMES); level 0 shows the image.
-LEVEL_COLOURS = {1: "#1f77b4", 2: "#17becf", 3: "#ff7f0e", 4: "#2ca02c", 5: "#d62728", 6: "#000000"}
+LEVEL_COLOURS = {1: "#1f77b4", 2: "#17becf", 3: "#bcbd22", 4: "#ff7f0e", 5: "#2ca02c", 6: "#d62728", 7: "#000000"}
 
 
 def escalation_picture(size: int, path: Path, cases=ESCALATION_CASES) -> list[dict]:
@@ -567,7 +567,7 @@ def escalation_section(report: dict, picture: str = "render_escalation.png") -> 
     lines = [
         "",
         "Where the ladder escalated (the `escalation` AOV; grey: decided from the first discs, colours: the level a "
-        "pixel needed; levels 4-6 are the exact tier):",
+        "pixel needed; levels 5-7 are the exact tier):",
         "",
         f"![where escalation happened]({picture})",
         "",
@@ -575,6 +575,8 @@ def escalation_section(report: dict, picture: str = "render_escalation.png") -> 
         "|---|---:|---:|---|---:|" + "---:|" * len(names),
     ]
     for r in rows:
+        # (By name: a report written before a level existed shows "–" there.)
         lines.append(f"| {r['scene']} | {r['degree']} | {r['delta']:.4f} | {r['size']}×{r['size']} "
-                     f"| {100 * r['certified_share']:.3f}% | " + " | ".join(str(r["levels"][n]) for n in names) + " |")
+                     f"| {100 * r['certified_share']:.3f}% | "
+                     + " | ".join(str(r["levels"].get(n, "–")) for n in names) + " |")
     return lines

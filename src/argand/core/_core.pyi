@@ -303,6 +303,9 @@ def ray_polynomial(
 def ray_polynomial(
     plan: FramePlan, object: int, origin: _Numbers, direction: _Numbers, with_radius: Literal[True]
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+def rebased_ray_polynomial(
+    plan: FramePlan, object: int, direction: _Numbers, t0: float
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def primary_ray(plan: FramePlan, x: int, y: int, sample: int = 0) -> tuple[list[float], list[float]]: ...
 def explain_pixel(
     plan: FramePlan,

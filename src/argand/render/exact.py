@@ -1,4 +1,4 @@
-"""The exact tier of the pixel ladder (level 4): a pixel decided on the exact
+"""The exact tier of the pixel ladder (level 5): a pixel decided on the exact
 rational ray polynomial of its ray.
 
 The C++ renderer calls :func:`decide_pixel` (through the binding, with the

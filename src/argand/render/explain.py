@@ -5,7 +5,7 @@ independently (e.g. with python-flint on the exact ray polynomial).
 
 The ray's origin and direction are the exact doubles the renderer uses;
 ``float.hex`` prints them without loss. When the pixel reaches the exact
-tier (ladder level 4), its steps are printed too: the exact polynomial's
+tier (ladder level 5), its steps are printed too: the exact polynomial's
 squarefree factors, the root balls at each precision with their decisions,
 and its conclusion (the tier runs for the explained pixel whatever its
 block's budget).
@@ -17,7 +17,14 @@ from typing import Any
 
 from argand.core import _core
 from argand.render.exact import decide_pixel
-from argand.render.frames import LADDER_LEVEL_NAMES, STATUS_NAMES, FrameParams, plan
+from argand.render.frames import (
+    DOUBLE_DOUBLE_LEVEL,
+    LADDER_LEVEL_NAMES,
+    REBASED_LEVEL,
+    STATUS_NAMES,
+    FrameParams,
+    plan,
+)
 
 
 def explain_pixel(scene: Any, params: FrameParams, x: int, y: int, tile: int = 64, sample: int = 0) -> dict:
@@ -55,16 +62,23 @@ def format_explanation(e: dict) -> list[str]:
         )
         for k, (c, r) in enumerate(zip(p["coeffs"], p["radius"])):
             lines.append(f"  c_{k} = {c!r} [{float(c).hex()}]  r_{k} = {r:.3e}")
-        if p.get("provisional") and e.get("escalation", 0) >= 3:
+        if p.get("provisional") and e.get("escalation", 0) == REBASED_LEVEL:
             lines.append("  discs: the batch lane's own Smith discs, merged where they overlap (each cluster holds "
                          "exactly its count of roots); they did not decide the pixel alone, so the ladder's "
-                         "double-double level re-isolated the clusters from them, and the row was not solved again")
+                         "rebased level re-isolated the clusters in double from the ray polynomial expanded about "
+                         "them, and the row was not solved again")
+        elif p.get("provisional") and e.get("escalation", 0) >= DOUBLE_DOUBLE_LEVEL:
+            lines.append("  discs: the batch lane's own Smith discs, merged where they overlap (each cluster holds "
+                         "exactly its count of roots); they did not decide the pixel alone, so the ladder "
+                         "re-isolated the clusters from them (the rebased ray polynomial in double, else "
+                         "double-double coefficients), and the row was not solved again")
         elif p.get("provisional"):
             lines.append("  discs: the batch lane's own Smith discs, merged where they overlap (each cluster holds "
                          "exactly its count of roots); they decided the pixel, so the row was not solved again")
         if p.get("settled"):
-            lines.append("  discs: the batch lane's merged discs did not decide the pixel, nor did double-double "
-                         "from them, so the row was solved again from the lane's approximations (find_roots)")
+            lines.append("  discs: the batch lane's merged discs did not decide the pixel, nor did the ladder's "
+                         "re-isolation from them (the rebased ray polynomial, double-double), so the row was "
+                         "solved again from the lane's approximations (find_roots)")
         if p.get("outside_sphere"):
             lines.append("  not solved: the ray provably misses the object's clipping sphere "
                          "(|o + s d| > radius for every s >= 0), so none of its roots can be shown")

@@ -40,12 +40,18 @@ STATUS_NAMES: dict[int, str] = dict(_core.STATUS_NAMES)
 #: Ladder levels (the ``escalation`` AOV): how far a pixel had to go before
 #: its decision was proven (or the ladder ran out). Defined in C++.
 LADDER_LEVEL_NAMES: dict[int, str] = dict(_core.LADDER_LEVEL_NAMES)
+_LEVEL = {name: level for level, name in LADDER_LEVEL_NAMES.items()}
+#: A cluster re-isolated in double from the ray polynomial about it, and
+#: discs refined with double-double ray coefficients.
+REBASED_LEVEL = _LEVEL["rebased ray"]
+DOUBLE_DOUBLE_LEVEL = _LEVEL["double-double ray"]
 #: The exact tier's levels (argand.render.exact decides the pixel on the exact
 #: rational ray polynomial), and the level of a pixel the tier's per-tile
 #: budget left undecided.
-EXACT_LEVELS = (4, 5)
-EXACT_MULTIPLE_LEVEL = 5
-EXACT_OVER_CAP_LEVEL = 6
+EXACT_LEVEL = _LEVEL["exact"]
+EXACT_MULTIPLE_LEVEL = _LEVEL["exact: multiple root proven"]
+EXACT_LEVELS = (EXACT_LEVEL, EXACT_MULTIPLE_LEVEL)
+EXACT_OVER_CAP_LEVEL = _LEVEL["exact: over the work cap"]
 
 #: The exact tier's bounds (defined in C++): the rays per 8x8 block of
 #: samples it may take (a frame-aligned block, so the frame does not depend
@@ -458,7 +464,7 @@ def frame_figures(result: FrameResult) -> dict[str, Any]:
         "escalations": result.escalations,
         "escalated_share": result.escalations / n,
         # Pixels per ladder level (LADDER_LEVEL_NAMES), and the exact tier's
-        # share: pixels it decided or tried (levels 4, 5), multiple roots it
+        # share: pixels it decided or tried (EXACT_LEVELS), multiple roots it
         # proved, pixels its per-block budget left out.
         "escalation_levels": {LADDER_LEVEL_NAMES[k]: int(levels[k]) for k in range(len(LADDER_LEVEL_NAMES))},
         "exact_pixels": exact,
