@@ -101,6 +101,13 @@ def main(path: str) -> int:
     if not (np.array_equal(batched.aovs["status"], scalar.aovs["status"])
             and np.array_equal(batched.rgba[..., 3] > 0, scalar.rgba[..., 3] > 0)):
         problems.append("endrass: the batched kernel's decisions differ from the scalar kernel's")
+    # (Both kernels climb to the rebased ray there: rebased_ray_polynomial's
+    # running-error expansion and the shifted discs, under the sanitizers.)
+    from argand.render.frames import REBASED_LEVEL
+
+    for name, frame in (("batched", batched), ("scalar", scalar)):
+        if not np.any(frame.aovs["escalation"] == REBASED_LEVEL):
+            problems.append(f"endrass: the {name} kernel no longer reaches the rebased ray at 32x32")
     # The real-root path (Bernstein subdivision, its stack of subintervals,
     # Newton and the fallback to the batch): the complex path's decisions,
     # on a degree-8 preset and on views whose centre row grazes a double line.
