@@ -198,16 +198,26 @@ HitInfo Tracer::intersect(const double* o, const double* d, bool primary, Seeds*
     return h;
 }
 
-bool Tracer::rebase(int obj, double t0, RootsResult& own) const {
+bool Tracer::rebase(int obj, RootsResult& own) const {
     const SurfaceSpec& s = plan_.scene.objects[obj];
     const int n = s.degree;
     // (Not for a polynomial with roots at infinity or an exact root at 0:
     // the decider reads those from the discs as find_roots gives them.)
-    if (own.n_infinite != 0 || own.n_discs < 1 || !std::isfinite(t0)) return false;
+    if (own.n_infinite != 0 || own.n_discs < 1) return false;
+    // t0: the real part of the cluster of least |centre|, from the discs
+    // alone (not from the band that asks: every band of a sample gets the
+    // same answer, LadderMemo or not).
+    double t0 = NAN, least = INFINITY;
     for (int i = 0; i < own.n_discs; ++i) {
         const RootDisc& d = own.discs[i];
         if (d.re == 0.0 && d.im == 0.0 && d.radius == 0.0) return false;
+        const double m = std::fabs(d.re) + std::fabs(d.im);
+        if (d.count > 1 && m < least) {
+            least = m;
+            t0 = d.re;
+        }
     }
+    if (!std::isfinite(t0)) return false;
     RayCoefficients<double> q;
     detail::rebased_ray_polynomial(s, plan_.objects[obj], current_direction_, t0, q);
     if (!q.finite || !(add_down(std::fabs(q.c[n]), -q.r[n]) > 0.0)) return false;
@@ -270,10 +280,10 @@ std::uint8_t Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& inf
         detail::primary_ray_polynomial_dd(plan_.scene.objects[obj], plan_.objects[obj], current_direction_, r.poly_dd);
         if (memo && memo->dd.size() < LadderMemo::kEntries) memo->dd.push_back({obj, r.poly_dd});
     };
-    // rebase about the cluster's centre t0, else isolate_dd, on r's discs;
+    // rebase about a cluster's centre, else isolate_dd, on r's discs;
     // or the answer a band of this sample got for the same discs. Returns
     // whether the discs were re-isolated; `how` the level that did it.
-    auto isolate = [&](int obj, ObjectRoots& r, double t0, std::uint8_t& how) {
+    auto isolate = [&](int obj, ObjectRoots& r, std::uint8_t& how) {
         RootsResult& own = r.writable();
         if (memo)
             for (const LadderMemo::Isolated& e : memo->isolated)
@@ -289,7 +299,7 @@ std::uint8_t Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& inf
             kept->obj = obj;
             LadderMemo::copy(own, kept->in);
         }
-        bool done = rebase(obj, t0, own);
+        bool done = rebase(obj, own);
         how = kLevelRebased;
         if (!done) {
             ensure_dd(obj);
@@ -323,7 +333,7 @@ std::uint8_t Tracer::refine(ObjectRoots* roots, const std::vector<DiscInfo>& inf
         if (!info.live || isolated[info.object] || !r.complete) continue;
         if (r.res.discs[info.index].count < 2) continue;
         std::uint8_t how = kLevelFirst;
-        const bool done = isolate(info.object, r, r.res.discs[info.index].re, how);
+        const bool done = isolate(info.object, r, how);
         r.res.bind(r.own);  // (its header may have changed)
         if (done) {
             isolated[info.object] = true;

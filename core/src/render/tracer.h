@@ -310,11 +310,12 @@ private:
     std::uint8_t refine(ObjectRoots* roots, const std::vector<DiscInfo>& infos, LadderMemo* memo);
 
     /// Every root of the primary ray polynomial of object `obj`, in double,
-    /// from its expansion about the point at t0 (rebased_ray_polynomial):
-    /// true, with own's discs replaced by the proven discs of the roots
-    /// t0 + s, where every root gets its own verified disc, all pairwise
-    /// disjoint; false (own untouched) otherwise.
-    bool rebase(int obj, double t0, RootsResult& own) const;
+    /// from its expansion about the point at t0 (rebased_ray_polynomial),
+    /// t0 the real part of own's cluster disc of least |centre|: true, with
+    /// own's discs replaced by the proven discs of the roots t0 + s, where
+    /// every root gets its own verified disc, all pairwise disjoint; false
+    /// (own untouched) otherwise.
+    bool rebase(int obj, RootsResult& own) const;
 
     void record(const ObjectRoots* roots, const std::vector<DiscInfo>& infos, const HitInfo& h, PixelExplanation* t) const;
 
