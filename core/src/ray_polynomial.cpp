@@ -237,64 +237,9 @@ void expand_terms(const SurfaceSpec& s, int n, const double* om, const double* o
     }
 }
 
-/// general_ray_polynomial's expansion and bound (its comment), from the
-/// object-space origin and direction (om, dm: computed; oa, da: bounds
-/// A >= |exact|, the exact within 5u A of the computed; 0 only for an exact
-/// zero).
-void expand_with_bound(const SurfaceSpec& s, const double om[3], const double oa[3], const double dm[3],
-                       const double da[3], RayCoefficients<double>& out) {
-    const int n = s.degree;
-    // Powers (o'_i + t d'_i)^a as polynomials in t, and their magnitudes:
-    // on the stack for the usual degrees; thread-local above (200 KB on the
-    // stack per secondary ray would be probed page by page on every call).
-    double sum[kMaxDegree + 1], mag[kMaxDegree + 1];
-    int added[kMaxDegree + 1];  // summands of each coefficient (roundings of its sum)
-    double lowest = INFINITY, highest = 0.0;
-    constexpr int kSmall = 12;
-    if (n < kSmall) {
-        double pw[3][kSmall][kSmall], pm[3][kSmall][kSmall];
-        expand_terms<kSmall>(s, n, om, oa, dm, da, pw, pm, sum, mag, added, lowest, highest);
-    } else {
-        using Table = double[kMaxDegree + 1][kMaxDegree + 1];
-        static thread_local Table tls_pw[3], tls_pm[3];
-        expand_terms<kMaxDegree + 1>(s, n, om, oa, dm, da, tls_pw, tls_pm, sum, mag, added, lowest, highest);
-    }
-    // No product underflows when every nonzero factor is large enough.
-    double amin = 1.0, amax = 1.0;
-    for (int a = 0; a < 3; ++a)
-        for (double v : {oa[a], da[a]})
-            if (v > 0.0) {
-                amin = v < amin ? v : amin;
-                amax = v > amax ? v : amax;
-            }
-    bool slack = !(lowest >= kProductFloor);
-    if (!slack && lowest < INFINITY) {
-        double p = lowest;
-        for (int k = 0; k < n; ++k) p *= amin;
-        slack = !(p >= kProductFloor);
-    }
-    const double terms = static_cast<double>(s.terms.size());
-    double grow = 1.0;
-    if (slack)
-        for (int k = 0; k <= n; ++k) grow = mul_up(grow, amax);
-    out.n = n;
-    out.finite = true;
-    for (int k = 0; k <= n; ++k) {
-        out.c[k] = sum[k];
-        // factor_k = 2 (5n + 2n + 6 + N_k) u, an integer times 2^-52 below
-        // 2^-40: exact in round-to-nearest, and so is 1 + factor_k.
-        const double factor = 2.0 * (5.0 * n + (2.0 * n + 6.0 + added[k])) * kU;
-        double r = mag[k] == 0.0 ? 0.0 : next_up(next_up((1.0 + factor) * mag[k]) * factor);
-        // (An absolute loss in one product is carried by the coefficient and
-        // the remaining factors: at most max(1, |coeff|) max(1, A)^n.)
-        if (slack) r = add_up(r, mul_up(mul_up((3.0 * n + terms + 8.0) * kSlackPerOp, 1.0 + highest), grow));
-        out.r[k] = r;
-        out.finite = out.finite && std::isfinite(sum[k]) && std::isfinite(r);
-    }
-}
-
-/// Direction part of general_ray_polynomial: d' = linear d, computed (dm),
-/// its bound A (da) and radius (drad: 6u A).
+/// The direction of general_ray_polynomial (and rebased_ray_polynomial):
+/// d' = linear d, computed (dm), its bound A (da) and radius (drad: 6u A;
+/// the exact d' lies within 5u A of dm).
 void general_direction(const SurfaceSpec& s, const double d[3], double dm[3], double da[3], double drad[3]) {
     for (int r = 0; r < 3; ++r) {
         const double* L = s.linear + 3 * r;
@@ -310,10 +255,6 @@ void general_direction(const SurfaceSpec& s, const double d[3], double dm[3], do
         drad[r] = da[r] == 0.0 ? 0.0 : mul_up(6.0 * kU, da[r]);
     }
 }
-
-}  // namespace
-
-namespace {
 
 /// A ball whose radius is summed in round-to-nearest (rebased_body): each
 /// radius is an expression of + and * over nonnegative doubles, so its
@@ -692,7 +633,9 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
     // charged) the A-relative error of o' and d' (as object_direction), 2n
     // the roundings of the powers on any path, 6 those of the triple
     // products, and N_k the number of summands added into coefficient k.
+    const int n = s.degree;
     double om[3], oa[3], orad[3], dm[3], da[3], drad[3];
+    general_direction(s, d, dm, da, drad);
     const double diff[3] = {o[0] - s.translate[0], o[1] - s.translate[1], o[2] - s.translate[2]};
     double diff_abs[3];
     for (int c = 0; c < 3; ++c) {
@@ -701,27 +644,67 @@ void general_ray_polynomial(const SurfaceSpec& s, const double o[3], const doubl
     }
     for (int r = 0; r < 3; ++r) {
         const double* L = s.linear + 3 * r;
-        double vo = 0.0, vd = 0.0, so = 0.0, sd = 0.0;
-        bool zero_o = true, zero_d = true;
+        double vo = 0.0, so = 0.0;
+        bool zero_o = true;
         for (int c = 0; c < 3; ++c) {
             vo += L[c] * diff[c];
-            vd += L[c] * d[c];
             so += std::fabs(L[c]) * diff_abs[c];
-            sd += std::fabs(L[c]) * std::fabs(d[c]);
             if (L[c] != 0.0 && o[c] != s.translate[c]) zero_o = false;
-            if (L[c] != 0.0 && d[c] != 0.0) zero_d = false;
         }
         om[r] = vo;
-        dm[r] = vd;
         // (floor_at: std::fmax's NaN rule without its libm call.)
         oa[r] = zero_o ? 0.0 : floor_at(kProductFloor, next_up(next_up(so * (1.0 + 8.0 * kU)) + 8.0 * kDenormMin));
-        da[r] = zero_d ? 0.0 : floor_at(kProductFloor, next_up(next_up(sd * (1.0 + 8.0 * kU)) + 8.0 * kDenormMin));
         orad[r] = oa[r] == 0.0 ? 0.0 : mul_up(6.0 * kU, oa[r]);
-        drad[r] = da[r] == 0.0 ? 0.0 : mul_up(6.0 * kU, da[r]);
         ray.origin[r] = Ball(om[r], orad[r]);
         ray.direction[r] = Ball(dm[r], drad[r]);
     }
-    expand_with_bound(s, om, oa, dm, da, out);
+    // Powers (o'_i + t d'_i)^a as polynomials in t, and their magnitudes:
+    // on the stack for the usual degrees; thread-local above (200 KB on the
+    // stack per secondary ray would be probed page by page on every call).
+    double sum[kMaxDegree + 1], mag[kMaxDegree + 1];
+    int added[kMaxDegree + 1];  // summands of each coefficient (roundings of its sum)
+    double lowest = INFINITY, highest = 0.0;
+    constexpr int kSmall = 12;
+    if (n < kSmall) {
+        double pw[3][kSmall][kSmall], pm[3][kSmall][kSmall];
+        expand_terms<kSmall>(s, n, om, oa, dm, da, pw, pm, sum, mag, added, lowest, highest);
+    } else {
+        using Table = double[kMaxDegree + 1][kMaxDegree + 1];
+        static thread_local Table tls_pw[3], tls_pm[3];
+        expand_terms<kMaxDegree + 1>(s, n, om, oa, dm, da, tls_pw, tls_pm, sum, mag, added, lowest, highest);
+    }
+    // No product underflows when every nonzero factor is large enough.
+    double amin = 1.0, amax = 1.0;
+    for (int a = 0; a < 3; ++a)
+        for (double v : {oa[a], da[a]})
+            if (v > 0.0) {
+                amin = v < amin ? v : amin;
+                amax = v > amax ? v : amax;
+            }
+    bool slack = !(lowest >= kProductFloor);
+    if (!slack && lowest < INFINITY) {
+        double p = lowest;
+        for (int k = 0; k < n; ++k) p *= amin;
+        slack = !(p >= kProductFloor);
+    }
+    const double terms = static_cast<double>(s.terms.size());
+    double grow = 1.0;
+    if (slack)
+        for (int k = 0; k <= n; ++k) grow = mul_up(grow, amax);
+    out.n = n;
+    out.finite = true;
+    for (int k = 0; k <= n; ++k) {
+        out.c[k] = sum[k];
+        // factor_k = 2 (5n + 2n + 6 + N_k) u, an integer times 2^-52 below
+        // 2^-40: exact in round-to-nearest, and so is 1 + factor_k.
+        const double factor = 2.0 * (5.0 * n + (2.0 * n + 6.0 + added[k])) * kU;
+        double r = mag[k] == 0.0 ? 0.0 : next_up(next_up((1.0 + factor) * mag[k]) * factor);
+        // (An absolute loss in one product is carried by the coefficient and
+        // the remaining factors: at most max(1, |coeff|) max(1, A)^n.)
+        if (slack) r = add_up(r, mul_up(mul_up((3.0 * n + terms + 8.0) * kSlackPerOp, 1.0 + highest), grow));
+        out.r[k] = r;
+        out.finite = out.finite && std::isfinite(sum[k]) && std::isfinite(r);
+    }
 }
 
 }  // namespace argand::detail

@@ -45,12 +45,14 @@ void primary_ray_polynomial_dd(const SurfaceSpec& s, const FramePlan::ObjectPlan
                                RayCoefficients<DoubleDouble>& out);
 /// A primary ray's polynomial about the point at t0 on it: q(s) = p(t0 + s)
 /// for the exact p of primary_ray_polynomial (|q_k - c[k]| <= r[k]), by
-/// expansion of each term of F in ball arithmetic (interval.h) about the
-/// enclosed point o' + t0 d'. About a point near the surface the terms are
-/// of the surface's own size, not of the camera's distance to the power of
-/// the degree: clusters that the eye's expansion merges (its coefficients
-/// are sums of terms up to 10^9 on an octic seen from 10 units) separate in
-/// double. Some ten times primary_ray_polynomial's cost: for the ladder's
+/// expansion of each term of F in double about the enclosed point
+/// o' + t0 d', every product's and sum's rounding error carried exactly
+/// into a running radius (inflated once at the end for its own rounding),
+/// out.finite false where it overflows or t0 is not finite.
+/// About a point near the surface the terms are of the surface's own size,
+/// not of the camera's distance to the power of the degree: clusters that
+/// the eye's expansion merges (its coefficients are sums of terms up to 10^9
+/// on an octic seen from 10 units) separate in double. Some ten times primary_ray_polynomial's cost: for the ladder's
 /// pixels only.
 void rebased_ray_polynomial(const SurfaceSpec& s, const FramePlan::ObjectPlan& op, const double d[3], double t0,
                             RayCoefficients<double>& out);
