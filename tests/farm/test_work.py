@@ -123,6 +123,32 @@ def test_tile_files_round_trip_exactly(tmp_path):
 
 
 
+def test_a_window_chunk_of_like_tiles_is_stacked_and_reads_back_the_same(tmp_path):
+    """A window's figures-only tiles (every tile's meta and levels of one
+    shape) are stored stacked, a handful of arrays for the whole window,
+    and each frame reads back exactly its tiles' values, as many frames,
+    tiles and values as a window holds; arrays of another shape keep the
+    per-tile form."""
+    from argand.farm.store import unpack_arrays
+
+    rng = np.random.default_rng(7)
+    frames, tiles_of = (0, 3, 31), (0, 5, 63, 64)
+    tiles = {(f, t): {"meta": rng.integers(0, 2**40, 9).astype(np.int64),
+                      "levels": rng.integers(0, 4096, 8).astype(np.int64)} for f in frames for t in tiles_of}
+    store = FrameStore(tmp_path / "store")
+    store.write_window_chunk("job", "w-00000-stk", tiles)
+    raw = unpack_arrays((tmp_path / "store/jobs/job/tiles/window/w-00000-stk.chunk").read_bytes())
+    assert len(raw) == 3, sorted(raw)  # the rows, the metas, the levels
+    fresh = FrameStore(tmp_path / "store")  # (another process: nothing cached)
+    for f in (*frames, 7):
+        got = fresh.read_chunk("job", f, "w-00000-stk")
+        assert set(got) == (set(tiles_of) if f in frames else set())
+        for t, d in got.items():
+            assert set(d) == {"meta", "levels"}
+            for k in d:
+                assert d[k].dtype == np.int64 and np.array_equal(d[k], tiles[(f, t)][k]), (f, t, k)
+
+
 def test_a_window_chunk_holds_its_frames_tiles_and_gives_each_frame_its_own(tmp_path):
     """Figures-only tiles of a window's frames (files on request) go into one
     file; each frame reads back exactly its tiles, and a chunk nobody won is

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 import OpenImageIO as oiio
-from sqlalchemy import func, select, update
+from sqlalchemy import bindparam, func, select, update
 from sqlalchemy.exc import NoResultFound
 
 from argand.farm import derived
@@ -81,10 +81,13 @@ def maybe_assemble_many(settings: Settings, job_id: str, frames: list[tuple[int,
                if f in won}
     if figures:
         with engine_for(settings.sqlalchemy_url).begin() as c:
-            for f, fig in figures.items():
-                c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == f,
-                                              Frame.status == FRAME.step("assembling", "done"))
-                          .values(status="done", figures=fig, assembly_s=fig["assembly_s"], finished=time.time()))
+            # (One statement for the frames, executed for each: executemany.)
+            done = (update(Frame).where(Frame.job_id == job_id, Frame.index == bindparam("f"),
+                                        Frame.status == FRAME.step("assembling", "done"))
+                    .values(status="done", figures=bindparam("fig", type_=Frame.figures.type),
+                            assembly_s=bindparam("s"), finished=bindparam("at")))
+            now = time.time()
+            c.execute(done, [{"f": f, "fig": fig, "s": fig["assembly_s"], "at": now} for f, fig in figures.items()])
         store = store_for(settings)
         for f in figures:
             store.remove_tiles(job_id, f)

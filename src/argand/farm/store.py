@@ -51,6 +51,28 @@ def pack_buffers(arrays: dict[str, np.ndarray]) -> list:
     return [_MAGIC, struct.pack("<I", len(head)), head, *chunks]
 
 
+#: A stacked window chunk's names: the (frame, tile) rows, and each of the
+#: tiles' arrays stacked under _STACK + its name.
+_STACK = "stack/"
+_STACK_KEYS = "rows"  # (no "/": no tile's array name in either form)
+
+
+def _stacked(tiles: dict[tuple[int, int], dict[str, np.ndarray]]) -> dict[str, np.ndarray] | None:
+    """``tiles`` as stacked arrays (see FrameStore.write_window_chunk), or
+    None where their arrays differ in names, shapes or types."""
+    if not tiles:
+        return None
+    first = next(iter(tiles.values()))
+    form = [(k, a.dtype, a.shape) for k, a in first.items()]
+    for d in tiles.values():
+        if len(d) != len(form) or any(k not in d or d[k].dtype != dt or d[k].shape != sh for k, dt, sh in form):
+            return None
+    out = {_STACK_KEYS: np.array(list(tiles), np.int64).reshape(len(tiles), 2)}
+    for k, dt, sh in form:
+        out[_STACK + k] = np.stack([d[k] for d in tiles.values()]) if sh else np.array([d[k] for d in tiles.values()], dt)
+    return out
+
+
 def pack_arrays(arrays: dict[str, np.ndarray]) -> bytes:
     return b"".join(pack_buffers(arrays))
 
@@ -90,7 +112,7 @@ class FrameStore:
     def __init__(self, root: Path) -> None:
         self.root = Path(root)
         self.root.mkdir(parents=True, exist_ok=True)
-        self._windows: dict[Path, dict[int, dict[int, dict[str, np.ndarray]]]] = {}  # (_read_window)
+        self._windows: dict[tuple[str, str], tuple] = {}  # (_read_window)
 
     def job(self, job_id: str) -> JobLayout:
         return JobLayout(self.root, job_id)
@@ -117,38 +139,63 @@ class FrameStore:
     def write_window_chunk(self, job_id: str, name: str, tiles: dict[tuple[int, int], dict[str, np.ndarray]]) -> None:
         """The tiles of several frames of a window, {(frame, tile): arrays},
         in one file (``name`` a window chunk's: layout.is_window_chunk);
-        read_chunk gives each frame its own."""
+        read_chunk gives each frame its own. Tiles whose arrays agree in
+        names, shapes and types (a window's figures: every tile's meta and
+        levels) are stacked, one array per name and a key array of
+        (frame, tile) rows: a few buffers to write and read back, not two
+        small arrays a tile."""
         if not is_window_chunk(name):
             raise ValueError(f"a window chunk's name starts with w-, not {name!r}")
-        arrays = {f"{f}/{t}/{k}": a for (f, t), d in tiles.items() for k, a in d.items()}
-        self.write_atomic(self.job(job_id).chunk(0, name), pack_buffers(arrays))
+        path = self.job(job_id).chunk(0, name)
+        stacked = _stacked(tiles)
+        if stacked is None:
+            arrays = {f"{f}/{t}/{k}": a for (f, t), d in tiles.items() for k, a in d.items()}
+        else:
+            arrays = stacked
+        self.write_atomic(path, pack_buffers(arrays))
 
     def read_chunk(self, job_id: str, frame: int, name: str) -> dict[int, dict[str, np.ndarray]]:
         """Frame ``frame``'s tiles in chunk ``name`` (its own, or its part of
         a window chunk): {tile: arrays}."""
-        path = self.job(job_id).chunk(frame, name)
         if is_window_chunk(name):
-            return self._read_window(path).get(frame, {})
+            rows, names, columns = self._read_window(job_id, name)
+            return {t: {k: c[row] for k, c in zip(names, columns) if c[row] is not None}
+                    for t, row in rows.get(frame, {}).items()}
+        path = self.job(job_id).chunk(frame, name)
         out: dict[int, dict[str, np.ndarray]] = {}
         for key, a in unpack_arrays(path.read_bytes()).items():
             t, k = key.split("/", 1)
             out.setdefault(int(t), {})[k] = a
         return out
 
-    def _read_window(self, path: Path) -> dict[int, dict[int, dict[str, np.ndarray]]]:
-        """A window chunk, {frame: {tile: arrays}}, read once for the frames
-        an assembler finishes together (each of them reads every window
-        that holds its tiles; a chunk's name is never written twice, so its
-        content does not change while it exists)."""
-        cached = self._windows.get(path)
+    def _read_window(self, job_id: str, name: str) -> tuple[dict[int, dict[int, int]], list[str], list[np.ndarray]]:
+        """A window chunk as ({frame: {tile: row}}, names, stacked columns),
+        read once for the frames an assembler finishes together (each of
+        them reads every window that holds its tiles; a chunk's name is
+        never written twice, so its content does not change while it
+        exists). (A few objects per window, not a few per tile: a worker
+        keeps WINDOW_CACHE of them, and its garbage collector walks them.)"""
+        cached = self._windows.get((job_id, name))
         if cached is None:
-            cached = {}
-            for key, a in unpack_arrays(path.read_bytes()).items():
-                f, t, k = key.split("/", 2)
-                cached.setdefault(int(f), {}).setdefault(int(t), {})[k] = a
+            arrays = unpack_arrays(self.job(job_id).chunk(0, name).read_bytes())
+            keys = arrays.pop(_STACK_KEYS, None)
+            if keys is None:  # (a window of tiles that differ: stacked here)
+                by_tile: dict[tuple[int, int], dict[str, np.ndarray]] = {}
+                for key, a in arrays.items():
+                    f, t, k = key.split("/", 2)
+                    by_tile.setdefault((int(f), int(t)), {})[k] = a
+                names = sorted({k for d in by_tile.values() for k in d})
+                keys = np.array(list(by_tile), np.int64).reshape(len(by_tile), 2)
+                columns = [[d.get(k) for d in by_tile.values()] for k in names]
+            else:
+                names = [k[len(_STACK):] for k in arrays]
+                columns = list(arrays.values())
+            rows: dict[int, dict[int, int]] = {}
+            for row, (f, t) in enumerate(keys.tolist()):
+                rows.setdefault(f, {})[t] = row
             if len(self._windows) >= WINDOW_CACHE:
                 self._windows.pop(next(iter(self._windows)))
-            self._windows[path] = cached
+            cached = self._windows[(job_id, name)] = (rows, names, columns)
         return cached
 
     def discard_chunk(self, job_id: str, frame: int, name: str) -> None:

@@ -520,9 +520,15 @@ def _mark_window_done(c, pending: list[TileRun], name: str | None) -> tuple[dict
     if name:
         seconds = [sec for r in pending for sec in r.pending.values()]
         pairs = [(r.frame_index, i) for r in pending for i in r.pending]
+        frames = sorted({f for f, _ in pairs})
+        tiles = sorted({t for _, t in pairs})
+        # (The common window holds the same tiles of every frame: two plain
+        # IN lists then say it, cheaper to bind and to match than pairs.)
+        which = (Tile.frame_index.in_(frames), Tile.tile_index.in_(tiles)) \
+            if len(pairs) == len(frames) * len(tiles) else (tuple_(Tile.frame_index, Tile.tile_index).in_(pairs),)
         for f, t in c.execute(
             update(Tile)
-            .where(Tile.job_id == first.job_id, tuple_(Tile.frame_index, Tile.tile_index).in_(pairs),
+            .where(Tile.job_id == first.job_id, *which,
                    Tile.status == TILE.step("running", "done"), Tile.worker == first.worker)
             .values(status="done", seconds=sum(seconds) / len(seconds), renders=Tile.renders + 1, chunk=name)
             .returning(Tile.frame_index, Tile.tile_index)
