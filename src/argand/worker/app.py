@@ -38,6 +38,18 @@ def _one_core() -> None:
     oiio.attribute("exr_threads", 1)
 
 
+def _freeze_start_up() -> None:
+    """Moves what the worker holds once started (its modules, Celery,
+    SQLAlchemy, numpy: some hundred thousand objects) out of the garbage
+    collector's sight: they live as long as the process, and a full
+    collection walking them stalled a run by some 50-70 ms (measured: a
+    24-frame job's assembly). Cycles made later are collected as ever."""
+    import gc
+
+    gc.collect()
+    gc.freeze()
+
+
 def worker_argv(name: str) -> list[str]:
     """Celery's command line for a worker: quiet (no banner: `argand serve`
     prints the farm's own lines), one task at a time."""
@@ -62,6 +74,7 @@ def run_worker(settings: Settings, name: str) -> None:
 
     def ready(**_kwargs) -> None:
         _one_core()
+        _freeze_start_up()
         beat.start()
         watchdog.start()
         stall_check.start()
