@@ -59,9 +59,9 @@ def test_a_done_job_holds_no_picture_until_one_is_asked_for(lazy_farm):
     job = _job(lazy_farm, {"scene": "chmutov-octic", "deltas": {"start": 0, "stop": "pi/9", "count": 4}})
     folder = lazy_farm.data / "store" / "jobs" / job["id"]
     names = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
-    # The root field's tiles and each frame's figures: no PNG, thumbnail,
-    # EXR, GIF fragment or animation, and no tile's pixels left behind.
-    assert [n for n in names if not n.startswith("field/")] == [f"frame_{i:04d}.json" for i in range(4)], names
+    # The root field's tiles only: no PNG, thumbnail, EXR, JSON, GIF
+    # fragment or animation, and no tile's pixels left behind.
+    assert [n for n in names if not n.startswith("field/")] == [], names
     # The tiles' figures travelled in window chunks (one file for a
     # window's frames), gone with the job's end like every chunk.
     assert any(c.startswith("w-") for c in tile_rows(lazy_farm, job["id"], "chunk") if c), \
@@ -71,6 +71,15 @@ def test_a_done_job_holds_no_picture_until_one_is_asked_for(lazy_farm):
         local = render_frame(scene, FrameParams(sigma=fr["sigma"], delta=fr["delta"], width=W, height=H), tile=TILE)
         want = frame_figures(local)
         assert {k: fr["figures"][k] for k in COUNTED} == {k: want[k] for k in COUNTED}, fr["index"]
+        # The JSON on request: the figures and the index, as argand render
+        # writes them (without the farm's assembly times), then kept.
+        r = httpx.get(lazy_farm.url + fr["json_url"], timeout=60)
+        assert r.status_code == 200 and r.headers["content-type"] == "application/json", r.text[:200]
+        served = r.json()
+        assert set(served) == set(want) | {"index"}, sorted(set(served) ^ (set(want) | {"index"}))
+        assert served["index"] == fr["index"] and {k: served[k] for k in COUNTED} == {k: want[k] for k in COUNTED}
+        assert (served["sigma"], served["delta"]) == (fr["sigma"], fr["delta"])
+        assert (folder / f"frame_{fr['index']:04d}.json").read_bytes() == r.content
 
 
 def test_a_frames_files_are_the_local_render_s_and_are_kept(lazy_farm, tmp_path):
@@ -141,11 +150,13 @@ def test_a_frame_that_is_not_done_has_no_files(lazy_farm):
     waiting = [f for f in frames if f["status"] != "done"]
     assert waiting  # (24 octic frames do not finish between a submit and a pause)
     i = waiting[-1]["index"]
-    for path in (f"frames/{i}.png", f"frames/{i}/thumbnail.png", f"frames/{i}.exr", "animation.gif"):
+    for path in (f"frames/{i}.png", f"frames/{i}/thumbnail.png", f"frames/{i}.exr", f"frames/{i}.json",
+                 "animation.gif"):
         r = httpx.get(f"{lazy_farm.url}/api/jobs/{job_id}/{path}", timeout=30)
         assert r.status_code == 404 and "not ready" in r.json()["detail"], path
     assert not list((lazy_farm.data / "store" / "jobs" / job_id).glob(f"*_{i:04d}.png"))
     assert not (lazy_farm.data / "store" / "jobs" / job_id / f"frame_{i:04d}.exr").exists()
+    assert not (lazy_farm.data / "store" / "jobs" / job_id / f"frame_{i:04d}.json").exists()
     # (A frame the job does not have: 404 too.)
     assert httpx.get(f"{lazy_farm.url}/api/jobs/{job_id}/frames/99.exr", timeout=30).status_code == 404
     assert httpx.delete(f"{lazy_farm.url}/api/jobs/{job_id}", timeout=30).status_code == 204

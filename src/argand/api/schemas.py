@@ -167,6 +167,7 @@ class FrameBrief(BaseModel):
                         "shows the job's state (canceled, paused, failed)")
     png_url: str | None
     exr_url: str | None
+    json_url: str | None = Field(description="The frame's figures as a file (frame_NNNN.json, as argand render writes it)")
     thumbnail_url: str | None
     finished: float | None
 
@@ -236,6 +237,7 @@ class JobPage(BaseModel):
 def _urls(base: str, index: int, done: bool) -> dict:
     return {"png_url": f"{base}/frames/{index}.png" if done else None,
             "exr_url": f"{base}/frames/{index}.exr" if done else None,
+            "json_url": f"{base}/frames/{index}.json" if done else None,
             "thumbnail_url": f"{base}/frames/{index}/thumbnail.png" if done else None}
 
 

@@ -223,7 +223,7 @@ def bench_bands(out_dir: Path = Path("docs/bench"), smoke: bool = False,
     report["band_route"] = [bench_band_route(name, size, 4 if smoke else 40)
                             for name in ("bicube", "whitney", "chmutov-octic")]
     progress(f"bands: the farm, a {frames}-frame job against a 1-frame job")
-    report["farm"] = bench_farm_frames(size, frames, 1 if smoke else 3)
+    report["farm"] = bench_farm_frames(size, frames, 1 if smoke else 5)
     (out_dir / "bands.json").write_text(json.dumps(report, indent=2) + "\n")
     (out_dir / "bands.md").write_text("\n".join(markdown(report)) + "\n")
     chart(report, out_dir / "bands.png")

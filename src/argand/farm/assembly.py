@@ -2,10 +2,11 @@
 
 The commit that completes a frame elects its assembler (compare-and-set on
 the frame's state); assembly is idempotent. With Settings.files_on_request
-(the default) it adds up the tiles' figures and writes the frame's JSON:
-every picture file (PNG, thumbnail, EXR) and the animation are made on
-their first request from the job's root field (argand.farm.derived), so no
-encoding stands between the last tile and the job's end. Otherwise it
+(the default) it adds up the tiles' figures into the frame's row: every
+file of the frame (PNG, thumbnail, EXR, JSON) and the animation are made
+on their first request (argand.farm.derived; the pictures from the job's
+root field, the JSON from the row), so no encoding and no file stands
+between the last tile and the job's end. Otherwise it
 writes the frame's EXR (unless exr_on_request), PNG, thumbnail and GIF
 fragment from the workers' tiles, and the frame that completes the job
 splices the animation from the fragments (argand.media.gif). The WebP, the
@@ -37,7 +38,7 @@ from argand.render.options import EngineOptions
 from argand.render.frames import AOV_CHANNELS, INTERLEAVED_CHANNELS, STATUS_NAMES, FrameParams, FrameResult, frame_figures
 from argand.frames.frame_set import FrameSet, FramePoint
 from argand.media.atomic import atomic_path
-from argand.media.frame_files import frame_file_name, frame_json, to_srgb8, write_frame
+from argand.media.frame_files import to_srgb8, write_frame
 from argand.media.video import Mp4Encoder
 
 
@@ -159,7 +160,8 @@ def _write_files(settings: Settings, store: FrameStore, layout: JobLayout, index
 def _frames_known(settings: Settings, job_id: str, frames: list[int]) -> dict:
     """What assembling ``frames`` of a job reads from the database, in four
     queries for all of them: the job's row, each frame's (σ, δ), the sum of
-    its tiles' render seconds and its tiles' chunk names."""
+    its tiles' render seconds and its tiles' chunk names; and the job's
+    tiles' rectangles and engine options."""
     with engine_for(settings.sqlalchemy_url).connect() as c:
         job = c.execute(select(Job.width, Job.height, Job.tile, Job.method, Job.scene, Job.engine)
                         .where(Job.id == job_id)).one()
@@ -174,7 +176,9 @@ def _frames_known(settings: Settings, job_id: str, frames: list[int]) -> dict:
     missing = set(frames) - set(bands)
     if missing:
         raise NoResultFound(f"job {job_id} has no frame {min(missing)}")
-    return {"job": job, "bands": bands, "seconds": seconds, "chunks": chunks}
+    # (What every frame of the job shares, made once for all of them.)
+    return {"job": job, "bands": bands, "seconds": seconds, "chunks": chunks,
+            "rects": tile_rects(job.width, job.height, job.tile), "engine": EngineOptions.from_stored(job.engine)}
 
 
 def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dict[int, Any] | None = None,
@@ -193,11 +197,11 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
     sigma, delta = known["bands"][frame_index]
     if seconds is None:
         seconds = known["seconds"].get(frame_index, 0.0)
-    rects = tile_rects(job.width, job.height, job.tile)
+    rects = known["rects"]
     chunks = {} if len(local) == len(rects) else known["chunks"].get(frame_index, {})
     w, h = job.width, job.height
     params = FrameParams(sigma=sigma, delta=delta, width=w, height=h, method=job.method, samples=samples_of(job.scene),
-                         engine=EngineOptions.from_stored(job.engine))
+                         engine=known["engine"])
     layout = store.job(job_id)
     lazy = settings.files_on_request
     if lazy:
@@ -211,8 +215,7 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
                              levels=levels)
         result.figures = frame_figures(result)
         t_encode = time.perf_counter()
-        store.write_atomic(store.prepare(layout.folder / frame_file_name(frame_index, "json")),
-                           frame_json(result, frame_index))
+        # (Its JSON too is written on its first request: derived.frame_file.)
     else:
         px = frame_px if frame_px is not None else np.empty((h, w, len(INTERLEAVED_CHANNELS)), np.float32)
         escalations, calls, stats, _levels = _gather(store, job_id, frame_index, rects, local, chunks, frame_px, px)
@@ -223,7 +226,7 @@ def assemble_frame(settings: Settings, job_id: str, frame_index: int, local: dic
         _write_files(settings, store, layout, frame_index, result, px)
     t_end = time.perf_counter()
     # Where the assembler's time went (argand bench farm reports it).
-    figures = dict(result.figures, assembly_s=t_end - t_start, encode_s=t_end - t_encode)
+    figures = dict(result.figures, assembly_s=t_end - t_start, encode_s=t_end - t_encode)  # (derived.ASSEMBLY_FIGURES)
     if commit:
         with engine_for(settings.sqlalchemy_url).begin() as c:
             c.execute(update(Frame).where(Frame.job_id == job_id, Frame.index == frame_index,

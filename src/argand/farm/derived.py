@@ -6,8 +6,9 @@ encoded between the last tile and the job's end. A frame's PNG, thumbnail
 and EXR are written when first asked for, the frame decided again from the
 job's root field (argand.farm.bands.render_band: the job's scene, size,
 method, samples, tiling and engine options, the roots read from the field),
-which gives the bits the workers rendered; the animation and the atlas are
-then made from those files. Each file is written once (one lock per frame,
+which gives the bits the workers rendered; its JSON (the figures, as
+`argand render` writes them) from the frame's row; the animation and the
+atlas are then made from those files. Each file is written once (one lock per frame,
 atomic renames), whole or not at all, and served from the store afterwards.
 
 With files_on_request False the assembler writes a frame's PNG, thumbnail
@@ -29,7 +30,7 @@ from argand.farm.models import Frame, Job
 from argand.farm.planning import samples_of
 from argand.farm.settings import Settings
 from argand.farm.store import FrameStore, store_for
-from argand.media.frame_files import to_srgb8, write_exr, write_png
+from argand.media.frame_files import figures_json, to_srgb8, write_exr, write_png
 from argand.render.frames import FrameParams
 from argand.render.options import EngineOptions
 from argand.scene import scene_from_dict
@@ -37,8 +38,13 @@ from argand.scene import scene_from_dict
 #: The thumbnail keeps every step-th pixel, step = max(width, height) // THUMBNAIL_SIZE.
 THUMBNAIL_SIZE = 160
 
+#: What a farm's frame figures add to a frame's own (frame_figures): where
+#: the assembler's time went (argand bench farm reports it). The frame's
+#: JSON file leaves them out, as `argand render` writes it.
+ASSEMBLY_FIGURES = ("assembly_s", "encode_s")
+
 #: The files of a frame made here.
-KINDS = ("png", "thumbnail", "exr")
+KINDS = ("png", "thumbnail", "exr", "json")
 
 _locks = KeyedLocks()  # one decision per frame when its first requests come together
 
@@ -55,18 +61,19 @@ def write_pictures(store: FrameStore, layout: JobLayout, index: int, srgb: np.nd
 def path_of(layout: JobLayout, index: int, kind: str) -> Path:
     if kind == "thumbnail":
         return layout.thumbnail(index)
-    if kind in ("png", "exr"):
+    if kind in ("png", "exr", "json"):
         return layout.frame(index, kind)
     raise ValueError(f"a derived frame file is one of {', '.join(KINDS)}, not {kind!r}")
 
 
 def frame_file(settings: Settings, job_id: str, index: int, kind: str) -> Path | None:
-    """The path of frame ``index``'s file ``kind`` (png, thumbnail, exr),
-    written now if it is not yet: the frame decided again from the job's
-    root field, the frame the workers rendered, to the bit. A PNG request
-    writes the thumbnail too, and the other way round (one decision, two
-    cheap files); the EXR (some 100 ms to encode at 512x512) only when asked
-    for. None while the frame is not done (or there is no such frame)."""
+    """The path of frame ``index``'s file ``kind`` (png, thumbnail, exr,
+    json), written now if it is not yet: the frame decided again from the
+    job's root field, the frame the workers rendered, to the bit. A PNG
+    request writes the thumbnail too, and the other way round (one
+    decision, two cheap files); the EXR (some 100 ms to encode at 512x512)
+    only when asked for; the JSON from the frame's figures. None while the
+    frame is not done (or there is no such frame)."""
     store = store_for(settings)
     layout = store.job(job_id)
     path = path_of(layout, index, kind)
@@ -75,10 +82,14 @@ def frame_file(settings: Settings, job_id: str, index: int, kind: str) -> Path |
     with engine_for(settings.sqlalchemy_url).connect() as c:
         job = c.execute(select(Job.scene, Job.width, Job.height, Job.method, Job.tile, Job.engine)
                         .where(Job.id == job_id)).first()
-        frame = c.execute(select(Frame.status, Frame.sigma, Frame.delta)
+        frame = c.execute(select(Frame.status, Frame.sigma, Frame.delta, Frame.figures)
                           .where(Frame.job_id == job_id, Frame.index == index)).first()
     if job is None or frame is None or frame.status != "done":
         return None
+    if kind == "json":  # (the frame's figures, without the farm's own: nothing to decide)
+        figures = {k: v for k, v in (frame.figures or {}).items() if k not in ASSEMBLY_FIGURES}
+        store.write_atomic(store.prepare(path), figures_json(figures, index))
+        return path
     with _locks.hold((settings.sqlalchemy_url, job_id, index)):
         if path.exists():
             return path

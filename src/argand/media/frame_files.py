@@ -183,7 +183,12 @@ def frame_file_name(index: int, kind: str) -> str:
 
 def frame_json(result: FrameResult, index: int) -> bytes:
     """frame_NNNN.json: the frame's figures and its index."""
-    return (json.dumps(dict(result.figures, index=index), indent=2) + "\n").encode()
+    return figures_json(result.figures, index)
+
+
+def figures_json(figures: dict, index: int) -> bytes:
+    """frame_NNNN.json of a frame with these figures (frame_figures) and index."""
+    return (json.dumps(dict(figures, index=index), indent=2) + "\n").encode()
 
 
 def write_frame(result: FrameResult, out_dir: Path, index: int, exr: np.ndarray | None = None,

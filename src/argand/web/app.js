@@ -380,7 +380,7 @@ async function jobPage(id) {
     view.querySelector("#show-mp4").hidden = !j.mp4_url;
     view.querySelector("#downloads").replaceChildren(h(finished.length ? `${j.animation_url ? `<p><a id="gif" href="${j.animation_url}" download>animation.gif</a> · <a id="webp" href="${j.webp_url}" download>animation.webp</a> · <a id="mp4" href="${j.mp4_url}" download>animation.mp4</a></p>` : ""}
         ${j.atlas_url ? `<p><a id="atlas-png" href="${j.atlas_url}" target="_blank">atlas.png</a> (the grid, labelled)</p>` : ""}
-        <details id="frame-files"${j.status === "done" ? "" : " open"}><summary>${finished.length} of ${j.frames.length} frames</summary>${finished.map((f) => `<div>${f.index} (σ ${sigmaOf(j, f)}, δ ${deltaOf(j, f)}): <a href="${f.png_url}" download>PNG</a> <a href="${f.exr_url}" download>EXR</a></div>`).join("")}</details>`
+        <details id="frame-files"${j.status === "done" ? "" : " open"}><summary>${finished.length} of ${j.frames.length} frames</summary>${finished.map((f) => `<div>${f.index} (σ ${sigmaOf(j, f)}, δ ${deltaOf(j, f)}): <a href="${f.png_url}" download>PNG</a> <a href="${f.exr_url}" download>EXR</a> <a href="${f.json_url}" download>JSON</a></div>`).join("")}</details>`
       : `No frame is done yet.`));
     show(Math.min(current, j.frames.length - 1));
     fit();  // what is above the picture, or the σ slider, may have changed

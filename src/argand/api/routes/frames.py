@@ -47,8 +47,8 @@ def frames_page(job_id: JobIdDep, s: SessionDep, page: int = Query(1, ge=1, le=M
 
 
 def _derived(settings, job_id: str, index: int, kind: str) -> Path:
-    """The frame's file ``kind`` (png, thumbnail, exr), written now from
-    the job's root field if it is not yet (argand.farm.derived.frame_file);
+    """The frame's file ``kind`` (png, thumbnail, exr, json), written now
+    (from the job's root field, or its row) if it is not yet (argand.farm.derived.frame_file);
     404 while the frame is not done."""
     path = frame_file(settings, job_id, index, kind)
     if path is None:
@@ -73,6 +73,13 @@ def frame_exr_file(job_id: JobIdDep, index: int, settings: SettingsDep):
     request (decided from the job's root field, the very pixels the workers
     rendered) and kept."""
     return FileResponse(_exr(settings, job_id, index), media_type="image/x-exr")
+
+
+@router.get("/frames/{index}.json", **binary("application/json", "The frame's figures (frame_NNNN.json)"))
+def frame_json_file(job_id: JobIdDep, index: int, settings: SettingsDep):
+    """The frame's figures as `argand render` writes them (frame_NNNN.json:
+    the frame's figures and index), written on its first request and kept."""
+    return FileResponse(_derived(settings, job_id, index, "json"), media_type="application/json")
 
 
 @router.get("/frames/{index}/thumbnail.png", **binary("image/png", "A small copy of the frame's PNG"))
