@@ -28,6 +28,21 @@ RUN_BANDS_FIGURES = 32
 RUN_BANDS_PIXELS = 8
 
 
+_RESOLVED: dict[tuple[str, str], Path] = {}
+
+
+def _resolved(path: Path) -> Path:
+    """path.resolve(), remembered per path (and working folder, for a
+    relative one): every database URL and store path is made from the data
+    folder, and resolving it (a system call per component) took some 3% of a
+    worker's time. (A data folder is not moved under a running farm.)"""
+    key = (str(path), "" if path.is_absolute() else os.getcwd())
+    found = _RESOLVED.get(key)
+    if found is None:
+        found = _RESOLVED[key] = path.resolve()
+    return found
+
+
 class Settings(BaseSettings):
     model_config = SettingsConfigDict(env_prefix="ARGAND_", extra="ignore")
 
@@ -176,7 +191,7 @@ class Settings(BaseSettings):
 
     @property
     def data_path(self) -> Path:
-        return self.data_dir.resolve()
+        return _resolved(self.data_dir)
 
     @property
     def redis_socket(self) -> Path:

@@ -171,13 +171,11 @@ def claim_siblings(settings: Settings, job_id: str, frame_index: int, tiles: lis
         return {}
     with engine_for(settings.sqlalchemy_url).begin() as c:
         now = clock(c)  # the reaper compares a tile's start with its own reading of this clock
-        frames = c.execute(select(Frame.index).where(Frame.job_id == job_id, Frame.index > frame_index)
-                           .order_by(Frame.index).limit(settings.run_bands - 1)).scalars().all()
-        if not frames:
-            return {}
+        # (A job's frames are numbered 0..n-1: the next ones are a range.)
         rows = c.execute(
             update(Tile)
-            .where(Tile.job_id == job_id, Tile.frame_index.in_(frames), Tile.tile_index.in_(tiles),
+            .where(Tile.job_id == job_id, Tile.frame_index > frame_index,
+                   Tile.frame_index < frame_index + settings.run_bands, Tile.tile_index.in_(tiles),
                    Tile.status.in_(TILE.sources("running")))
             .values(status="running", worker=worker, started=now, attempts=Tile.attempts + 1,
                     waited=None if sent_at is None else max(0.0, now - sent_at))
