@@ -126,3 +126,53 @@ def test_a_worker_whose_consumer_stalled_while_messages_wait_stops_itself(farm_p
     assert not ended_within(1.0)  # a message waits, but the worker is busy
     stall_check.TASKS.update(running=False, at=time.monotonic())
     assert ended_within(3.0)  # idle while a message waits
+
+
+def test_a_window_run_whose_tiles_went_to_another_worker_writes_and_counts_none_of_them(farm_parts, monkeypatch):
+    """A run of a window of frames (figures only, one chunk for the window)
+    frozen while the reaper gives its tiles away: the other worker renders
+    and commits them; the stale run, back, marks none of them done, writes no
+    chunk, and every frame's figures are the local render's, each tile
+    counted once."""
+    from argand.farm.models import Frame
+    from argand.render.frames import frame_figures
+
+    settings, _redis = farm_parts
+    settings = settings.model_copy(update={"bands_per_run": 4, "files_on_request": True})
+    deltas = [0.0, 0.2, 0.5, 0.9]
+    job_id = submit(settings, "whitney", deltas, 64, 64, 16)
+    real = tile_work.render_tile_bands_into
+    calls = []
+
+    def freeze_on_the_third_tile(plans, rect, outs, record=None):
+        calls.append(rect)
+        if len(calls) == 3:
+            monkeypatch.setattr(tile_work, "render_tile_bands_into", real)
+            declare_dead(settings, "stale")
+            Reaper(settings).round()
+            assert tile_work.run_tiles(settings, job_id, 0, list(range(8)), "fresh") == "rendered"
+            monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze_on_the_third_tile)
+        return real(plans, rect, outs, record)
+
+    heartbeat(settings, "stale", 1)
+    monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze_on_the_third_tile)
+    monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)  # the stale run holds its tiles uncommitted
+    tile_work.run_tiles(settings, job_id, 0, list(range(8)), "stale")
+    assert len(calls) == 8  # (the job went on: the stale run rendered its tiles, and lost them)
+    with session_scope(settings.sqlalchemy_url) as s:
+        tiles = s.query(Tile).filter(Tile.job_id == job_id, Tile.tile_index < 8).all()
+        assert len(tiles) == 32 and {(t.status, t.worker, t.renders) for t in tiles} == {("done", "fresh", 1)}
+        assert not s.query(Tile).filter(Tile.job_id == job_id, Tile.worker == "stale").count()
+        mine = {t.chunk for t in tiles}
+    chunks = [f for f in files_of(settings, job_id) if f.endswith(".chunk")]
+    assert {c.rsplit("/", 1)[-1][:-len(".chunk")] for c in chunks} == mine, (chunks, mine)  # none of the stale run's
+    assert tile_work.run_tiles(settings, job_id, 0, list(range(8, 16)), "fresh") == "rendered"
+    with session_scope(settings.sqlalchemy_url) as s:
+        assert s.get(Job, job_id).status == "done"
+        figures = {f.index: f.figures for f in s.query(Frame).filter(Frame.job_id == job_id)}
+        assert {(t.status, t.renders) for t in s.query(Tile).filter(Tile.job_id == job_id)} == {("done", 1)}
+    for i, delta in enumerate(deltas):
+        want = frame_figures(render_frame(load_scene("whitney"), FrameParams(delta=delta, width=64, height=64), tile=16,
+                                          workers=1))
+        for key in ("status_shares", "hit_share", "escalations", "escalation_levels", "root_calls"):
+            assert figures[i][key] == want[key], (i, key)
