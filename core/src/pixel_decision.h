@@ -481,10 +481,20 @@ ClassifyPlan classify_plan(const FramePlan& plan, bool complex_space, double cli
 /// share): whoever changes any of them clears `groups`.
 struct ClassifyMemo {
     static constexpr int kDiscs = 12;  // (kBatchKernelMaxDegree: a batch's discs at most)
-    std::uint8_t groups = 0;           // bit k: group k (discs 4k..4k+3) is held
+    /// In `groups`: twin_* hold a verdict of the twins test.
+    static constexpr std::uint8_t kTwinsHeld = 0x80;
+    std::uint8_t groups = 0;           // bit k: group k (discs 4k..4k+3) is held; kTwinsHeld
     std::uint8_t mod_ok[kDiscs / 4], c_in[kDiscs / 4], c_out[kDiscs / 4];
     double lo[kDiscs], hi[kDiscs];
+    /// Whether every disc of twin_blockers holds exactly the conjugate of
+    /// disc twin_best's root (Decider::blockers_are_twins: it reads the
+    /// discs alone, and the bands of a sweep mostly ask it of the same pair).
+    std::uint64_t twin_blockers = 0;
+    std::int32_t twin_best = -1;
+    bool twins = false;
 };
+static_assert(ClassifyMemo::kDiscs / 4 < 8 && ClassifyMemo::kTwinsHeld >> (ClassifyMemo::kDiscs / 4) != 0,
+              "ClassifyMemo: kTwinsHeld is not a group's bit");
 
 /// The verdicts of discs[0..n) (n <= kMaxDegree), all verified and of a
 /// complete polynomial: for each disc, exactly band_fast_verified, then

@@ -98,10 +98,25 @@ public:
         classify_(discs, r.res.n_discs, classify_plans_[0], r.ray, v, r.res.memo);
         if (v.best < 0) return v.live == 0;  // (a live disc blocks the miss)
         if (discs[v.best].count > 1) return false;  // a cluster chosen
-        if (v.blockers != 0 && !blockers_are_twins(discs, r.res.n_discs, v.best, v.blockers)) return false;
+        if (v.blockers != 0 && !twins(r.res.memo, discs, r.res.n_discs, v.best, v.blockers)) return false;
         best = v.best;
         eligible = v.count;
         return true;
+    }
+
+    /// blockers_are_twins, through the sample's memo where it has one: the
+    /// bands of a tile share it, and ask it mostly of the same best disc
+    /// and blockers (a conjugate pair, in every band that holds them both).
+    static bool twins(detail::ClassifyMemo* memo, const RootDisc* discs, int n, int best, std::uint64_t blockers) {
+        if (memo == nullptr) return blockers_are_twins(discs, n, best, blockers);
+        if ((memo->groups & detail::ClassifyMemo::kTwinsHeld) && memo->twin_best == best &&
+            memo->twin_blockers == blockers)
+            return memo->twins;
+        memo->twins = blockers_are_twins(discs, n, best, blockers);
+        memo->twin_best = best;
+        memo->twin_blockers = blockers;
+        memo->groups |= detail::ClassifyMemo::kTwinsHeld;
+        return memo->twins;
     }
 
     /// h shows disc `index` of object `object` (decide_fast and decide_full).
