@@ -136,3 +136,42 @@ def test_an_error_or_a_pause_gives_back_every_frames_unrendered_tiles(farm_parts
     assert tile_work.run_tiles(settings, job_id, 0, list(range(9)), "w2") == "rendered"
     assert {v[:2] for v in _tiles(settings, job_id).values()} == {("done", 1)}
     _frames_equal_local(settings, job_id, "bicube", DELTAS[:3], 48, 16)
+
+
+def test_a_window_chunk_the_store_refuses_marks_no_tile_done_and_leaves_no_file(farm_parts, monkeypatch):  # noqa: F811
+    """The window's commit marks its tiles done and writes their chunk in one
+    transaction: a store that refuses chunks (a full disk) rolls the marking
+    back, so no tile points at a chunk that is not there, the job fails
+    saying the store cannot be written, no tile stays running or counted,
+    and a retry once the store takes writes again finishes it, every frame
+    the local render's."""
+    import errno
+
+    from argand.farm.store import FrameStore
+
+    settings, redis_server = farm_parts
+    settings = settings.model_copy(update={"bands_per_run": 4, "files_on_request": True})
+    job_id = submit(settings, "whitney", DELTAS, 48, 48, 16)
+    real = FrameStore.write_atomic
+
+    def full(self, path, data):
+        if str(path).endswith(".chunk"):
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        return real(self, path, data)
+
+    monkeypatch.setattr(FrameStore, "write_atomic", full)
+    with pytest.raises(OSError):  # (part of each frame: a whole one commits with its assembly, no chunk)
+        tile_work.run_tiles(settings, job_id, 0, list(range(5)), "w1")
+    tiles = _tiles(settings, job_id)
+    assert {v[:2] for v in tiles.values()} == {("queued", 0)}, tiles
+    with session_scope(settings.sqlalchemy_url) as s:
+        job = s.get(Job, job_id)
+        assert job.status == "failed" and job.error.startswith("the store cannot be written ("), job.error
+        assert [f.tiles_done for f in s.query(Frame).filter(Frame.job_id == job_id)] == [0] * len(DELTAS)
+    assert not list((settings.store_path / "jobs").rglob("*.chunk"))
+    monkeypatch.setattr(FrameStore, "write_atomic", real)
+    assert control.set_job_status(settings, job_id, "retry") in ("queued", "running")
+    for f in (0, 4):
+        assert tile_work.run_tiles(settings, job_id, f, list(range(9)), "w2") == "rendered"
+    assert {v[:2] for v in _tiles(settings, job_id).values()} == {("done", 1)}
+    _frames_equal_local(settings, job_id, "whitney", DELTAS, 48, 16)

@@ -472,26 +472,35 @@ def _commit_all(runs: list[TileRun]) -> None:
     written: list[int] = []  # the frames whose chunk file is written (one for a window)
     ACTIVITY["writing"] = True  # the watchdog does not end the process between the writes and their outcome
     try:
-        with engine_for(settings.sqlalchemy_url).begin() as c:
-            # The tiles this worker still holds become done (a tile the
-            # reaper gave to another worker while this one was frozen or cut
-            # off is theirs), then their arrays are written, before the
-            # transaction commits: a tile done points at a whole chunk, and a
-            # stale worker writes nothing into a job that went on without it.
-            won, rows = _mark_window_done(c, pending, name)
-            if window and any(won.values()):
-                written.append(first.frame_index)
-                store.write_window_chunk(job_id, name, {(f, i): _tile_arrays(local[f][i])
-                                                        for f, tiles in won.items() for i in tiles})
-            elif not window:
-                for f, tiles in won.items():
-                    if tiles:
-                        written.append(f)
-                        store.write_chunk(job_id, f, name, {i: _tile_arrays(local[f][i]) for i in tiles})
-    except BaseException:
-        for f in written:  # (the transaction did not commit: no tile points at them)
-            store.discard_chunk(job_id, f, name)
-        raise
+        with engine_for(settings.sqlalchemy_url).connect() as c:
+            transaction = c.begin()
+            try:
+                # The tiles this worker still holds become done (a tile the
+                # reaper gave to another worker while this one was frozen or
+                # cut off is theirs), then their arrays are written, before
+                # the transaction commits: a tile done points at a whole
+                # chunk, and a stale worker writes nothing into a job that
+                # went on without it.
+                won, rows = _mark_window_done(c, pending, name)
+                if window and any(won.values()):
+                    written.append(first.frame_index)
+                    store.write_window_chunk(job_id, name, {(f, i): _tile_arrays(local[f][i])
+                                                            for f, tiles in won.items() for i in tiles})
+                elif not window:
+                    for f, tiles in won.items():
+                        if tiles:
+                            written.append(f)
+                            store.write_chunk(job_id, f, name, {i: _tile_arrays(local[f][i]) for i in tiles})
+            except BaseException:
+                try:
+                    transaction.rollback()
+                finally:
+                    for f in written:  # (rolled back: no tile points at them)
+                        store.discard_chunk(job_id, f, name)
+                raise
+            # (A commit that fails may still have committed: its chunk
+            # stays, and goes with the job's tiles at its end.)
+            transaction.commit()
     finally:
         ACTIVITY["writing"] = False
     for r in pending:
