@@ -458,7 +458,6 @@ def _commit_all(runs: list[TileRun]) -> None:
         return
     first = pending[0]
     settings, job_id = first.settings, first.job_id
-    store = store_for(settings)
     # One chunk name for the window, one statement for every tile, one per
     # distinct count for the frames. Tiles without pixels (files on
     # request: their figures only) go into one window chunk for all the
@@ -468,39 +467,9 @@ def _commit_all(runs: list[TileRun]) -> None:
     window = all(r.local[i][0] is None for r in pending for i in r.pending)
     if window:
         name = WINDOW_PREFIX + name
-    local = {r.frame_index: r.local for r in pending}
-    written: list[int] = []  # the frames whose chunk file is written (one for a window)
     ACTIVITY["writing"] = True  # the watchdog does not end the process between the writes and their outcome
     try:
-        with engine_for(settings.sqlalchemy_url).connect() as c:
-            transaction = c.begin()
-            try:
-                # The tiles this worker still holds become done (a tile the
-                # reaper gave to another worker while this one was frozen or
-                # cut off is theirs), then their arrays are written, before
-                # the transaction commits: a tile done points at a whole
-                # chunk, and a stale worker writes nothing into a job that
-                # went on without it.
-                won, rows = _mark_window_done(c, pending, name)
-                if window and any(won.values()):
-                    written.append(first.frame_index)
-                    store.write_window_chunk(job_id, name, {(f, i): _tile_arrays(local[f][i])
-                                                            for f, tiles in won.items() for i in tiles})
-                elif not window:
-                    for f, tiles in won.items():
-                        if tiles:
-                            written.append(f)
-                            store.write_chunk(job_id, f, name, {i: _tile_arrays(local[f][i]) for i in tiles})
-            except BaseException:
-                try:
-                    transaction.rollback()
-                finally:
-                    for f in written:  # (rolled back: no tile points at them)
-                        store.discard_chunk(job_id, f, name)
-                raise
-            # (A commit that fails may still have committed: its chunk
-            # stays, and goes with the job's tiles at its end.)
-            transaction.commit()
+        won, rows = _mark_and_write(settings, pending, name, window)
     finally:
         ACTIVITY["writing"] = False
     for r in pending:
@@ -510,6 +479,43 @@ def _commit_all(runs: list[TileRun]) -> None:
         ACTIVITY["done"] += len(won[r.frame_index])
         r.done, r.total = row.tiles_done, row.tiles_total
         r.pending = {}
+
+
+def _mark_and_write(settings: Settings, pending: list[TileRun], name: str, window: bool) -> tuple[dict, dict]:
+    """_commit_all's transaction: the tiles this worker still holds become
+    done (a tile the reaper gave to another worker while this one was
+    frozen or cut off is theirs), then their arrays are written, before the
+    transaction commits: a tile done points at a whole chunk, and a stale
+    worker writes nothing into a job that went on without it. A write that
+    fails rolls the marking back and removes what was written. Returns
+    _mark_window_done's (won, rows)."""
+    store, job_id = store_for(settings), pending[0].job_id
+    local = {r.frame_index: r.local for r in pending}
+    written: list[int] = []  # the frames whose chunk file is written (one for a window)
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        transaction = c.begin()
+        try:
+            won, rows = _mark_window_done(c, pending, name)
+            if window and any(won.values()):
+                written.append(pending[0].frame_index)
+                store.write_window_chunk(job_id, name, {(f, i): _tile_arrays(local[f][i])
+                                                        for f, tiles in won.items() for i in tiles})
+            elif not window:
+                for f, tiles in won.items():
+                    if tiles:
+                        written.append(f)
+                        store.write_chunk(job_id, f, name, {i: _tile_arrays(local[f][i]) for i in tiles})
+        except BaseException:
+            try:
+                transaction.rollback()
+            finally:
+                for f in written:  # (rolled back: no tile points at them)
+                    store.discard_chunk(job_id, f, name)
+            raise
+        # (A commit that fails may still have committed: its chunk stays,
+        # and goes with the job's tiles at its end.)
+        transaction.commit()
+    return won, rows
 
 
 def _mark_window_done(c, pending: list[TileRun], name: str | None) -> tuple[dict[int, list[int]], dict[int, Any]]:
