@@ -139,9 +139,8 @@ def test_an_error_or_a_pause_gives_back_every_frames_unrendered_tiles(farm_parts
 
 
 def test_a_window_chunk_the_store_refuses_marks_no_tile_done_and_leaves_no_file(farm_parts, monkeypatch):  # noqa: F811
-    """The window's commit marks its tiles done and writes their chunk in one
-    transaction: a store that refuses chunks (a full disk) rolls the marking
-    back, so no tile points at a chunk that is not there, the job fails
+    """A store that refuses the window's chunk (a full disk): no tile is
+    marked done, so none points at a chunk that is not there, the job fails
     saying the store cannot be written, no tile stays running or counted,
     and a retry once the store takes writes again finishes it, every frame
     the local render's."""

@@ -27,27 +27,35 @@ def files_of(settings, job_id: str) -> list[str]:
     return sorted(str(p.relative_to(folder)) for p in folder.rglob("*")) if folder.exists() else []
 
 
-def test_a_worker_frozen_past_reassignment_writes_nothing_into_the_finished_job(farm_parts, monkeypatch):
-    settings, _redis = farm_parts
-    job_id = submit(settings, "steiner", [0.0], 64, 64, 16)
+def freeze_on_the_third_tile(monkeypatch, settings, job_id: str, tiles: list[int], wait: float = 0.0) -> list:
+    """Worker "stale" (heartbeat sent) freezes at its third tile: its
+    heartbeats stop, the reaper gives its tiles to another worker, "fresh",
+    which renders ``tiles`` of frame 0 (and their window); after ``wait``
+    seconds, SIGCONT. Returns the stale worker's renders (their tile
+    rectangles), filled as they come."""
     real = tile_work.render_tile_bands_into
     calls = []
 
-    def freeze_on_the_third_tile(plans, rect, outs, record=None):
+    def freeze(plans, rect, outs, record=None):
         calls.append(rect)
         if len(calls) == 3:
-            # Frozen: its heartbeats stop, the reaper gives its tiles to
-            # another worker, which finishes the job; then SIGCONT.
             monkeypatch.setattr(tile_work, "render_tile_bands_into", real)
             declare_dead(settings, "stale")
             Reaper(settings).round()
-            assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "fresh") == "rendered"
-            time.sleep(2 * tile_work.STOP_CHECK_S)
-            monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze_on_the_third_tile)
+            assert tile_work.run_tiles(settings, job_id, 0, tiles, "fresh") == "rendered"
+            time.sleep(wait)
+            monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze)
         return real(plans, rect, outs, record)
 
     heartbeat(settings, "stale", 1)
-    monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze_on_the_third_tile)
+    monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze)
+    return calls
+
+
+def test_a_worker_frozen_past_reassignment_writes_nothing_into_the_finished_job(farm_parts, monkeypatch):
+    settings, _redis = farm_parts
+    job_id = submit(settings, "steiner", [0.0], 64, 64, 16)
+    calls = freeze_on_the_third_tile(monkeypatch, settings, job_id, list(range(16)), 2 * tile_work.STOP_CHECK_S)
     monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)  # the stale worker holds its tiles uncommitted
     assert tile_work.run_tiles(settings, job_id, 0, list(range(16)), "stale") == "done"
     assert len(calls) == 3  # it stopped at its next check: the job is done
@@ -141,21 +149,7 @@ def test_a_window_run_whose_tiles_went_to_another_worker_writes_and_counts_none_
     settings = settings.model_copy(update={"bands_per_run": 4, "files_on_request": True})
     deltas = [0.0, 0.2, 0.5, 0.9]
     job_id = submit(settings, "whitney", deltas, 64, 64, 16)
-    real = tile_work.render_tile_bands_into
-    calls = []
-
-    def freeze_on_the_third_tile(plans, rect, outs, record=None):
-        calls.append(rect)
-        if len(calls) == 3:
-            monkeypatch.setattr(tile_work, "render_tile_bands_into", real)
-            declare_dead(settings, "stale")
-            Reaper(settings).round()
-            assert tile_work.run_tiles(settings, job_id, 0, list(range(8)), "fresh") == "rendered"
-            monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze_on_the_third_tile)
-        return real(plans, rect, outs, record)
-
-    heartbeat(settings, "stale", 1)
-    monkeypatch.setattr(tile_work, "render_tile_bands_into", freeze_on_the_third_tile)
+    calls = freeze_on_the_third_tile(monkeypatch, settings, job_id, list(range(8)))
     monkeypatch.setattr(tile_work, "COMMIT_INTERVAL_S", 1e9)  # the stale run holds its tiles uncommitted
     tile_work.run_tiles(settings, job_id, 0, list(range(8)), "stale")
     assert len(calls) == 8  # (the job went on: the stale run rendered its tiles, and lost them)

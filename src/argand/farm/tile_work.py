@@ -446,10 +446,11 @@ def _whole_frame_here(run: TileRun, stopped: str | None) -> bool:
 
 def _commit_all(runs: list[TileRun]) -> None:
     """_complete for several runs of one job (a window's frames, the same
-    tiles) at once: one transaction that marks the tiles this worker still
-    holds done and adds them to their frames' counters, and writes their
-    window chunk (a chunk file per frame where the tiles keep pixels)
-    before it commits. Raises _Gone when the job was deleted."""
+    tiles) at once: one query for the tiles this worker still holds, one
+    window chunk for their figures (a chunk file per frame where the tiles
+    keep pixels), and one transaction that marks them done and adds them to
+    their frames' counters; a chunk that lost its race is removed. Raises
+    _Gone when the job was deleted."""
     pending = [r for r in runs if r.pending]
     if not pending:
         return
@@ -457,19 +458,42 @@ def _commit_all(runs: list[TileRun]) -> None:
         pending[0].commit()
         return
     first = pending[0]
-    settings, job_id = first.settings, first.job_id
+    settings, job_id, worker = first.settings, first.job_id, first.worker
+    with engine_for(settings.sqlalchemy_url).connect() as c:
+        held = set(map(tuple, c.execute(select(Tile.frame_index, Tile.tile_index).where(
+            Tile.job_id == job_id, Tile.frame_index.in_([r.frame_index for r in pending]), Tile.status == "running",
+            Tile.worker == worker)).all()))
+    for r in pending:
+        r.pending = {i: sec for i, sec in r.pending.items() if (r.frame_index, i) in held}
+    store = store_for(settings)
     # One chunk name for the window, one statement for every tile, one per
     # distinct count for the frames. Tiles without pixels (files on
     # request: their figures only) go into one window chunk for all the
     # frames; tiles with pixels into a file in each frame's folder, which
     # goes once that frame is assembled.
-    name = f"{min(min(r.pending) for r in pending):05d}-{uuid.uuid4().hex[:10]}"
-    window = all(r.local[i][0] is None for r in pending for i in r.pending)
+    name = f"{min(min(r.pending) for r in pending if r.pending):05d}-{uuid.uuid4().hex[:10]}" \
+        if any(r.pending for r in pending) else None
+    window = name is not None and all(r.local[i][0] is None for r in pending for i in r.pending)
     if window:
         name = WINDOW_PREFIX + name
     ACTIVITY["writing"] = True  # the watchdog does not end the process between the writes and their outcome
     try:
-        won, rows = _mark_and_write(settings, pending, name, window)
+        if window:
+            store.write_window_chunk(job_id, name, {(r.frame_index, i): _tile_arrays(r.local[i])
+                                                    for r in pending for i in r.pending})
+        else:
+            for r in pending:
+                if r.pending:
+                    store.write_chunk(job_id, r.frame_index, name, {i: _tile_arrays(r.local[i]) for i in r.pending})
+        with engine_for(settings.sqlalchemy_url).begin() as c:
+            won, rows = _mark_window_done(c, pending, name)
+        if window:
+            if not any(won.values()):  # (a frame that won some tile reads its part)
+                store.discard_chunk(job_id, pending[0].frame_index, name)
+        else:
+            for r in pending:
+                if r.pending and not won[r.frame_index]:
+                    store.discard_chunk(job_id, r.frame_index, name)
     finally:
         ACTIVITY["writing"] = False
     for r in pending:
@@ -479,43 +503,6 @@ def _commit_all(runs: list[TileRun]) -> None:
         ACTIVITY["done"] += len(won[r.frame_index])
         r.done, r.total = row.tiles_done, row.tiles_total
         r.pending = {}
-
-
-def _mark_and_write(settings: Settings, pending: list[TileRun], name: str, window: bool) -> tuple[dict, dict]:
-    """_commit_all's transaction: the tiles this worker still holds become
-    done (a tile the reaper gave to another worker while this one was
-    frozen or cut off is theirs), then their arrays are written, before the
-    transaction commits: a tile done points at a whole chunk, and a stale
-    worker writes nothing into a job that went on without it. A write that
-    fails rolls the marking back and removes what was written. Returns
-    _mark_window_done's (won, rows)."""
-    store, job_id = store_for(settings), pending[0].job_id
-    local = {r.frame_index: r.local for r in pending}
-    written: list[int] = []  # the frames whose chunk file is written (one for a window)
-    with engine_for(settings.sqlalchemy_url).connect() as c:
-        transaction = c.begin()
-        try:
-            won, rows = _mark_window_done(c, pending, name)
-            if window and any(won.values()):
-                written.append(pending[0].frame_index)
-                store.write_window_chunk(job_id, name, {(f, i): _tile_arrays(local[f][i])
-                                                        for f, tiles in won.items() for i in tiles})
-            elif not window:
-                for f, tiles in won.items():
-                    if tiles:
-                        written.append(f)
-                        store.write_chunk(job_id, f, name, {i: _tile_arrays(local[f][i]) for i in tiles})
-        except BaseException:
-            try:
-                transaction.rollback()
-            finally:
-                for f in written:  # (rolled back: no tile points at them)
-                    store.discard_chunk(job_id, f, name)
-            raise
-        # (A commit that fails may still have committed: its chunk stays,
-        # and goes with the job's tiles at its end.)
-        transaction.commit()
-    return won, rows
 
 
 def _mark_window_done(c, pending: list[TileRun], name: str | None) -> tuple[dict[int, list[int]], dict[int, Any]]:
