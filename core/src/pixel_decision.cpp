@@ -336,45 +336,57 @@ bool classify_discs_avx2_supported() { return __builtin_cpu_supports("avx2"); }
 // fails each side); 0 + p^2 = p^2 (p^2 is never -0).
 namespace {
 
-/// One group of four discs (p[0..3], discs g..g+3; kNone past the end).
-ARGAND_AVX2 __attribute__((always_inline)) inline void classify_group(const RootDisc* p0, const RootDisc* p1,
-                                                                     const RootDisc* p2, const RootDisc* p3, int g,
-                                                                     const ClassifyPlan& cp, const ObjectRay& ray,
-                                                                     DiscVerdicts& v, ClassifyMemo* memo,
-                                                                     std::uint64_t& fallback, __m256d& lo_out,
-                                                                     __m256d& hi_out, __m256d& live_out,
-                                                                     __m256d& eligible_out, int& ones_out) {
-    constexpr double kU = kUnitRoundoff;
-    const BandPlan& bp = cp.band;
-    const __m256d zero = _mm256_setzero_pd(), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+/// What band_of reads of four discs besides the band (group_discs):
+/// their centres' re and |im|, radii, and the band-independent masks.
+struct GroupDiscs {
+    __m256d re, im, r, are, aim, valid, real, single_unflagged, positive, misses_zero, mirror;
+};
+
+ARGAND_AVX2 __attribute__((always_inline)) inline void group_discs(const RootDisc* p0, const RootDisc* p1,
+                                                                  const RootDisc* p2, const RootDisc* p3,
+                                                                  GroupDiscs& g) {
+    const __m256d zero = _mm256_setzero_pd();
     const __m256d sign = _mm256_set1_pd(-0.0);
     // Four discs, transposed.
     const __m256d D0 = _mm256_loadu_pd(&p0->re), D1 = _mm256_loadu_pd(&p1->re), D2 = _mm256_loadu_pd(&p2->re),
                   D3 = _mm256_loadu_pd(&p3->re);
     const __m256d t0 = _mm256_unpacklo_pd(D0, D1), t1 = _mm256_unpackhi_pd(D0, D1);
     const __m256d t2 = _mm256_unpacklo_pd(D2, D3), t3 = _mm256_unpackhi_pd(D2, D3);
-    const __m256d re = _mm256_permute2f128_pd(t0, t2, 0x20), r = _mm256_permute2f128_pd(t0, t2, 0x31);
-    const __m256d im = _mm256_permute2f128_pd(t1, t3, 0x20);
+    g.re = _mm256_permute2f128_pd(t0, t2, 0x20);
+    g.r = _mm256_permute2f128_pd(t0, t2, 0x31);
+    g.im = _mm256_permute2f128_pd(t1, t3, 0x20);
     const __m256i fl = _mm256_castpd_si256(_mm256_permute2f128_pd(t1, t3, 0x31));
     // count (the low 32 bits) > 0; count 1 and real (byte 5) set; count 1
     // and real clear (bytes 4, verified, and 6-7, padding, masked).
     const __m256d counted =
         _mm256_castsi256_pd(_mm256_shuffle_epi32(_mm256_cmpgt_epi32(fl, _mm256_setzero_si256()), 0xA0));
     const __m256i count_real = _mm256_and_si256(fl, _mm256_set1_epi64x(0x0000FF00FFFFFFFFLL));
-    const __m256d real = _mm256_castsi256_pd(_mm256_cmpeq_epi64(count_real, _mm256_set1_epi64x(0x0000010000000001LL)));
-    const __m256d single_unflagged = _mm256_castsi256_pd(_mm256_cmpeq_epi64(count_real, _mm256_set1_epi64x(1)));
-    const __m256d are = _mm256_andnot_pd(sign, re), aim = _mm256_andnot_pd(sign, im);
+    g.real = _mm256_castsi256_pd(_mm256_cmpeq_epi64(count_real, _mm256_set1_epi64x(0x0000010000000001LL)));
+    g.single_unflagged = _mm256_castsi256_pd(_mm256_cmpeq_epi64(count_real, _mm256_set1_epi64x(1)));
+    g.are = _mm256_andnot_pd(sign, g.re);
+    g.aim = _mm256_andnot_pd(sign, g.im);
     // The exact root 0: re, im and radius all +-0 (their bits or'ed, the
     // signs of re and im cleared, is +-0 exactly then).
-    const __m256d at_origin = _mm256_cmp_pd(v_or(v_or(are, aim), r), zero, _CMP_EQ_OQ);
-    const __m256d valid = v_andnot(at_origin, counted);
+    const __m256d at_origin = _mm256_cmp_pd(v_or(v_or(g.are, g.aim), g.r), zero, _CMP_EQ_OQ);
+    g.valid = v_andnot(at_origin, counted);
     // band_fast_verified: count 1 and flagged real: band_fast(real); count
     // 1, not flagged, |im| <= r: the mirror test (the reference); otherwise
     // band_fast(not real).
-    __m256d band_fb = v_and(single_unflagged, _mm256_cmp_pd(aim, r, _CMP_LE_OQ));
-    const __m256d misses_zero = v_or(v_gt(are, r), v_gt(aim, r));  // (else: modulus_down, the reference)
-    const __m256d positive = v_gt(re, zero);
-    __m256d yes, no;
+    g.mirror = v_and(g.single_unflagged, _mm256_cmp_pd(g.aim, g.r, _CMP_LE_OQ));
+    g.misses_zero = v_or(v_gt(g.are, g.r), v_gt(g.aim, g.r));  // (else: modulus_down, the reference)
+    g.positive = v_gt(g.re, zero);
+}
+
+/// The band part of classify_group: each lane's band verdicts (yes, no,
+/// band_fb: the reference's band test needed) from group_discs; nothing
+/// else of classify_group reads the band.
+ARGAND_AVX2 __attribute__((always_inline)) inline void band_of(const GroupDiscs& g, const BandPlan& bp, __m256d& yes,
+                                                               __m256d& no, __m256d& band_fb) {
+    const __m256d zero = _mm256_setzero_pd(), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    const __m256d sign = _mm256_set1_pd(-0.0);
+    const __m256d re = g.re, r = g.r, are = g.are, aim = g.aim, real = g.real, misses_zero = g.misses_zero,
+                  positive = g.positive;
+    band_fb = g.mirror;
     if (bp.axis) {
         const __m256d real_decided = v_and(real, misses_zero);
         band_fb = v_or(band_fb, v_andnot(misses_zero, real));
@@ -399,13 +411,46 @@ ARGAND_AVX2 __attribute__((always_inline)) inline void classify_group(const Root
         no = v_or(no, v_andnot(real, out));
         band_fb = v_or(band_fb, v_andnot(real, v_andnot(v_or(in, out), all)));
     }
+}
+
+/// A group's band verdicts as a key of ClassifyMemo::band.
+ARGAND_AVX2 __attribute__((always_inline)) inline std::uint16_t band_key_of(__m256d yes, __m256d no, __m256d band_fb) {
+    return static_cast<std::uint16_t>(_mm256_movemask_pd(yes) | _mm256_movemask_pd(no) << 4 |
+                                      _mm256_movemask_pd(band_fb) << 8);
+}
+
+/// One group of four discs (p[0..3], discs g..g+3; kNone past the end).
+/// `band_key` (classify_four's): the lanes' band verdicts as a key of
+/// ClassifyMemo::band; true, with nothing written, where `memo` holds the
+/// verdicts of that key already.
+ARGAND_AVX2 __attribute__((always_inline)) inline bool classify_group(const RootDisc* p0, const RootDisc* p1,
+                                                                     const RootDisc* p2, const RootDisc* p3, int g,
+                                                                     const ClassifyPlan& cp, const ObjectRay& ray,
+                                                                     DiscVerdicts& v, ClassifyMemo* memo,
+                                                                     std::uint64_t& fallback, __m256d& lo_out,
+                                                                     __m256d& hi_out, __m256d& live_out,
+                                                                     __m256d& eligible_out, int& ones_out,
+                                                                     std::uint16_t* band_key = nullptr) {
+    constexpr double kU = kUnitRoundoff;
+    const __m256d zero = _mm256_setzero_pd(), all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    GroupDiscs gd;
+    group_discs(p0, p1, p2, p3, gd);
+    __m256d yes, no, band_fb;
+    band_of(gd, cp.band, yes, no, band_fb);
+    const __m256d re = gd.re, im = gd.im, r = gd.r, valid = gd.valid, real = gd.real,
+                  single_unflagged = gd.single_unflagged;
+    // Below, the band enters only through yes, no and band_fb.
+    if (band_key != nullptr) {
+        *band_key = band_key_of(yes, no, band_fb);
+        if (memo && (memo->groups & ClassifyMemo::kBandHeld) && memo->band_key == *band_key) return true;
+    }
     // A lane not proven out of the band needs its moduli and sphere.
     const __m256d needs = v_and(valid, v_andnot(v_or(no, band_fb), all));
     if (_mm256_movemask_pd(needs) == 0) {
         fallback |= static_cast<std::uint64_t>(_mm256_movemask_pd(v_and(valid, band_fb))) << g;
         lo_out = hi_out = live_out = eligible_out = zero;
         ones_out = 0;
-        return;
+        return false;
     }
     // The moduli and the sphere's first test read only the discs, the ray
     // and the sphere (no band): held in the memo where another band of
@@ -474,6 +519,7 @@ ARGAND_AVX2 __attribute__((always_inline)) inline void classify_group(const Root
     v.live |= static_cast<std::uint64_t>(_mm256_movemask_pd(live)) << g;
     v.eligible |= static_cast<std::uint64_t>(_mm256_movemask_pd(eligible)) << g;
     fallback |= static_cast<std::uint64_t>(_mm256_movemask_pd(fb)) << g;
+    return false;
 }
 
 }  // namespace
@@ -488,6 +534,24 @@ __attribute__((noinline)) void classify_fallback(const RootDisc* discs, int n, c
         classify_disc(discs, n, __builtin_ctzll(fallback), cp, ray, sums, v);
 }
 
+/// classify_four's verdicts `v` (lanes lo, hi) of band verdicts `key`, kept
+/// in `memo` for the sample's other bands.
+ARGAND_AVX2 inline void keep_band(ClassifyMemo* memo, std::uint16_t key, const DiscVerdicts& v, __m256d lo,
+                                  __m256d hi) {
+    if (memo == nullptr) return;
+    ClassifyMemo::Band& b = memo->band;
+    b.live = v.live;
+    b.eligible = v.eligible;
+    b.blockers = v.blockers;
+    b.best = v.best;
+    b.count = v.count;
+    _mm256_storeu_pd(b.lo, lo);
+    _mm256_storeu_pd(b.hi, hi);
+    b.decision = -1;
+    memo->band_key = key;
+    memo->groups |= ClassifyMemo::kBandHeld;
+}
+
 /// Four discs (the common case: every degree-4 polynomial), straight.
 ARGAND_AVX2 __attribute__((noinline)) void classify_four(const RootDisc* discs, const ClassifyPlan& cp,
                                                          const ObjectRay& ray, DiscVerdicts& v, ClassifyMemo* memo) {
@@ -495,8 +559,22 @@ ARGAND_AVX2 __attribute__((noinline)) void classify_four(const RootDisc* discs, 
     std::uint64_t fallback = 0;
     __m256d lo, hi, live, eligible;
     int ones;
-    classify_group(discs, discs + 1, discs + 2, discs + 3, 0, cp, ray, v, memo, fallback, lo, hi, live, eligible, ones);
-    if (fallback != 0) {
+    std::uint16_t key;
+    if (classify_group(discs, discs + 1, discs + 2, discs + 3, 0, cp, ray, v, memo, fallback, lo, hi, live, eligible,
+                       ones, &key)) {
+        // Another band of this sample had these band verdicts: its verdicts.
+        const ClassifyMemo::Band& b = memo->band;
+        v.live = b.live;
+        v.eligible = b.eligible;
+        v.blockers = b.blockers;
+        v.best = b.best;
+        v.count = b.count;
+        _mm256_storeu_pd(v.lo, _mm256_loadu_pd(b.lo));
+        _mm256_storeu_pd(v.hi, _mm256_loadu_pd(b.hi));
+        return;
+    }
+    if (fallback != 0) {  // (the reference's verdicts read the band itself: not kept)
+        if (memo) memo->groups &= static_cast<std::uint8_t>(~ClassifyMemo::kBandHeld);  // (held: this band's)
         classify_fallback(discs, 4, cp, ray, v, fallback);
         finish_choice(discs, v);
         return;
@@ -509,7 +587,10 @@ ARGAND_AVX2 __attribute__((noinline)) void classify_four(const RootDisc* discs, 
     v.count = 0;
     v.blockers = 0;
     std::uint64_t m = v.eligible;
-    if (m == 0) return;
+    if (m == 0) {
+        keep_band(memo, key, v, lo, hi);
+        return;
+    }
     __m256d least = _mm256_blendv_pd(_mm256_set1_pd(INFINITY), hi, eligible);
     least = _mm256_min_pd(least, _mm256_permute2f128_pd(least, least, 1));
     least = _mm256_min_pd(least, _mm256_permute_pd(least, 0x5));
@@ -524,6 +605,7 @@ ARGAND_AVX2 __attribute__((noinline)) void classify_four(const RootDisc* discs, 
         for (; m != 0; m &= m - 1) count += discs[__builtin_ctzll(m)].count;
         v.count = count;
     }
+    keep_band(memo, key, v, lo, hi);
 }
 
 }  // namespace
@@ -556,6 +638,16 @@ ARGAND_AVX2 __attribute__((noinline)) void classify_any(const RootDisc* discs, i
 
 }  // namespace
 
+ARGAND_AVX2 void band_keys_four(const RootDisc* discs, const ClassifyPlan* const* plans, int n, std::uint16_t* keys) {
+    GroupDiscs g;
+    group_discs(discs, discs + 1, discs + 2, discs + 3, g);
+    for (int k = 0; k < n; ++k) {
+        __m256d yes, no, band_fb;
+        band_of(g, plans[k]->band, yes, no, band_fb);
+        keys[k] = band_key_of(yes, no, band_fb);
+    }
+}
+
 void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v,
                          ClassifyMemo* memo) {
     static_assert(sizeof(RootDisc) == 32 && offsetof(RootDisc, re) == 0 && offsetof(RootDisc, im) == 8 &&
@@ -569,6 +661,9 @@ void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, c
 
 #else
 bool classify_discs_avx2_supported() { return false; }
+void band_keys_four(const RootDisc*, const ClassifyPlan* const*, int n, std::uint16_t* keys) {
+    for (int k = 0; k < n; ++k) keys[k] = 0;
+}
 void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v,
                          ClassifyMemo*) {
     classify_discs_scalar(discs, n, cp, ray, v);

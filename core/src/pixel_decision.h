@@ -492,9 +492,28 @@ struct ClassifyMemo {
     std::uint64_t twin_blockers = 0;
     std::int32_t twin_best = -1;
     bool twins = false;
+    /// In `groups`: `band` holds the verdicts of four discs (n = 4) for the
+    /// band verdicts `band_key` (each lane's band Yes, No and undecided, as
+    /// three 4-bit masks). Past the band's own tests, classify_four reads
+    /// only those masks and what this memo holds for every band, so a band
+    /// of this sample with the same masks has the same verdicts, bit for
+    /// bit: the bands of a sweep mostly share them (a root's argument moves
+    /// in or out of a band at one band's edge, not at every band's).
+    static constexpr std::uint8_t kBandHeld = 0x40;
+    std::uint16_t band_key = 0;
+    struct Band {
+        std::uint64_t live, eligible, blockers;
+        std::int32_t best, count;
+        double lo[4], hi[4];
+        /// Decider::decide_one_counted's answer from these verdicts: -1 not
+        /// made yet, 0 undecided, 1 a proven miss, 2 a proven hit.
+        std::int8_t decision;
+    } band;
 };
-static_assert(ClassifyMemo::kDiscs / 4 < 8 && ClassifyMemo::kTwinsHeld >> (ClassifyMemo::kDiscs / 4) != 0,
-              "ClassifyMemo: kTwinsHeld is not a group's bit");
+static_assert(ClassifyMemo::kDiscs / 4 < 6 && ClassifyMemo::kTwinsHeld >> (ClassifyMemo::kDiscs / 4) != 0 &&
+                  ClassifyMemo::kBandHeld >> (ClassifyMemo::kDiscs / 4) != 0 &&
+                  (ClassifyMemo::kBandHeld & ClassifyMemo::kTwinsHeld) == 0,
+              "ClassifyMemo: kTwinsHeld or kBandHeld is a group's bit");
 
 /// The verdicts of discs[0..n) (n <= kMaxDegree), all verified and of a
 /// complete polynomial: for each disc, exactly band_fast_verified, then
@@ -518,6 +537,12 @@ void classify_discs_scalar(const RootDisc* discs, int n, const ClassifyPlan& cp,
 void classify_discs_avx2(const RootDisc* discs, int n, const ClassifyPlan& cp, const ObjectRay& ray, DiscVerdicts& v,
                          ClassifyMemo* memo = nullptr);
 bool classify_discs_avx2_supported();
+/// The band verdicts of four discs under the bands of plans[0..n) as
+/// classify_discs_avx2 keys them in ClassifyMemo::band (the same tests, the
+/// same bits): keys[k] for plans[k]. For a caller that asks whether a
+/// band's verdicts are the memo's before classifying; the discs are read
+/// once for every band. Only where classify_discs_avx2_supported().
+void band_keys_four(const RootDisc* discs, const ClassifyPlan* const* plans, int n, std::uint16_t* keys);
 /// The fastest supported form (`scalar`: the scalar one).
 ClassifyDiscs classify_discs_best(bool scalar = false);
 

@@ -18,7 +18,8 @@ import pytest
 from argand.core import _core
 from argand.render import FrameParams, render_frame
 from argand.render.convert import to_core_scene
-from argand.render.frames import AOV_CHANNELS, DOUBLE_DOUBLE_LEVEL, REBASED_LEVEL, plan, render_bands, render_frames
+from argand.render.frames import (AOV_CHANNELS, DOUBLE_DOUBLE_LEVEL, REBASED_LEVEL, delta_sweep, plan, render_bands,
+                                  render_frames)
 from argand.render.options import EngineOptions
 from argand.scene import load_scene, scene_from_dict
 from argand.scene.presets import PRESETS
@@ -58,7 +59,7 @@ def test_every_preset_together_equals_alone(name):
 
 @pytest.mark.parametrize("kernel", ["scalar", "auto"])
 @pytest.mark.parametrize("family", FAMILIES)
-@pytest.mark.parametrize("degree", [2, 3, 5, 8, 12])
+@pytest.mark.parametrize("degree", [2, 3, 4, 5, 8, 12])
 def test_random_surfaces_together_equal_alone(family, degree, kernel):
     scene = random_scene(family, degree, seed=degree * 7 + 1)
     params = [FrameParams(sigma=s, delta=d, width=23, height=19, engine=EngineOptions(kernel=kernel))
@@ -195,9 +196,37 @@ def test_a_bands_figures_without_its_pixels_are_the_rendered_ones(name, samples)
 
 
 @pytest.mark.parametrize("family", FAMILIES)
-@pytest.mark.parametrize("degree", [2, 5, 8, 12])
+@pytest.mark.parametrize("degree", [2, 4, 5, 8, 12])
 def test_a_bands_figures_without_its_pixels_on_random_surfaces(family, degree):
     """The same on random surfaces of degree 2 to 12 (clusters, the ladder
     and the exact tier among their pixels), every band of BANDS."""
     scene = to_core_scene(random_scene(family, degree, seed=degree * 31 + 7))
     figures_without_pixels_are_the_rendered_ones(scene, 1, BANDS, size=(32, 24))
+
+
+#: Sweeps of close bands: most bands of a sample share every disc's band
+#: verdicts with the band before (a root's argument crosses one band's edge,
+#: not every band's), and four discs' verdicts are then taken from the
+#: sample's memo (ClassifyMemo::band) instead of being made again.
+CLOSE_SWEEPS = (
+    [(0.0, d) for d in delta_sweep(0.0, math.pi / 9, 24)],
+    [(0.05 * k, 0.25) for k in range(20)],
+    [(0.3, d) for d in delta_sweep(0.0, 0.8, 16)],
+    [(s, d) for s in (0.0, 0.2, 0.7, 1.5) for d in (0.0, 0.1, 0.3, 0.9)],
+)
+
+
+@pytest.mark.parametrize("kernel", ["scalar", "auto"])
+@pytest.mark.parametrize("family", FAMILIES)
+@pytest.mark.parametrize("sweep", range(len(CLOSE_SWEEPS)))
+def test_close_bands_of_quartics_together_equal_alone(family, sweep, kernel):
+    """Quartic rays (four discs, the memo's case) in sweeps of close bands:
+    every band rendered together is the lone frame's bits, and its figures
+    without pixels are the rendered ones, on random surfaces of each family
+    (three seeds) and two tile sizes."""
+    for seed in range(3):
+        scene = random_scene(family, 4, seed=100 * sweep + seed)
+        params = [FrameParams(sigma=s, delta=d, width=29, height=23, engine=EngineOptions(kernel=kernel))
+                  for s, d in CLOSE_SWEEPS[sweep]]
+        compare(scene, params, tile=8 if seed % 2 else 16)
+        figures_without_pixels_are_the_rendered_ones(to_core_scene(scene), 1, CLOSE_SWEEPS[sweep], size=(32, 24))

@@ -104,6 +104,39 @@ public:
         return true;
     }
 
+    /// Whether decide_one_keyed decides the roots `r` of a sample: four
+    /// discs of the batch (with their ClassifyMemo), classified by the form
+    /// that keeps ClassifyMemo::band, and none of the band-independent
+    /// reasons decide_one_verdict returns before classifying.
+    bool keyable(const ObjectRoots& r) const {
+        return r.res.memo != nullptr && r.res.n_discs == 4 && classify_ == detail::classify_discs_avx2 &&
+               r.status == Status::Ok && r.complete && !r.outside_sphere;
+    }
+    /// The band and sphere constants of object 0 (detail::band_keys_four's plans).
+    const detail::ClassifyPlan* object_plan() const { return &classify_plans_[0]; }
+
+    /// decide_one_verdict for a band counted, not written (Tracer::
+    /// decide_counted) of roots that are keyable, `key` their discs' band
+    /// verdicts under this band (detail::band_keys_four): true where it
+    /// decides, with `hit` (best >= 0). Where the sample's memo holds the
+    /// answer of another band with the same verdicts (ClassifyMemo::band),
+    /// that answer: past those verdicts decide_one_verdict reads only the
+    /// discs, the ray and the memo, so it is the one it would make.
+    bool decide_one_keyed(const ObjectRoots* roots, std::uint16_t key, bool& hit) const {
+        detail::ClassifyMemo* memo = roots[0].res.memo;
+        if ((memo->groups & detail::ClassifyMemo::kBandHeld) && memo->band.decision >= 0 && memo->band_key == key) {
+            hit = memo->band.decision == 2;
+            return memo->band.decision != 0;
+        }
+        int best, eligible;
+        const bool decided = decide_one_verdict(roots, best, eligible);
+        hit = best >= 0;
+        // (classify_four holds kBandHeld after its call only for this band's verdicts.)
+        if (memo->groups & detail::ClassifyMemo::kBandHeld)
+            memo->band.decision = static_cast<std::int8_t>(decided ? (hit ? 2 : 1) : 0);
+        return decided;
+    }
+
     /// blockers_are_twins, through the sample's memo where it has one: the
     /// bands of a tile share it, and ask it mostly of the same best disc
     /// and blockers (a conjugate pair, in every band that holds them both).

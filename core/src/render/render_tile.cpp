@@ -123,6 +123,95 @@ void reset_figures(TileView& out, int w, int h) {
     std::fill(std::begin(out.by_level), std::end(out.by_level), 0);
 }
 
+/// The bands counted, not written, of a one-object scene the batch solves,
+/// one sample per pixel, no bounce (Tracer::decide_counted), in the order
+/// of the tile's bands: each sample is decided for all of them before the
+/// bands' loop (decide_counted_run; the answers read only the sample's
+/// roots and its memos, so their order changes none), and a band's loop
+/// then takes only the samples they left undecided, in its own order.
+struct CountedBands {
+    /// `active`: the tile's samples take this path (else no band is counted here).
+    CountedBands(std::vector<std::unique_ptr<BandTrace>>& bands, bool active) {
+        for (std::size_t b = 0; b < bands.size() && active; ++b)
+            if (bands[b]->out.rgba == nullptr) {
+                of.push_back(static_cast<int>(b));
+                trace.push_back(bands[b].get());
+                plans.push_back(bands[b]->tracer.counted_plan());
+            }
+        keys.resize(of.size());
+        decided.resize(of.size());
+        counts.resize(of.size());
+    }
+    /// What write_single adds to a band's figures for the certified samples
+    /// intersect_batched gives, counted here and added once (flush).
+    struct Counts {
+        std::uint64_t decided = 0, tier = 0, hits = 0, calls = 0;
+    };
+    std::vector<int> of;  // the counted bands' indices among the tile's
+    std::vector<BandTrace*> trace;
+    std::vector<const detail::ClassifyPlan*> plans;  // (band_keys_four's)
+    std::vector<std::uint16_t> keys;
+    std::vector<std::uint64_t> decided;  // per counted band: bit c, sample c of the run decided
+    std::vector<Counts> counts;
+
+    /// Adds the counts to the bands' figures (before their root calls are read).
+    void flush() {
+        static_assert(kLevelRootTier > kLevelFirst, "a root-tier level counts as an escalation");
+        for (std::size_t k = 0; k < of.size(); ++k) {
+            const Counts& n = counts[k];
+            TileView& out = trace[k]->out;
+            out.escalations += static_cast<std::int64_t>(n.tier);
+            out.by_status[kCertified & 3] += static_cast<std::int64_t>(n.decided);
+            out.by_level[kLevelFirst & 7] += static_cast<std::int64_t>(n.decided - n.tier);
+            out.by_level[kLevelRootTier & 7] += static_cast<std::int64_t>(n.tier);
+            out.hits += static_cast<std::int64_t>(n.hits);
+            trace[k]->tracer.root_calls += static_cast<std::int64_t>(n.calls);
+            counts[k] = Counts{};
+        }
+    }
+};
+
+/// The counted bands' decisions of a run of `cells` samples: each sample's
+/// roots filled once (`shared`), then decided for every counted band, in
+/// order, and bit c of cb.decided[k] set where band k decides. Four discs
+/// are read once for all the bands' verdicts (band_keys_four); a band whose
+/// verdicts are the band before's takes its answer, and one whose verdicts
+/// the sample's memo holds takes that (Decider::decide_one_keyed): past
+/// those verdicts a decision reads only the discs, the ray and the memo.
+void decide_counted_run(PrimaryBatch& batch, int cells, std::vector<ObjectRoots>& shared, CountedBands& cb) {
+    const int n = static_cast<int>(cb.of.size());
+    std::fill(cb.decided.begin(), cb.decided.end(), 0);
+    for (int c = 0; c < cells; ++c) {
+        ObjectRoots& r = shared[c];
+        batch.fill(0, c, r, false);
+        r.have_dd = false;
+        const bool keyed = cb.trace[0]->tracer.counted_keyable(r);
+        if (keyed) detail::band_keys_four(r.res.discs, cb.plans.data(), n, cb.keys.data());
+        const bool tier = Tracer::counted_level(r) != kLevelFirst;
+        const bool call = !r.outside_sphere;
+        const std::uint16_t* keys = cb.keys.data();
+        std::uint64_t* decided = cb.decided.data();
+        CountedBands::Counts* counts = cb.counts.data();
+        const std::uint64_t bit = std::uint64_t{1} << c;
+        int last_key = -1;  // (the band before's verdicts, and its answer)
+        bool ok = false, hit = false;
+        for (int k = 0; k < n; ++k) {
+            if (!keyed || keys[k] != last_key) {
+                Tracer& t = cb.trace[k]->tracer;
+                ok = keyed ? t.decide_counted_keyed(r, keys[k], hit) : t.decide_counted(r, hit);
+                last_key = keyed ? keys[k] : -1;
+            }
+            if (!ok) continue;
+            decided[k] |= bit;
+            CountedBands::Counts& m = counts[k];
+            ++m.decided;
+            m.tier += tier;
+            m.hits += hit;
+            m.calls += call;
+        }
+    }
+}
+
 /// Traces the tile r of every band of `plans` (same rays: same_rays) into
 /// `outs`. The primary rays' batched roots do not depend on the band
 /// (PrimaryBatch::solve reads the scene, the camera, the method and the
@@ -188,7 +277,10 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
     int counted_bands = 0;
     for (const auto& band : bands) counted_bands += band->out.rgba == nullptr;
     std::vector<ObjectRoots> shared(counted_path && counted_bands > 0 ? PrimaryBatch::kCells : 0);
-    bool shared_filled[PrimaryBatch::kCells];
+    static_assert(PrimaryBatch::kCells <= 64, "a counted band's decided samples: one bit per cell");
+    CountedBands counted(bands, !shared.empty());
+    std::vector<int> counted_slot(bands.size(), -1);  // band -> its index in `counted`
+    for (std::size_t k = 0; k < counted.of.size(); ++k) counted_slot[counted.of[k]] = static_cast<int>(k);
     const bool share_colours = bands.size() > 1;  // (a lone frame has no other band to share with)
     detail::SampleRowInput row_in;
     for (int a = 0; a < 3; ++a) {
@@ -230,8 +322,10 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                         if (record) batch.record(record->bytes, cells);
                     }
                 }
-                for (int c = 0; c < cells; ++c) memo[c].valid = polished[c].valid = shared_filled[c] = false;
-                for (auto& band : bands) {
+                for (int c = 0; c < cells; ++c) memo[c].valid = polished[c].valid = false;
+                if (!counted.of.empty()) decide_counted_run(batch, cells, shared, counted);
+                for (std::size_t b = 0; b < bands.size(); ++b) {
+                    auto& band = bands[b];
                     Tracer& tracer = band->tracer;
                     const std::size_t stride = static_cast<std::size_t>(band->out.stride);
                     // A band counted, not written (TileView without planes),
@@ -239,31 +333,23 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                     // value and no colour (shade then reads nothing the
                     // figures count: no ray, no root call), so neither is made.
                     const bool values = band->out.rgba != nullptr || any_bounce;
-                    const bool counted = !shared.empty() && band->out.rgba == nullptr;
+                    const std::uint64_t done = counted_slot[b] >= 0 ? counted.decided[counted_slot[b]] : 0;
+                    if (cells == 64 ? done == ~std::uint64_t{0} : done == (std::uint64_t{1} << cells) - 1) {
+                        // (Every sample decided: only the seeds' restarts of
+                        // the loop below, which no sample here reads.)
+                        for (int c = 0; c < cells; ++c)
+                            if ((b0 + c) % kSeedBlock == 0) {
+                                for (Seeds& s : band->seeds) s.valid = false;
+                                break;
+                            }
+                        continue;
+                    }
                     for (int c = 0; c < cells; ++c) {
                         const BatchedCell pre{&batch, c};
                         const int sx = b0 + c;
                         if (sx % kSeedBlock == 0)
                             for (Seeds& s : band->seeds) s.valid = false;
-                        if (counted) {
-                            // (write_single's figures for the certified
-                            // sample intersect_batched would give.)
-                            if (!shared_filled[c]) {
-                                batch.fill(0, c, shared[c], false);
-                                shared[c].have_dd = false;
-                                shared_filled[c] = true;
-                            }
-                            bool hit;
-                            std::uint8_t level;
-                            if (tracer.decide_counted(shared[c], hit, level)) {
-                                TileView& out = band->out;
-                                if (level > kLevelFirst) ++out.escalations;
-                                ++out.by_status[kCertified & 3];
-                                ++out.by_level[level & 7];
-                                out.hits += hit;
-                                continue;
-                            }
-                        }
+                        if (done >> c & 1) continue;  // (decided and counted by decide_counted_run)
                         // (The run's directions are sample_direction's, to the bit.)
                         const double dir[3] = {dx[c], dy[c], dz[c]};
                         SampleResult sample;
@@ -309,6 +395,7 @@ void render_tile_views(const std::vector<const FramePlan*>& plans, const TileRec
                 for (int x = 0; x < w; ++x) band->row[x].write(band->out, static_cast<std::size_t>(y - r.y0) * stride + x);
             }
     }
+    counted.flush();
     for (auto& band : bands) band->out.root_calls = band->tracer.root_calls;
     if (replay && at != replay->bytes.size())
         throw std::invalid_argument("root field: it holds more than the tile's samples");

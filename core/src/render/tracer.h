@@ -124,17 +124,27 @@ public:
     /// hits bounce no ray, in a scene of one object the batch solved:
     /// decide_one on the sample's roots `r` (PrimaryBatch::fill'ed once for
     /// every such band of the sample: fill reads no band). True where
-    /// intersect_batched returns true, with what its hit adds to the
-    /// figures (`hit`, `level`) and its root call counted; false (nothing
-    /// counted) where it returns false: the caller takes that path.
-    bool decide_counted(const ObjectRoots& r, bool& hit, std::uint8_t& level) {
+    /// intersect_batched returns true, with whether it hits (`hit`); false
+    /// where it returns false: the caller takes that path. The caller
+    /// counts what intersect_batched's answer adds to the figures: its root
+    /// call (!r.outside_sphere) and its level (counted_level).
+    bool decide_counted(const ObjectRoots& r, bool& hit) const {
         if (decider_.full_only()) return false;
         int best, eligible;
-        if (!decider_.decide_one_verdict(&r, best, eligible)) return false;
-        root_calls += !r.outside_sphere;
+        const bool decided = decider_.decide_one_verdict(&r, best, eligible);
         hit = best >= 0;
-        level = r.res.escalation > 0 ? kLevelRootTier : kLevelFirst;
-        return true;
+        return decided;
+    }
+    /// decide_counted of roots Decider::keyable, `key` their band verdicts
+    /// under this band (detail::band_keys_four of counted_plan()).
+    bool decide_counted_keyed(const ObjectRoots& r, std::uint16_t key, bool& hit) const {
+        return !decider_.full_only() && decider_.decide_one_keyed(&r, key, hit);
+    }
+    bool counted_keyable(const ObjectRoots& r) const { return decider_.keyable(r); }
+    const detail::ClassifyPlan* counted_plan() const { return decider_.object_plan(); }
+    /// The ladder level of a sample decide_counted decided.
+    static std::uint8_t counted_level(const ObjectRoots& r) {
+        return r.res.escalation > 0 ? kLevelRootTier : kLevelFirst;
     }
 
     /// A hit shows its root with im >= 0: the ray polynomial is real, so
