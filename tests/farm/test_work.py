@@ -149,6 +149,37 @@ def test_a_window_chunk_of_like_tiles_is_stacked_and_reads_back_the_same(tmp_pat
                 assert d[k].dtype == np.int64 and np.array_equal(d[k], tiles[(f, t)][k]), (f, t, k)
 
 
+def test_a_window_of_runs_is_stacked_as_the_tiles_dicts_would_be(tmp_path):
+    """_commit_all stacks a window's figures straight from its runs
+    (_window_figures, FrameStore.write_window_stacked): the file holds the
+    same bytes as write_window_chunk of each tile's _tile_arrays, for runs
+    of any frames, tiles and figures; a stacked window with rows that do
+    not match its columns, or a name that is not a window's, is refused."""
+    from argand.farm.tile_work import TileRun, _tile_arrays, _window_figures
+
+    rng = np.random.default_rng(11)
+    runs = []
+    for f in (0, 4, 23):
+        run = TileRun(settings=None, job_id="job", frame_index=f, worker="w", claimed=[])
+        for t in rng.choice(64, size=5, replace=False).tolist():
+            stats = rng.integers(0, 4096, 5).astype(np.int64)
+            run.local[t] = (None, int(rng.integers(0, 100)), int(rng.integers(0, 2**33)), stats,
+                            rng.integers(0, 4096, 8).astype(np.int64))
+            run.pending[t] = 0.01
+        runs.append(run)
+    store = FrameStore(tmp_path / "store")
+    store.write_window_chunk("job", "w-00000-old", {(r.frame_index, i): _tile_arrays(r.local[i])
+                                                    for r in runs for i in r.pending})
+    store.write_window_stacked("job", "w-00000-new", *_window_figures(runs))
+    folder = tmp_path / "store/jobs/job/tiles/window"
+    assert (folder / "w-00000-new.chunk").read_bytes() == (folder / "w-00000-old.chunk").read_bytes()
+    keys, columns = _window_figures(runs)
+    with pytest.raises(ValueError, match="one row per tile"):
+        store.write_window_stacked("job", "w-00000-bad", keys[:-1], columns)
+    with pytest.raises(ValueError, match="w-"):
+        store.write_window_stacked("job", "00000-bad", keys, columns)
+
+
 def test_a_window_chunk_holds_its_frames_tiles_and_gives_each_frame_its_own(tmp_path):
     """Figures-only tiles of a window's frames (files on request) go into one
     file; each frame reads back exactly its tiles, and a chunk nobody won is

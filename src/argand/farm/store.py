@@ -146,13 +146,27 @@ class FrameStore:
         small arrays a tile."""
         if not is_window_chunk(name):
             raise ValueError(f"a window chunk's name starts with w-, not {name!r}")
-        path = self.job(job_id).chunk(0, name)
         stacked = _stacked(tiles)
         if stacked is None:
             arrays = {f"{f}/{t}/{k}": a for (f, t), d in tiles.items() for k, a in d.items()}
+            self.write_atomic(self.job(job_id).chunk(0, name), pack_buffers(arrays))
         else:
-            arrays = stacked
-        self.write_atomic(path, pack_buffers(arrays))
+            self.write_window_stacked(job_id, name, stacked.pop(_STACK_KEYS),
+                                      {k[len(_STACK):]: a for k, a in stacked.items()})
+
+    def write_window_stacked(self, job_id: str, name: str, keys: np.ndarray, columns: dict[str, np.ndarray]) -> None:
+        """A window chunk of like tiles given stacked already: ``keys`` their
+        (frame, tile) rows (int64, n x 2), ``columns`` {array name: the
+        tiles' arrays stacked in that order}: the file write_window_chunk
+        writes for those tiles (a window's figures, made without a dict of
+        arrays per tile)."""
+        if not is_window_chunk(name):
+            raise ValueError(f"a window chunk's name starts with w-, not {name!r}")
+        if keys.dtype != np.int64 or keys.ndim != 2 or keys.shape[1] != 2 or \
+                any(len(a) != len(keys) for a in columns.values()):
+            raise ValueError("a stacked window needs (frame, tile) int64 rows and one row per tile in each column")
+        arrays = {_STACK_KEYS: keys, **{_STACK + k: a for k, a in columns.items()}}
+        self.write_atomic(self.job(job_id).chunk(0, name), pack_buffers(arrays))
 
     def read_chunk(self, job_id: str, frame: int, name: str) -> dict[int, dict[str, np.ndarray]]:
         """Frame ``frame``'s tiles in chunk ``name`` (its own, or its part of

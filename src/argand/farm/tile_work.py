@@ -399,6 +399,22 @@ def _tile_arrays(t: tuple[np.ndarray | None, int, int, np.ndarray, np.ndarray]) 
     return out
 
 
+def _window_figures(pending: list[TileRun]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The runs' pending figures-only tiles as a stacked window
+    (FrameStore.write_window_stacked): their (frame, tile) rows, and each of
+    _tile_arrays' arrays stacked in that order, made at once (a window holds
+    some 200 tiles)."""
+    keys = np.array([(r.frame_index, i) for r in pending for i in r.pending], np.int64).reshape(-1, 2)
+    local = [r.local[i] for r in pending for i in r.pending]
+    stats = np.stack([t[3] for t in local]).astype(np.int64, copy=False)
+    meta = np.empty((len(local), 2 + stats.shape[1]), np.int64)
+    meta[:, 0] = [t[1] for t in local]
+    meta[:, 1] = [t[2] for t in local]
+    meta[:, 2:] = stats
+    levels = np.stack([np.asarray(t[4], np.int64) for t in local])
+    return keys, {"meta": meta, "levels": levels}
+
+
 def _still_held(run: TileRun, tiles) -> set[int]:
     """Those of ``tiles`` that this worker still holds (a tile the reaper gave
     to another worker while this one was frozen or cut off is theirs)."""
@@ -479,8 +495,7 @@ def _commit_all(runs: list[TileRun]) -> None:
     ACTIVITY["writing"] = True  # the watchdog does not end the process between the writes and their outcome
     try:
         if window:
-            store.write_window_chunk(job_id, name, {(r.frame_index, i): _tile_arrays(r.local[i])
-                                                    for r in pending for i in r.pending})
+            store.write_window_stacked(job_id, name, *_window_figures(pending))
         else:
             for r in pending:
                 if r.pending:
