@@ -230,3 +230,31 @@ def test_close_bands_of_quartics_together_equal_alone(family, sweep, kernel):
                   for s, d in CLOSE_SWEEPS[sweep]]
         compare(scene, params, tile=8 if seed % 2 else 16)
         figures_without_pixels_are_the_rendered_ones(to_core_scene(scene), 1, CLOSE_SWEEPS[sweep], size=(32, 24))
+
+
+#: Bands from the real surface up through thin ones (10^-12 to 0.3): their
+#: edges cross the discs of nearly real roots (tangent rays, silhouettes),
+#: whose band tests then need the reference, which reads the band itself.
+THIN_BANDS = sorted([(0.0, 0.0)] + [(0.0, m * 10.0 ** e) for e in range(-12, 0) for m in (1, 3)], key=lambda b: b[1])
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_bands_whose_edges_graze_the_roots_share_no_unproven_choice(family):
+    """A band takes another band's choice only where its discs' verdicts
+    settled it without the reference test: the counted figures of bands
+    whose edges lie on the roots' own arguments (1e-7 either side of the
+    chosen roots', and THIN_BANDS) are the rendered ones, band by band, on
+    random quartics of each family and on the Bicube's silhouette."""
+    scene = random_scene(family, 4, seed=41)
+    wide = render_frame(scene, FrameParams(sigma=0.0, delta=math.pi, width=32, height=24), tile=16, workers=1)
+    args = np.asarray(wide.aovs["arg"], np.float64)
+    picked = np.unique(np.abs(args[np.isfinite(args) & (np.abs(args) > 1e-3) & (np.abs(args) < 3.0)]))
+    assert picked.size >= 4, "the frame shows too few complex roots to graze"
+    bands = sorted({(0.0, float(a) + k * 2e-8) for a in picked[:: max(1, picked.size // 4)][:4] for k in range(-2, 3)},
+                   key=lambda b: b[1])
+    figures_without_pixels_are_the_rendered_ones(to_core_scene(scene), 1, bands, size=(32, 24))
+    for seed in range(3):
+        figures_without_pixels_are_the_rendered_ones(to_core_scene(random_scene(family, 4, seed=seed)), 1, THIN_BANDS,
+                                                     size=(48, 32))
+    if family == FAMILIES[0]:
+        figures_without_pixels_are_the_rendered_ones(to_core_scene(load_scene("bicube")), 1, THIN_BANDS, size=(96, 64))

@@ -122,18 +122,23 @@ public:
     /// answer of another band with the same verdicts (ClassifyMemo::band),
     /// that answer: past those verdicts decide_one_verdict reads only the
     /// discs, the ray and the memo, so it is the one it would make.
-    bool decide_one_keyed(const ObjectRoots* roots, std::uint16_t key, bool& hit) const {
+    /// `shared`: whether the answer is every band's with these verdicts (not
+    /// where a disc needed the reference's band test, which reads the band
+    /// itself).
+    bool decide_one_keyed(const ObjectRoots* roots, std::uint16_t key, bool& hit, bool& shared) const {
         detail::ClassifyMemo* memo = roots[0].res.memo;
         if ((memo->groups & detail::ClassifyMemo::kBandHeld) && memo->band.decision >= 0 && memo->band_key == key) {
             hit = memo->band.decision == 2;
+            shared = true;
             return memo->band.decision != 0;
         }
         int best, eligible;
         const bool decided = decide_one_verdict(roots, best, eligible);
         hit = best >= 0;
-        // (classify_four holds kBandHeld after its call only for this band's verdicts.)
-        if (memo->groups & detail::ClassifyMemo::kBandHeld)
-            memo->band.decision = static_cast<std::int8_t>(decided ? (hit ? 2 : 1) : 0);
+        // (classify_four holds kBandHeld after its call only for this
+        // band's verdicts, and only where no disc took the reference's test.)
+        shared = (memo->groups & detail::ClassifyMemo::kBandHeld) != 0;
+        if (shared) memo->band.decision = static_cast<std::int8_t>(decided ? (hit ? 2 : 1) : 0);
         return decided;
     }
 

@@ -177,7 +177,8 @@ struct CountedBands {
 /// are read once for all the bands' verdicts (band_keys_four); a band whose
 /// verdicts are the band before's takes its answer, and one whose verdicts
 /// the sample's memo holds takes that (Decider::decide_one_keyed): past
-/// those verdicts a decision reads only the discs, the ray and the memo.
+/// those verdicts a decision reads only the discs, the ray and the memo
+/// (unless a disc needed the reference's band test: then no band shares it).
 void decide_counted_run(PrimaryBatch& batch, int cells, std::vector<ObjectRoots>& shared, CountedBands& cb) {
     const int n = static_cast<int>(cb.of.size());
     std::fill(cb.decided.begin(), cb.decided.end(), 0);
@@ -193,13 +194,14 @@ void decide_counted_run(PrimaryBatch& batch, int cells, std::vector<ObjectRoots>
         std::uint64_t* decided = cb.decided.data();
         CountedBands::Counts* counts = cb.counts.data();
         const std::uint64_t bit = std::uint64_t{1} << c;
-        int last_key = -1;  // (the band before's verdicts, and its answer)
+        int last_key = -1;  // (the band before's verdicts where its answer is theirs, and that answer)
         bool ok = false, hit = false;
         for (int k = 0; k < n; ++k) {
             if (!keyed || keys[k] != last_key) {
                 Tracer& t = cb.trace[k]->tracer;
-                ok = keyed ? t.decide_counted_keyed(r, keys[k], hit) : t.decide_counted(r, hit);
-                last_key = keyed ? keys[k] : -1;
+                bool shared = false;
+                ok = keyed ? t.decide_counted_keyed(r, keys[k], hit, shared) : t.decide_counted(r, hit);
+                last_key = shared ? keys[k] : -1;
             }
             if (!ok) continue;
             decided[k] |= bit;

@@ -136,9 +136,11 @@ public:
         return decided;
     }
     /// decide_counted of roots Decider::keyable, `key` their band verdicts
-    /// under this band (detail::band_keys_four of counted_plan()).
-    bool decide_counted_keyed(const ObjectRoots& r, std::uint16_t key, bool& hit) const {
-        return !decider_.full_only() && decider_.decide_one_keyed(&r, key, hit);
+    /// under this band (detail::band_keys_four of counted_plan()); `shared`:
+    /// the answer is every band's with these verdicts (decide_one_keyed).
+    bool decide_counted_keyed(const ObjectRoots& r, std::uint16_t key, bool& hit, bool& shared) const {
+        shared = false;
+        return !decider_.full_only() && decider_.decide_one_keyed(&r, key, hit, shared);
     }
     bool counted_keyable(const ObjectRoots& r) const { return decider_.keyable(r); }
     const detail::ClassifyPlan* counted_plan() const { return decider_.object_plan(); }
