@@ -505,7 +505,7 @@ struct ClassifyMemo {
         std::uint64_t live, eligible, blockers;
         std::int32_t best, count;
         double lo[4], hi[4];
-        /// Decider::decide_one_counted's answer from these verdicts: -1 not
+        /// Decider::decide_one_keyed's answer from these verdicts: -1 not
         /// made yet, 0 undecided, 1 a proven miss, 2 a proven hit.
         std::int8_t decision;
     } band;

@@ -148,27 +148,21 @@ def main(path: str) -> int:
     from argand.render.convert import to_core_scene
     from argand.render.frames import INTERLEAVED_CHANNELS, plan, render_tile_bands_into, tiles
 
-    core_octic = to_core_scene(octic)
-    plans = [plan(core_octic, replace(band, width=24, height=16)) for band in bands]
-    for r in tiles(24, 16, 8):
-        shape = (r.y1 - r.y0, r.x1 - r.x0, len(INTERLEAVED_CHANNELS))
-        full = render_tile_bands_into(plans, r, [(np.empty(shape, np.float32), 0, 0) for _ in plans])
-        counted = render_tile_bands_into(plans, r, [None] * len(plans))
-        if any(a[:2] != b[:2] or a[2].tolist() != b[2].tolist() or a[3].tolist() != b[3].tolist()
-               for a, b in zip(full, counted)):
-            problems.append(f"chmutov tile {r}: the counted bands' figures differ from the written ones")
+    def counted_differ(plans, what: str) -> None:
+        for r in tiles(24, 16, 8):
+            shape = (r.y1 - r.y0, r.x1 - r.x0, len(INTERLEAVED_CHANNELS))
+            full = render_tile_bands_into(plans, r, [(np.empty(shape, np.float32), 0, 0) for _ in plans])
+            counted = render_tile_bands_into(plans, r, [None] * len(plans))
+            if any(a[:2] != b[:2] or a[2].tolist() != b[2].tolist() or a[3].tolist() != b[3].tolist()
+                   for a, b in zip(full, counted)):
+                problems.append(f"{what} tile {r}: the counted bands' figures differ from the written ones")
+
+    counted_differ([plan(to_core_scene(octic), replace(band, width=24, height=16)) for band in bands], "chmutov")
     # The same for a quartic's close bands: four discs whose band verdicts
-    # match the band before take its answer from the sample's memo
-    # (ClassifyMemo::band, Decider::decide_one_counted).
-    close = [plan(to_core_scene(load_scene("bicube")), replace(params, sigma=0.0, delta=d, width=24, height=16))
-             for d in np.linspace(0.0, np.pi / 9, 12)]
-    for r in tiles(24, 16, 8):
-        shape = (r.y1 - r.y0, r.x1 - r.x0, len(INTERLEAVED_CHANNELS))
-        full = render_tile_bands_into(close, r, [(np.empty(shape, np.float32), 0, 0) for _ in close])
-        counted = render_tile_bands_into(close, r, [None] * len(close))
-        if any(a[:2] != b[:2] or a[2].tolist() != b[2].tolist() or a[3].tolist() != b[3].tolist()
-               for a, b in zip(full, counted)):
-            problems.append(f"bicube tile {r}: the counted close bands' figures differ from the written ones")
+    # match the band before take its answer (ClassifyMemo::band,
+    # decide_counted_run, Decider::decide_one_keyed).
+    counted_differ([plan(to_core_scene(load_scene("bicube")), replace(params, sigma=0.0, delta=d, width=24, height=16))
+                    for d in np.linspace(0.0, np.pi / 9, 12)], "bicube close")
     rect = next(iter(field.tiles))
     cut = RootField(field.fingerprint, field.width, field.height, field.tile, dict(field.tiles))
     cut.tiles[rect] = cut.tiles[rect][: len(cut.tiles[rect]) // 2]
